@@ -1,0 +1,324 @@
+//! Indexed triangle meshes shared by scene import, visibility and ground truth.
+
+use crate::frame::{Frame, try_normalize};
+use glam::{Mat3, Mat4, Vec3, Vec4};
+
+/// An indexed triangle mesh with per-vertex unit normals and optional tangents
+/// (`xyz` unit tangent, `w` = ±1 bitangent sign).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Unit vertex normals, one per position.
+    pub normals: Vec<Vec3>,
+    /// Optional tangents, one per position.
+    pub tangents: Option<Vec<Vec4>>,
+    /// Triangle vertex indices, three per triangle, counter-clockwise seen from outside.
+    pub indices: Vec<u32>,
+}
+
+/// What is wrong with a mesh.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum MeshError {
+    /// No triangles at all.
+    #[error("mesh has no triangles")]
+    NoTriangles,
+    /// The index count is not a multiple of three.
+    #[error("index count {0} is not a multiple of 3")]
+    RaggedIndices(usize),
+    /// An index points past the vertex array.
+    #[error("triangle {triangle} uses vertex {index}, but the mesh has {vertices} vertices")]
+    IndexOutOfRange {
+        /// Triangle number.
+        triangle: usize,
+        /// The offending index.
+        index: u32,
+        /// Vertex count.
+        vertices: usize,
+    },
+    /// A position is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite position {position:?}")]
+    NonFinitePosition {
+        /// Vertex number.
+        vertex: usize,
+        /// Its position.
+        position: Vec3,
+    },
+    /// Normal or tangent arrays of the wrong length.
+    #[error("{what} has {got} entries for {vertices} vertices")]
+    AttributeLength {
+        /// Which attribute.
+        what: &'static str,
+        /// Its length.
+        got: usize,
+        /// Vertex count.
+        vertices: usize,
+    },
+}
+
+impl TriMesh {
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Checks indices, finiteness and attribute lengths; a mesh that passes can be used by
+    /// every stage without further checks.
+    pub fn validate(&self) -> Result<(), MeshError> {
+        if self.indices.len() % 3 != 0 {
+            return Err(MeshError::RaggedIndices(self.indices.len()));
+        }
+        if self.indices.is_empty() {
+            return Err(MeshError::NoTriangles);
+        }
+        let nv = self.positions.len();
+        if let Some((k, &index)) = self.indices.iter().enumerate().find(|&(_, &i)| i as usize >= nv) {
+            return Err(MeshError::IndexOutOfRange { triangle: k / 3, index, vertices: nv });
+        }
+        if let Some((vertex, &position)) = self.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(MeshError::NonFinitePosition { vertex, position });
+        }
+        if self.normals.len() != nv {
+            return Err(MeshError::AttributeLength { what: "normals", got: self.normals.len(), vertices: nv });
+        }
+        if let Some(t) = &self.tangents
+            && t.len() != nv
+        {
+            return Err(MeshError::AttributeLength { what: "tangents", got: t.len(), vertices: nv });
+        }
+        Ok(())
+    }
+
+    /// Area-weighted vertex normals from the faces (the sum of each adjacent face's
+    /// unnormalised cross product). Zero-area triangles add nothing; a vertex with no
+    /// non-degenerate face gets +Y so that every normal is finite and unit. Returns how many
+    /// vertices needed that fallback.
+    pub fn compute_normals(&mut self) -> usize {
+        let mut acc = vec![glam::DVec3::ZERO; self.positions.len()];
+        for tri in self.indices.chunks_exact(3) {
+            let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+            let (pa, pb, pc) = (self.positions[a].as_dvec3(), self.positions[b].as_dvec3(), self.positions[c].as_dvec3());
+            let n = (pb - pa).cross(pc - pa);
+            for v in [a, b, c] {
+                acc[v] += n;
+            }
+        }
+        let mut fallback = 0;
+        self.normals = acc
+            .into_iter()
+            .map(|n| {
+                let n = n.as_vec3();
+                try_normalize(n).unwrap_or_else(|| {
+                    fallback += 1;
+                    Vec3::Y
+                })
+            })
+            .collect();
+        fallback
+    }
+
+    /// Renormalises the normals; zero or non-finite ones are recomputed from the faces.
+    /// Returns the number of vertices that fell back to +Y (see [`TriMesh::compute_normals`]).
+    pub fn repair_normals(&mut self) -> usize {
+        if self.normals.len() != self.positions.len() || self.normals.iter().any(|n| try_normalize(*n).is_none()) {
+            let mut face = self.clone();
+            let fallback = face.compute_normals();
+            if self.normals.len() != self.positions.len() {
+                self.normals = face.normals;
+                return fallback;
+            }
+            for (n, f) in self.normals.iter_mut().zip(face.normals) {
+                *n = try_normalize(*n).unwrap_or(f);
+            }
+            return fallback;
+        }
+        for n in &mut self.normals {
+            *n = n.normalize();
+        }
+        0
+    }
+
+    /// Tangents from a fixed object-space direction: `+X` projected onto each vertex's
+    /// tangent plane (`+Z` where the normal is nearly ±X). The field is smooth wherever the
+    /// normal is, which is what an anisotropic BRDF without texture coordinates needs.
+    pub fn compute_tangents_from_axis(&mut self) {
+        let t = self
+            .normals
+            .iter()
+            .map(|&n| {
+                let axis = if n.x.abs() < 0.99 { Vec3::X } else { Vec3::Z };
+                Frame::from_normal_tangent(n, axis).t.extend(1.0)
+            })
+            .collect();
+        self.tangents = Some(t);
+    }
+
+    /// Applies an affine transform: positions by `m`, normals by its inverse transpose,
+    /// tangents by its linear part; all directions renormalised. Flips winding when `m`
+    /// mirrors (negative determinant), so faces keep facing out.
+    pub fn transform(&mut self, m: &Mat4) {
+        let lin = Mat3::from_mat4(*m);
+        let det = lin.determinant();
+        let normal_m = if det.abs() > 0.0 { lin.inverse().transpose() } else { lin };
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        for n in &mut self.normals {
+            *n = try_normalize(normal_m * *n).unwrap_or(*n);
+        }
+        if let Some(ts) = &mut self.tangents {
+            for t in ts.iter_mut() {
+                let d = try_normalize(lin * t.truncate()).unwrap_or(t.truncate());
+                *t = d.extend(t.w * det.signum());
+            }
+        }
+        if det < 0.0 {
+            for tri in self.indices.chunks_exact_mut(3) {
+                tri.swap(1, 2);
+            }
+        }
+    }
+
+    /// Appends another mesh (its indices offset). Tangents survive only if both have them.
+    pub fn append(&mut self, other: &TriMesh) {
+        let base = self.positions.len() as u32;
+        let had_vertices = !self.positions.is_empty();
+        self.tangents = match (self.tangents.take(), &other.tangents) {
+            (Some(mut a), Some(b)) => {
+                a.extend_from_slice(b);
+                Some(a)
+            }
+            (None, Some(b)) if !had_vertices => Some(b.clone()),
+            _ => None,
+        };
+        self.positions.extend_from_slice(&other.positions);
+        self.normals.extend_from_slice(&other.normals);
+        self.indices.extend(other.indices.iter().map(|i| i + base));
+    }
+
+    /// Axis-aligned bounds `(min, max)`; `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let first = *self.positions.first()?;
+        Some(self.positions.iter().fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))))
+    }
+
+    /// A bounding sphere centred on the bounds' centre: `(centre, radius)`.
+    pub fn bounding_sphere(&self) -> Option<(Vec3, f32)> {
+        let (lo, hi) = self.bounds()?;
+        let c = 0.5 * (lo + hi);
+        let r = self.positions.iter().map(|p| p.distance(c)).fold(0.0f32, f32::max);
+        Some((c, r))
+    }
+
+    /// Total surface area.
+    pub fn area(&self) -> f64 {
+        self.indices
+            .chunks_exact(3)
+            .map(|t| {
+                let [a, b, c] = [0, 1, 2].map(|k| self.positions[t[k] as usize].as_dvec3());
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad() -> TriMesh {
+        TriMesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, -1.0), Vec3::NEG_Z],
+            normals: vec![],
+            tangents: None,
+            indices: vec![0, 1, 2, 0, 2, 3],
+        }
+    }
+
+    #[test]
+    fn normals_point_out_of_counter_clockwise_faces() {
+        let mut m = quad();
+        assert_eq!(m.compute_normals(), 0);
+        for n in &m.normals {
+            assert!((*n - Vec3::Y).length() < 1e-6);
+        }
+        m.validate().unwrap();
+        assert!((m.area() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn degenerate_triangles_give_finite_normals() {
+        let mut m = TriMesh { positions: vec![Vec3::ZERO; 3], indices: vec![0, 1, 2], ..Default::default() };
+        assert_eq!(m.compute_normals(), 3);
+        assert!(m.normals.iter().all(|n| n.is_finite() && (n.length() - 1.0).abs() < 1e-6));
+    }
+
+    #[test]
+    fn validation_names_the_problem() {
+        let mut m = quad();
+        m.compute_normals();
+        m.positions[2].y = f32::NAN;
+        assert!(matches!(m.validate(), Err(MeshError::NonFinitePosition { vertex: 2, .. })));
+        let mut m = quad();
+        m.compute_normals();
+        m.indices.push(9);
+        assert_eq!(m.validate(), Err(MeshError::RaggedIndices(7)));
+        m.indices.extend([0, 1]);
+        assert!(matches!(m.validate(), Err(MeshError::IndexOutOfRange { triangle: 2, index: 9, .. })));
+        let e = TriMesh::default();
+        assert_eq!(e.validate(), Err(MeshError::NoTriangles));
+    }
+
+    #[test]
+    fn transforms_keep_normals_perpendicular_under_non_uniform_scale() {
+        let mut m = TriMesh { positions: vec![Vec3::X, Vec3::Y, Vec3::Z], indices: vec![0, 1, 2], ..Default::default() };
+        m.compute_normals();
+        let t = Mat4::from_scale(Vec3::new(3.0, 1.0, 0.5)) * Mat4::from_rotation_y(0.7);
+        m.transform(&t);
+        let face = (m.positions[1] - m.positions[0]).cross(m.positions[2] - m.positions[0]).normalize();
+        for n in &m.normals {
+            assert!((*n - face).length() < 1e-5, "{n:?} vs {face:?}");
+        }
+        // A mirror keeps the faces facing out.
+        let mut q = quad();
+        q.compute_normals();
+        q.transform(&Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+        let mut r = q.clone();
+        r.compute_normals();
+        for (a, b) in q.normals.iter().zip(&r.normals) {
+            assert!((*a - *b).length() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn append_offsets_indices_and_bounds_cover_both() {
+        let mut a = quad();
+        a.compute_normals();
+        let mut b = a.clone();
+        b.transform(&Mat4::from_translation(Vec3::new(5.0, 0.0, 0.0)));
+        a.append(&b);
+        a.validate().unwrap();
+        assert_eq!(a.triangle_count(), 4);
+        assert_eq!(a.indices[6], 4);
+        let (lo, hi) = a.bounds().unwrap();
+        assert_eq!((lo.x, hi.x), (0.0, 6.0));
+        let (c, r) = a.bounding_sphere().unwrap();
+        assert!((c.x - 3.0).abs() < 1e-6 && r >= 3.0);
+    }
+
+    #[test]
+    fn tangents_are_unit_and_perpendicular() {
+        let mut m = quad();
+        m.compute_normals();
+        m.compute_tangents_from_axis();
+        for (t, n) in m.tangents.as_ref().unwrap().iter().zip(&m.normals) {
+            assert!(t.truncate().dot(*n).abs() < 1e-6);
+            assert!((t.truncate().length() - 1.0).abs() < 1e-6);
+        }
+    }
+}

@@ -1,0 +1,3 @@
+//! The interactive viewer (egui/eframe).
+//!
+//! Not built yet.
