@@ -1,1 +1,283 @@
-//! placeholder
+//! Scene description: the scene file (TOML), glTF import, primitives, materials, cameras
+//! and motion.
+//!
+//! This crate describes a scene; it evaluates nothing. Paths in a scene file are relative
+//! to the file. Scene time is in seconds; angles are degrees in the file and radians here.
+//!
+//! ```toml
+//! quality = "draft"                       # or [quality] preset = "paper", table_resolution = 64
+//! [environment]
+//! map = "../hdri/studio.exr"              # lat-long OpenEXR or Radiance .hdr; or constant = [r, g, b]
+//! intensity = 1.0
+//! rotation = { axis = [0.0, 1.0, 0.0], degrees = 30.0 }     # world-from-environment
+//! rsl_count = 30
+//! motion = { spin = { axis = [0.0, 1.0, 0.0], degrees_per_second = 10.0 } }
+//! [camera]
+//! eye = [0.0, 1.2, 4.0]
+//! target = [0.0, 0.4, 0.0]
+//! [[objects]]
+//! name = "bunny"
+//! mesh = "../models/bunny.glb"            # or primitive = { kind = "sphere", radius = 0.5 }
+//! translation = [0.0, 0.9, 0.0]
+//! rotation = { axis = [0.0, 1.0, 0.0], degrees = 45.0 }
+//! scale = 1.0                             # or [sx, sy, sz]
+//! material = { model = "ggx", alpha = 0.2 }
+//! motion = { spin = { axis = [0.0, 1.0, 0.0], degrees_per_second = 45.0 } }
+//! ```
+
+mod error;
+pub mod gltf_import;
+pub mod material;
+pub mod motion;
+pub mod primitive;
+pub mod quality;
+mod raw;
+
+pub use error::SceneError;
+pub use material::Material;
+pub use motion::{Keyframe, Motion, Orbit, Spin, Transform};
+pub use primitive::Primitive;
+pub use quality::{Preset, Quality, QualitySettings};
+
+use glam::{Mat4, Quat, Vec3};
+use rsl_sphere::mesh::TriMesh;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Where an environment's radiance comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EnvironmentSource {
+    /// A lat-long map file.
+    Map {
+        /// As written in the scene file.
+        written: String,
+        /// Resolved against the scene file's folder.
+        path: PathBuf,
+    },
+    /// The same radiance in every direction.
+    Constant(Vec3),
+}
+
+/// The environment light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    /// The radiance source.
+    pub source: EnvironmentSource,
+    /// Scale applied to the map or constant.
+    pub intensity: f32,
+    /// World-from-environment rotation at time 0.
+    pub rotation: Quat,
+    /// Rotation over time, applied after `rotation`.
+    pub spin: Option<Spin>,
+    /// Number of rotatable square lights to decompose the map into.
+    pub rsl_count: u32,
+}
+
+/// Default number of RSLs (Xu et al.: 20–40 usually suffice).
+pub const DEFAULT_RSL_COUNT: u32 = 30;
+
+/// A pinhole camera with a vertical field of view.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+    /// Up direction (not parallel to the view).
+    pub up: Vec3,
+    /// Vertical field of view in radians.
+    pub fov_y: f32,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// Right-handed view matrix (`camera_from_world`).
+    pub fn camera_from_world(&self) -> Mat4 {
+        glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
+    }
+}
+
+/// Where an object's mesh came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshSource {
+    /// A glTF file.
+    File {
+        /// As written in the scene file.
+        written: String,
+        /// Resolved path.
+        path: PathBuf,
+    },
+    /// A generated primitive.
+    Primitive(Primitive),
+}
+
+/// An object of the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    /// Name (unique in the scene).
+    pub name: String,
+    /// Where the mesh came from.
+    pub source: MeshSource,
+    /// The mesh in object space (shared: precomputation keys on it).
+    pub mesh: Arc<TriMesh>,
+    /// Transform at time 0 (before motion).
+    pub transform: Transform,
+    /// The material.
+    pub material: Material,
+    /// Motion over time.
+    pub motion: Motion,
+    /// Whether the object shadows others.
+    pub casts_shadows: bool,
+}
+
+/// A loaded, validated scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The scene file.
+    pub path: PathBuf,
+    /// The environment light.
+    pub environment: Environment,
+    /// The camera.
+    pub camera: Camera,
+    /// The objects, in file order.
+    pub objects: Vec<Object>,
+    /// Precomputation quality.
+    pub quality: Quality,
+}
+
+/// World transforms and environment rotation at one time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneState {
+    /// Time in seconds.
+    pub time: f32,
+    /// World-from-environment rotation.
+    pub world_from_env: Quat,
+    /// Per object, in scene order.
+    pub objects: Vec<Transform>,
+}
+
+impl SceneState {
+    /// `world_from_object` matrix of object `i`.
+    pub fn world_from_object(&self, i: usize) -> Mat4 {
+        self.objects[i].matrix()
+    }
+}
+
+impl Scene {
+    /// Reads, parses and validates a scene file, importing or generating every mesh.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::file(path, format!("cannot read scene file: {e}")))?;
+        Self::from_toml_str(&text, path)
+    }
+
+    /// Parses scene text as if read from `path` (which locates relative files and errors).
+    pub fn from_toml_str(text: &str, path: &Path) -> Result<Self, SceneError> {
+        raw::parse(text, path)
+    }
+
+    /// World transforms and environment rotation at time `t` (seconds).
+    pub fn at(&self, t: f32) -> SceneState {
+        let env = &self.environment;
+        let world_from_env = match &env.spin {
+            Some(s) => (s.at(t) * env.rotation).normalize(),
+            None => env.rotation,
+        };
+        SceneState { time: t, world_from_env, objects: self.objects.iter().map(|o| o.motion.at(&o.transform, t)).collect() }
+    }
+
+    /// Whether anything moves over time.
+    pub fn is_dynamic(&self) -> bool {
+        self.environment.spin.is_some() || self.objects.iter().any(|o| !o.motion.is_static())
+    }
+
+    /// Total vertex and triangle counts.
+    pub fn counts(&self) -> (usize, usize) {
+        self.objects.iter().fold((0, 0), |(v, t), o| (v + o.mesh.vertex_count(), t + o.mesh.triangle_count()))
+    }
+
+    /// A human-readable summary of the scene.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::new();
+        let env = &self.environment;
+        let _ = writeln!(s, "scene {}", self.path.display());
+        match &env.source {
+            EnvironmentSource::Map { written, path } => {
+                let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+                let _ = writeln!(s, "  environment  map {written} ({size} bytes) × {}", env.intensity);
+            }
+            EnvironmentSource::Constant(c) => {
+                let _ = writeln!(s, "  environment  constant [{}, {}, {}] × {}", c.x, c.y, c.z, env.intensity);
+            }
+        }
+        let (axis, angle) = env.rotation.to_axis_angle();
+        let _ = write!(s, "               rotation {:.1}° about {}, {} RSLs", angle.to_degrees(), fmt_vec(axis), env.rsl_count);
+        if let Some(sp) = &env.spin {
+            let _ = write!(s, ", spinning {:.1}°/s about {}", sp.radians_per_second.to_degrees(), fmt_vec(sp.axis));
+        }
+        s.push('\n');
+        let c = &self.camera;
+        let _ = writeln!(
+            s,
+            "  camera       eye {} target {} fov {:.1}° {}×{}",
+            fmt_vec(c.eye),
+            fmt_vec(c.target),
+            c.fov_y.to_degrees(),
+            c.width,
+            c.height
+        );
+        let q = &self.quality;
+        let knobs: Vec<String> = q.settings.knobs().iter().map(|(k, v)| format!("{k}={v}")).collect();
+        let _ = writeln!(s, "  quality      {} ({})", q.preset.name(), knobs.join(" "));
+        let (nv, nt) = self.counts();
+        let _ = writeln!(s, "  objects      {} ({nv} vertices, {nt} triangles)", self.objects.len());
+        for o in &self.objects {
+            let src = match &o.source {
+                MeshSource::File { written, .. } => written.clone(),
+                MeshSource::Primitive(p) => p.describe(),
+            };
+            let radius = o.mesh.bounding_sphere().map_or(0.0, |(_, r)| r) * o.transform.scale.max_element();
+            let _ = writeln!(
+                s,
+                "    {:<12} {src}: {} vertices, {} triangles, bounding radius {:.3} (world)",
+                o.name,
+                o.mesh.vertex_count(),
+                o.mesh.triangle_count(),
+                radius
+            );
+            let _ = writeln!(s, "                 at {} scale {}", fmt_vec(o.transform.translation), fmt_vec(o.transform.scale));
+            let _ = writeln!(s, "                 material {}", o.material);
+            let mut moves = Vec::new();
+            if let Some(sp) = &o.motion.spin {
+                moves.push(format!("spin {:.1}°/s about {}", sp.radians_per_second.to_degrees(), fmt_vec(sp.axis)));
+            }
+            if let Some(or) = &o.motion.orbit {
+                moves.push(format!(
+                    "orbit {:.1}°/s about {} through {}",
+                    or.spin.radians_per_second.to_degrees(),
+                    fmt_vec(or.spin.axis),
+                    fmt_vec(or.centre)
+                ));
+            }
+            if !o.motion.keyframes.is_empty() {
+                let k = &o.motion.keyframes;
+                moves.push(format!("{} keyframes from {} s to {} s", k.len(), k[0].time, k[k.len() - 1].time));
+            }
+            if !moves.is_empty() {
+                let _ = writeln!(s, "                 motion {}", moves.join(", "));
+            }
+            if !o.casts_shadows {
+                let _ = writeln!(s, "                 casts no shadows");
+            }
+        }
+        s
+    }
+}
+
+fn fmt_vec(v: Vec3) -> String {
+    format!("[{:.3}, {:.3}, {:.3}]", v.x, v.y, v.z)
+}

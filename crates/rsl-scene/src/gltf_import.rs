@@ -1,0 +1,111 @@
+//! glTF 2.0 import: every triangle primitive of the file, node transforms applied, merged
+//! into one mesh.
+//!
+//! Buffers may be the GLB binary chunk or files next to the glTF; embedded `data:` URIs are
+//! not supported. Missing normals are computed (area-weighted); vertex normals are
+//! renormalised. Non-triangle primitives (points, lines) are skipped and counted.
+
+use glam::{Mat4, Vec3, Vec4};
+use gltf::mesh::Mode;
+use rsl_sphere::mesh::TriMesh;
+use std::path::Path;
+
+/// What an import produced besides the mesh.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ImportReport {
+    /// Triangle primitives imported (one per mesh instance and primitive).
+    pub primitives: usize,
+    /// Primitives skipped because they are not triangles.
+    pub skipped_non_triangle: usize,
+    /// Primitives that had no normals (computed from faces).
+    pub computed_normals: usize,
+}
+
+/// Imports `path` (`.glb` or `.gltf`). Errors are plain messages; the caller adds the file.
+pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut buffers: Vec<Vec<u8>> = Vec::new();
+    for buffer in gltf.buffers() {
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or("buffer refers to the GLB binary chunk, but there is none")?,
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                return Err(format!("buffer {}: embedded data URIs are not supported", buffer.index()));
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                let p = base.join(uri);
+                std::fs::read(&p).map_err(|e| format!("buffer {} ({}): {e}", buffer.index(), p.display()))?
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(format!("buffer {} is truncated: {} bytes, {} declared", buffer.index(), data.len(), buffer.length()));
+        }
+        buffers.push(data);
+    }
+
+    let mut mesh = TriMesh::default();
+    let mut report = ImportReport::default();
+    let mut instances: Vec<(gltf::Mesh, Mat4)> = Vec::new();
+    let scene = gltf.default_scene().or_else(|| gltf.scenes().next());
+    match scene {
+        Some(scene) => {
+            let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+            let mut visited = 0usize;
+            while let Some((node, parent)) = stack.pop() {
+                visited += 1;
+                if visited > 1_000_000 {
+                    return Err("node hierarchy is cyclic or too deep".into());
+                }
+                let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+                let world = parent * local;
+                if let Some(m) = node.mesh() {
+                    instances.push((m, world));
+                }
+                stack.extend(node.children().map(|c| (c, world)));
+            }
+        }
+        None => instances.extend(gltf.meshes().map(|m| (m, Mat4::IDENTITY))),
+    }
+
+    for (m, world) in instances {
+        for prim in m.primitives() {
+            if prim.mode() != Mode::Triangles {
+                report.skipped_non_triangle += 1;
+                continue;
+            }
+            let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+            let where_ = || format!("mesh {} primitive {}", m.index(), prim.index());
+            let positions: Vec<Vec3> =
+                reader.read_positions().ok_or_else(|| format!("{}: no POSITION attribute", where_()))?.map(Vec3::from).collect();
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..positions.len() as u32).collect(),
+            };
+            let mut part = TriMesh { positions, normals: Vec::new(), tangents: None, indices };
+            if let Some(n) = reader.read_normals() {
+                part.normals = n.map(Vec3::from).collect();
+            }
+            if let Some(t) = reader.read_tangents() {
+                part.tangents = Some(t.map(Vec4::from).collect());
+            }
+            if let Some(bad) = part.indices.iter().find(|&&i| i as usize >= part.positions.len()) {
+                return Err(format!("{}: index {bad} out of range ({} vertices)", where_(), part.positions.len()));
+            }
+            if part.normals.len() != part.positions.len() {
+                report.computed_normals += 1;
+                part.normals.clear();
+            }
+            if let Some(t) = &part.tangents
+                && t.len() != part.positions.len()
+            {
+                part.tangents = None;
+            }
+            part.repair_normals();
+            part.transform(&world);
+            mesh.append(&part);
+            report.primitives += 1;
+        }
+    }
+    Ok((mesh, report))
+}

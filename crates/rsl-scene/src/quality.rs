@@ -1,0 +1,161 @@
+//! Quality presets (DESIGN.md): every knob of precomputation in one place, each overridable.
+
+use serde::Deserialize;
+
+/// A named preset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Preset {
+    /// Fast, for tests and first looks.
+    #[default]
+    Draft,
+    /// The resolutions of Xu et al. 2006.
+    Paper,
+    /// Finer than the paper.
+    High,
+}
+
+impl Preset {
+    /// All presets, in order.
+    pub const ALL: [Preset; 3] = [Preset::Draft, Preset::Paper, Preset::High];
+
+    /// Name as written in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Draft => "draft",
+            Preset::Paper => "paper",
+            Preset::High => "high",
+        }
+    }
+
+    /// Parses a preset name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == s)
+    }
+}
+
+/// Precomputation resolutions. Field names are the override keys of a `[quality]` table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QualitySettings {
+    /// `N` of the `N×N` hemisphere tables (BRDF, visibility).
+    pub table_resolution: u32,
+    /// Polar view samples of isotropic BRDF tables (`V`; `V×V` for anisotropic ones).
+    pub view_samples: u32,
+    /// `R` of the `6×R×R` environment grid decomposed into RSLs.
+    pub env_grid: u32,
+    /// `M` of the `6×M×M` occluder-field directions per shell.
+    pub ovdf_directions: u32,
+    /// Concentric shells of the occluder field.
+    pub ovdf_shells: u32,
+    /// Principal vectors per occluder-field segment.
+    pub ovdf_vectors: u32,
+    /// Clusters of the self-visibility CPCA.
+    pub cpca_clusters: u32,
+    /// Principal vectors per self-visibility cluster.
+    pub cpca_vectors: u32,
+}
+
+impl QualitySettings {
+    /// The settings of a preset.
+    pub fn preset(p: Preset) -> Self {
+        match p {
+            Preset::Draft => Self {
+                table_resolution: 16,
+                view_samples: 16,
+                env_grid: 16,
+                ovdf_directions: 8,
+                ovdf_shells: 8,
+                ovdf_vectors: 4,
+                cpca_clusters: 32,
+                cpca_vectors: 4,
+            },
+            Preset::Paper => Self {
+                table_resolution: 32,
+                view_samples: 32,
+                env_grid: 32,
+                ovdf_directions: 32,
+                ovdf_shells: 16,
+                ovdf_vectors: 8,
+                cpca_clusters: 256,
+                cpca_vectors: 8,
+            },
+            Preset::High => Self {
+                table_resolution: 64,
+                view_samples: 64,
+                env_grid: 64,
+                ovdf_directions: 32,
+                ovdf_shells: 24,
+                ovdf_vectors: 16,
+                cpca_clusters: 512,
+                cpca_vectors: 16,
+            },
+        }
+    }
+
+    /// `(name, value)` of every knob, for summaries and overrides.
+    pub fn knobs(&self) -> [(&'static str, u32); 8] {
+        [
+            ("table_resolution", self.table_resolution),
+            ("view_samples", self.view_samples),
+            ("env_grid", self.env_grid),
+            ("ovdf_directions", self.ovdf_directions),
+            ("ovdf_shells", self.ovdf_shells),
+            ("ovdf_vectors", self.ovdf_vectors),
+            ("cpca_clusters", self.cpca_clusters),
+            ("cpca_vectors", self.cpca_vectors),
+        ]
+    }
+
+    /// Sets one knob by name; errors name the knob and the allowed range.
+    pub fn set(&mut self, name: &str, value: i64) -> Result<(), String> {
+        let (lo, hi) = match name {
+            "table_resolution" | "env_grid" | "ovdf_directions" => (2, 512),
+            "view_samples" => (1, 512),
+            "ovdf_shells" => (2, 256),
+            "ovdf_vectors" | "cpca_vectors" => (1, 256),
+            "cpca_clusters" => (1, 65_536),
+            _ => {
+                let known: Vec<_> = self.knobs().iter().map(|k| k.0).collect();
+                return Err(format!("unknown quality setting `{name}`; known: {}", known.join(", ")));
+            }
+        };
+        if !(lo..=hi).contains(&value) {
+            return Err(format!("must be in {lo}..={hi}, got {value}"));
+        }
+        let v = value as u32;
+        match name {
+            "table_resolution" => self.table_resolution = v,
+            "view_samples" => self.view_samples = v,
+            "env_grid" => self.env_grid = v,
+            "ovdf_directions" => self.ovdf_directions = v,
+            "ovdf_shells" => self.ovdf_shells = v,
+            "ovdf_vectors" => self.ovdf_vectors = v,
+            "cpca_clusters" => self.cpca_clusters = v,
+            _ => self.cpca_vectors = v,
+        }
+        Ok(())
+    }
+}
+
+/// A preset plus the knobs the user overrode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quality {
+    /// The preset the settings started from.
+    pub preset: Preset,
+    /// The effective settings.
+    pub settings: QualitySettings,
+}
+
+impl Default for Quality {
+    fn default() -> Self {
+        Self::from_preset(Preset::default())
+    }
+}
+
+impl Quality {
+    /// A preset without overrides.
+    pub fn from_preset(preset: Preset) -> Self {
+        Self { preset, settings: QualitySettings::preset(preset) }
+    }
+}

@@ -1,0 +1,437 @@
+//! The scene file as written (serde structs) and its validation into a [`Scene`].
+
+use crate::material::Material;
+use crate::motion::{Keyframe, Motion, Orbit, Spin, Transform};
+use crate::primitive::Primitive;
+use crate::quality::{Preset, Quality};
+use crate::{Camera, Environment, EnvironmentSource, MeshSource, Object, Scene, SceneError};
+use glam::{Quat, Vec3};
+use rsl_sphere::mesh::TriMesh;
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    environment: RawEnvironment,
+    camera: RawCamera,
+    #[serde(default)]
+    objects: Vec<RawObject>,
+    quality: Option<toml::Value>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEnvironment {
+    map: Option<String>,
+    constant: Option<[f32; 3]>,
+    #[serde(default = "one")]
+    intensity: f32,
+    rotation: Option<RawRotation>,
+    rsl_count: Option<i64>,
+    motion: Option<RawEnvMotion>,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEnvMotion {
+    spin: Option<RawSpin>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+struct RawRotation {
+    axis: [f32; 3],
+    degrees: f32,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+struct RawSpin {
+    axis: [f32; 3],
+    degrees_per_second: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawOrbit {
+    #[serde(default)]
+    centre: [f32; 3],
+    axis: [f32; 3],
+    degrees_per_second: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawKeyframe {
+    time: f32,
+    translation: Option<[f32; 3]>,
+    rotation: Option<RawRotation>,
+    scale: Option<RawScale>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMotion {
+    spin: Option<RawSpin>,
+    orbit: Option<RawOrbit>,
+    keyframes: Option<Vec<RawKeyframe>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    eye: [f32; 3],
+    target: [f32; 3],
+    #[serde(default = "up")]
+    up: [f32; 3],
+    #[serde(default = "fov")]
+    fov_y_degrees: f32,
+    #[serde(default = "width")]
+    width: i64,
+    #[serde(default = "height")]
+    height: i64,
+}
+
+fn up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn fov() -> f32 {
+    40.0
+}
+fn width() -> i64 {
+    640
+}
+fn height() -> i64 {
+    480
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObject {
+    name: Option<String>,
+    mesh: Option<String>,
+    primitive: Option<Primitive>,
+    #[serde(default)]
+    translation: [f32; 3],
+    rotation: Option<RawRotation>,
+    scale: Option<RawScale>,
+    material: Option<Material>,
+    motion: Option<RawMotion>,
+    #[serde(default = "yes")]
+    casts_shadows: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// A scale written as one number or as `[sx, sy, sz]`.
+#[derive(Clone, Copy)]
+struct RawScale([f32; 3]);
+
+impl<'de> Deserialize<'de> for RawScale {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = RawScale;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number or an array of three numbers")
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<RawScale, E> {
+                Ok(RawScale([v as f32; 3]))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<RawScale, E> {
+                Ok(RawScale([v as f32; 3]))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<RawScale, A::Error> {
+                let mut out = [0.0f32; 3];
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = seq.next_element()?.ok_or_else(|| serde::de::Error::invalid_length(k, &self))?;
+                }
+                if seq.next_element::<f32>()?.is_some() {
+                    return Err(serde::de::Error::invalid_length(4, &self));
+                }
+                Ok(RawScale(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Validation context: the scene file, for errors and relative paths.
+struct Ctx<'a> {
+    file: &'a Path,
+}
+
+impl Ctx<'_> {
+    fn err(&self, field: &str, msg: impl Into<String>) -> SceneError {
+        SceneError::field(self.file, field, msg)
+    }
+
+    fn finite(&self, field: &str, v: f32) -> Result<f32, SceneError> {
+        if v.is_finite() { Ok(v) } else { Err(self.err(field, format!("must be a finite number, got {v}"))) }
+    }
+
+    fn vec3(&self, field: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        if v.iter().all(|c| c.is_finite()) {
+            Ok(Vec3::from(v))
+        } else {
+            Err(self.err(field, format!("must be finite numbers, got {v:?}")))
+        }
+    }
+
+    fn axis(&self, field: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        let a = self.vec3(field, v)?;
+        rsl_sphere::frame::try_normalize(a).ok_or_else(|| self.err(field, "axis is zero; it needs a direction"))
+    }
+
+    fn rotation(&self, field: &str, r: RawRotation) -> Result<Quat, SceneError> {
+        let axis = self.axis(&format!("{field}.axis"), r.axis)?;
+        let deg = self.finite(&format!("{field}.degrees"), r.degrees)?;
+        Ok(Quat::from_axis_angle(axis, deg.to_radians()))
+    }
+
+    fn spin(&self, field: &str, s: RawSpin) -> Result<Spin, SceneError> {
+        Ok(Spin {
+            axis: self.axis(&format!("{field}.axis"), s.axis)?,
+            radians_per_second: self.finite(&format!("{field}.degrees_per_second"), s.degrees_per_second)?.to_radians(),
+        })
+    }
+
+    fn scale(&self, field: &str, s: RawScale) -> Result<Vec3, SceneError> {
+        let v = self.vec3(field, s.0)?;
+        if v.min_element() > 0.0 { Ok(v) } else { Err(self.err(field, format!("must be > 0, got {:?}", s.0))) }
+    }
+
+    /// Resolves a path written in the scene file; errors if the file does not exist.
+    fn existing_file(&self, field: &str, written: &str) -> Result<PathBuf, SceneError> {
+        let dir = self.file.parent().unwrap_or(Path::new(""));
+        let path = dir.join(written);
+        if !path.is_file() {
+            let shown = std::path::absolute(&path).unwrap_or_else(|_| path.clone());
+            return Err(self.err(field, format!("file not found: \"{written}\" (resolved to {})", shown.display())));
+        }
+        Ok(path)
+    }
+}
+
+pub(crate) fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
+    let raw: RawScene = toml::from_str(text).map_err(|e| SceneError::toml(file, text, &e))?;
+    let cx = Ctx { file };
+    let environment = environment(&cx, raw.environment)?;
+    let camera = camera(&cx, raw.camera)?;
+    let quality = quality(&cx, raw.quality)?;
+    let mut objects = Vec::with_capacity(raw.objects.len());
+    let mut meshes: HashMap<PathBuf, Arc<TriMesh>> = HashMap::new();
+    for (i, o) in raw.objects.into_iter().enumerate() {
+        let obj = object(&cx, i, o, &mut meshes)?;
+        if let Some(prev) = objects.iter().position(|p: &Object| p.name == obj.name) {
+            return Err(cx.err(&format!("objects[{i}].name"), format!("\"{}\" is already the name of objects[{prev}]", obj.name)));
+        }
+        objects.push(obj);
+    }
+    Ok(Scene { path: file.to_path_buf(), environment, camera, objects, quality })
+}
+
+fn environment(cx: &Ctx, e: RawEnvironment) -> Result<Environment, SceneError> {
+    let source = match (e.map, e.constant) {
+        (Some(_), Some(_)) => return Err(cx.err("environment", "give either `map` or `constant`, not both")),
+        (None, None) => return Err(cx.err("environment", "needs `map = \"file.exr\"` or `constant = [r, g, b]`")),
+        (Some(written), None) => {
+            let lower = written.to_ascii_lowercase();
+            if !(lower.ends_with(".exr") || lower.ends_with(".hdr")) {
+                return Err(cx.err("environment.map", format!("\"{written}\": expected a lat-long OpenEXR (.exr) or Radiance (.hdr) file")));
+            }
+            let path = cx.existing_file("environment.map", &written)?;
+            EnvironmentSource::Map { written, path }
+        }
+        (None, Some(c)) => {
+            let c = cx.vec3("environment.constant", c)?;
+            if c.min_element() < 0.0 {
+                return Err(cx.err("environment.constant", format!("radiance must be ≥ 0, got {c:?}")));
+            }
+            EnvironmentSource::Constant(c)
+        }
+    };
+    let intensity = cx.finite("environment.intensity", e.intensity)?;
+    if intensity < 0.0 {
+        return Err(cx.err("environment.intensity", format!("must be ≥ 0, got {intensity}")));
+    }
+    let rotation = match e.rotation {
+        Some(r) => cx.rotation("environment.rotation", r)?,
+        None => Quat::IDENTITY,
+    };
+    let spin = match e.motion.and_then(|m| m.spin) {
+        Some(s) => Some(cx.spin("environment.motion.spin", s)?),
+        None => None,
+    };
+    let rsl_count = match e.rsl_count {
+        None => crate::DEFAULT_RSL_COUNT,
+        Some(n) if (1..=1_000_000).contains(&n) => n as u32,
+        Some(n) => return Err(cx.err("environment.rsl_count", format!("must be in 1..=1000000, got {n}"))),
+    };
+    Ok(Environment { source, intensity, rotation, spin, rsl_count })
+}
+
+fn camera(cx: &Ctx, c: RawCamera) -> Result<Camera, SceneError> {
+    let eye = cx.vec3("camera.eye", c.eye)?;
+    let target = cx.vec3("camera.target", c.target)?;
+    let up = cx.axis("camera.up", c.up)?;
+    let view = rsl_sphere::frame::try_normalize(target - eye).ok_or_else(|| cx.err("camera.target", "equals camera.eye; the camera needs a direction"))?;
+    if view.cross(up).length() < 1e-4 {
+        return Err(cx.err("camera.up", "is parallel to the view direction"));
+    }
+    let fov = cx.finite("camera.fov_y_degrees", c.fov_y_degrees)?;
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(cx.err("camera.fov_y_degrees", format!("must be between 0 and 180, got {fov}")));
+    }
+    let dim = |field: &str, v: i64| -> Result<u32, SceneError> {
+        if (1..=16384).contains(&v) { Ok(v as u32) } else { Err(cx.err(field, format!("must be in 1..=16384 pixels, got {v}"))) }
+    };
+    Ok(Camera { eye, target, up, fov_y: fov.to_radians(), width: dim("camera.width", c.width)?, height: dim("camera.height", c.height)? })
+}
+
+fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
+    let preset_of = |field: &str, name: &str| {
+        Preset::from_name(name).ok_or_else(|| cx.err(field, format!("unknown preset \"{name}\"; known: draft, paper, high")))
+    };
+    match q {
+        None => Ok(Quality::default()),
+        Some(toml::Value::String(name)) => Ok(Quality::from_preset(preset_of("quality", &name)?)),
+        Some(toml::Value::Table(t)) => {
+            let preset = match t.get("preset") {
+                None => Preset::default(),
+                Some(toml::Value::String(name)) => preset_of("quality.preset", name)?,
+                Some(other) => return Err(cx.err("quality.preset", format!("must be a preset name, got {other}"))),
+            };
+            let mut q = Quality::from_preset(preset);
+            for (k, v) in &t {
+                if k == "preset" {
+                    continue;
+                }
+                let field = format!("quality.{k}");
+                let n = v.as_integer().ok_or_else(|| cx.err(&field, format!("must be an integer, got {v}")))?;
+                q.settings.set(k, n).map_err(|m| cx.err(&field, m))?;
+            }
+            Ok(q)
+        }
+        Some(other) => Err(cx.err("quality", format!("must be a preset name or a table, got {other}"))),
+    }
+}
+
+fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<TriMesh>>) -> Result<Object, SceneError> {
+    let name = match o.name {
+        Some(n) if n.trim().is_empty() => return Err(cx.err(&format!("objects[{i}].name"), "is empty")),
+        Some(n) => n,
+        None => format!("object{i}"),
+    };
+    let f = |field: &str| format!("objects[{i}] \"{name}\".{field}");
+    let material = o.material.unwrap_or_default();
+    material.validate().map_err(|(field, msg)| cx.err(&f(&format!("material.{field}")), msg))?;
+
+    let (source, mut mesh) = match (o.mesh, o.primitive) {
+        (Some(_), Some(_)) => return Err(cx.err(&f("mesh"), "give either `mesh` or `primitive`, not both")),
+        (None, None) => return Err(cx.err(&f("mesh"), "needs `mesh = \"file.glb\"` or `primitive = { kind = ... }`")),
+        (Some(written), None) => {
+            let lower = written.to_ascii_lowercase();
+            if !(lower.ends_with(".glb") || lower.ends_with(".gltf")) {
+                return Err(cx.err(&f("mesh"), format!("\"{written}\": expected a glTF file (.glb or .gltf)")));
+            }
+            let path = cx.existing_file(&f("mesh"), &written)?;
+            let mesh = match meshes.get(&path) {
+                Some(m) => Arc::clone(m),
+                None => {
+                    let (m, _) = crate::gltf_import::import(&path).map_err(|msg| SceneError::file(&path, msg))?;
+                    m.validate().map_err(|e| SceneError::file(&path, e.to_string()))?;
+                    let m = Arc::new(m);
+                    meshes.insert(path.clone(), Arc::clone(&m));
+                    m
+                }
+            };
+            (MeshSource::File { written, path }, mesh)
+        }
+        (None, Some(p)) => {
+            p.validate().map_err(|(field, msg)| cx.err(&f(&format!("primitive.{field}")), msg))?;
+            let mesh = p.mesh();
+            mesh.validate().map_err(|e| cx.err(&f("primitive"), e.to_string()))?;
+            (MeshSource::Primitive(p), Arc::new(mesh))
+        }
+    };
+    if material.is_anisotropic() && mesh.tangents.is_none() {
+        let mut m = (*mesh).clone();
+        m.compute_tangents_from_axis();
+        mesh = Arc::new(m);
+    }
+
+    let transform = Transform {
+        translation: cx.vec3(&f("translation"), o.translation)?,
+        rotation: match o.rotation {
+            Some(r) => cx.rotation(&f("rotation"), r)?,
+            None => Quat::IDENTITY,
+        },
+        scale: match o.scale {
+            Some(s) => cx.scale(&f("scale"), s)?,
+            None => Vec3::ONE,
+        },
+    };
+    let motion = match o.motion {
+        None => Motion::default(),
+        Some(m) => motion(cx, &f("motion"), m, &transform)?,
+    };
+    Ok(Object { name, source, mesh, transform, material, motion, casts_shadows: o.casts_shadows })
+}
+
+fn motion(cx: &Ctx, field: &str, m: RawMotion, base: &Transform) -> Result<Motion, SceneError> {
+    let spin = match m.spin {
+        Some(s) => Some(cx.spin(&format!("{field}.spin"), s)?),
+        None => None,
+    };
+    let orbit = match m.orbit {
+        Some(o) => Some(Orbit {
+            centre: cx.vec3(&format!("{field}.orbit.centre"), o.centre)?,
+            spin: cx.spin(&format!("{field}.orbit"), RawSpin { axis: o.axis, degrees_per_second: o.degrees_per_second })?,
+        }),
+        None => None,
+    };
+    let mut keyframes = Vec::new();
+    if let Some(keys) = m.keyframes {
+        if spin.is_some() || orbit.is_some() {
+            return Err(cx.err(&format!("{field}.keyframes"), "cannot be combined with spin or orbit"));
+        }
+        if keys.is_empty() {
+            return Err(cx.err(&format!("{field}.keyframes"), "is empty"));
+        }
+        for (k, key) in keys.into_iter().enumerate() {
+            let kf = format!("{field}.keyframes[{k}]");
+            let time = cx.finite(&format!("{kf}.time"), key.time)?;
+            if let Some(prev) = keyframes.last().map(|p: &Keyframe| p.time)
+                && time <= prev
+            {
+                return Err(cx.err(&format!("{kf}.time"), format!("{time} s is not after the previous key ({prev} s)")));
+            }
+            let transform = Transform {
+                translation: match key.translation {
+                    Some(t) => cx.vec3(&format!("{kf}.translation"), t)?,
+                    None => base.translation,
+                },
+                rotation: match key.rotation {
+                    Some(r) => cx.rotation(&format!("{kf}.rotation"), r)?,
+                    None => base.rotation,
+                },
+                scale: match key.scale {
+                    Some(s) => cx.scale(&format!("{kf}.scale"), s)?,
+                    None => base.scale,
+                },
+            };
+            keyframes.push(Keyframe { time, transform });
+        }
+    }
+    Ok(Motion { spin, orbit, keyframes })
+}

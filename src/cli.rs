@@ -1,0 +1,60 @@
+//! The `rsl` command line: argument types and the commands they run.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+/// rsl: all-frequency environment lighting of dynamic scenes with rotatable square lights.
+#[derive(Debug, Parser)]
+#[command(name = "rsl", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Load and validate a scene file and print its summary (objects, meshes, materials,
+    /// motion, environment, camera, quality).
+    Scene {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Also print world transforms at this time (seconds).
+        #[arg(long)]
+        time: Option<f32>,
+    },
+}
+
+/// Runs a parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Scene { scene, time } => scene_summary(&scene, time),
+    }
+}
+
+fn scene_summary(path: &std::path::Path, time: Option<f32>) -> Result<()> {
+    let start = std::time::Instant::now();
+    let scene = rsl_scene::Scene::load(path)?;
+    print!("{}", scene.summary());
+    if let Some(t) = time {
+        anyhow::ensure!(t.is_finite(), "--time must be a finite number of seconds, got {t}");
+        let state = scene.at(t);
+        let (axis, angle) = state.world_from_env.to_axis_angle();
+        println!("at t = {t} s: environment rotated {:.1}° about {:.3?}", angle.to_degrees(), axis.to_array());
+        for (o, tr) in scene.objects.iter().zip(&state.objects) {
+            let (axis, angle) = tr.rotation.to_axis_angle();
+            println!(
+                "    {:<12} at {:.3?} rotated {:.1}° about {:.3?} scale {:.3?}",
+                o.name,
+                tr.translation.to_array(),
+                angle.to_degrees(),
+                axis.to_array(),
+                tr.scale.to_array()
+            );
+        }
+    }
+    println!("loaded in {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
+    Ok(())
+}

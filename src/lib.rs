@@ -1,0 +1,10 @@
+//! rsl: all-frequency environment lighting of dynamic scenes with rotatable square lights
+//! and the multiple product approximation (Xu et al. 2006).
+//!
+//! The root package holds the engine (scene → prepared data → frame) and the `rsl`
+//! command-line tool; the stages live in the `rsl-*` crates (see ARCHITECTURE.md).
+
+pub mod cli;
+
+pub use rsl_scene as scene;
+pub use rsl_sphere as sphere;
