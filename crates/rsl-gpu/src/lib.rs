@@ -1,1 +1,164 @@
-//! placeholder
+//! GPU path on wgpu: device setup, the shader registry, compute passes and readback.
+//!
+//! Every GPU operation returns a [`GpuError`] instead of panicking: no adapter, a failed
+//! device request, a shader that does not compile, a lost device or a failed readback.
+
+pub mod hemi_map;
+pub mod shaders;
+pub mod testing;
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// What went wrong on the GPU side.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter was found (no GPU and no software Vulkan such as Mesa's llvmpipe).
+    #[error(
+        "no GPU adapter found ({0}); install a Vulkan driver (for example Mesa's `mesa-vulkan-drivers`) or use the CPU path"
+    )]
+    NoAdapter(String),
+    /// The adapter refused to create a device.
+    #[error("could not create a GPU device on {adapter}: {message}")]
+    Device {
+        /// The adapter's name.
+        adapter: String,
+        /// wgpu's message.
+        message: String,
+    },
+    /// A shader failed to compile or a pipeline to build.
+    #[error("shader {name} failed to build: {message}")]
+    Shader {
+        /// Registry name.
+        name: &'static str,
+        /// wgpu's message.
+        message: String,
+    },
+    /// The device was lost (driver reset, GPU removed).
+    #[error("the GPU device was lost")]
+    DeviceLost,
+    /// Reading results back failed.
+    #[error("GPU readback failed: {0}")]
+    Readback(String),
+    /// An error reported by wgpu validation during an operation.
+    #[error("GPU operation {operation} failed: {message}")]
+    Operation {
+        /// What was being done.
+        operation: &'static str,
+        /// wgpu's message.
+        message: String,
+    },
+}
+
+/// A device and queue on the best available adapter.
+pub struct GpuContext {
+    /// The adapter.
+    pub adapter: wgpu::Adapter,
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// Adapter description, for logs.
+    pub info: wgpu::AdapterInfo,
+    lost: Arc<AtomicBool>,
+}
+
+impl GpuContext {
+    /// Opens the highest-performance adapter (a real GPU if present, else a software one such
+    /// as llvmpipe) on Vulkan, Metal or DX12. `WGPU_BACKEND` and other wgpu environment
+    /// variables are honoured.
+    pub fn new() -> Result<Self, GpuError> {
+        // Headless compute needs only the primary backends; probing GL would only add noise.
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("rsl"),
+            required_features: wgpu::Features::empty(),
+            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
+        let lost = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&lost);
+        device.set_device_lost_callback(move |reason, msg| {
+            flag.store(true, Ordering::SeqCst);
+            tracing::error!("GPU device lost ({reason:?}): {msg}");
+        });
+        Ok(Self { adapter, device, queue, info, lost })
+    }
+
+    /// One line describing the adapter: name, type, backend, driver.
+    pub fn describe(&self) -> String {
+        let i = &self.info;
+        format!("{} ({:?}, {:?}, driver {} {})", i.name, i.device_type, i.backend, i.driver, i.driver_info)
+    }
+
+    /// Errors if the device has been lost.
+    pub fn check_alive(&self) -> Result<(), GpuError> {
+        if self.lost.load(Ordering::SeqCst) { Err(GpuError::DeviceLost) } else { Ok(()) }
+    }
+
+    /// Builds a compute pipeline from a registered shader, reporting compile and validation
+    /// errors as [`GpuError::Shader`].
+    pub fn compute_pipeline(
+        &self,
+        shader: &shaders::Shader,
+        constants: &[(&str, f64)],
+    ) -> Result<wgpu::ComputePipeline, GpuError> {
+        self.check_alive()?;
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(shader.name),
+            source: wgpu::ShaderSource::Wgsl(shader.source().into()),
+        });
+        let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(shader.name),
+            layout: None,
+            module: &module,
+            entry_point: Some(shader.entry_point),
+            compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+            cache: None,
+        });
+        match pollster::block_on(scope.pop()) {
+            Some(e) => Err(GpuError::Shader { name: shader.name, message: e.to_string() }),
+            None => Ok(pipeline),
+        }
+    }
+
+    /// Copies a GPU buffer into host memory (blocking).
+    pub fn read_buffer(&self, src: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+        self.check_alive()?;
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
+        enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+        self.queue.submit([enc.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| GpuError::Readback(e.to_string()))?;
+        self.check_alive()?;
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(GpuError::Readback(e.to_string())),
+            Err(_) => return Err(GpuError::Readback("map callback never ran".into())),
+        }
+        let bytes = staging.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
+        staging.unmap();
+        Ok(bytes)
+    }
+}

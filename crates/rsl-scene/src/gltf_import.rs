@@ -29,7 +29,9 @@ pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
     let mut buffers: Vec<Vec<u8>> = Vec::new();
     for buffer in gltf.buffers() {
         let data = match buffer.source() {
-            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or("buffer refers to the GLB binary chunk, but there is none")?,
+            gltf::buffer::Source::Bin => {
+                gltf.blob.clone().ok_or("buffer refers to the GLB binary chunk, but there is none")?
+            }
             gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
                 return Err(format!("buffer {}: embedded data URIs are not supported", buffer.index()));
             }
@@ -39,7 +41,12 @@ pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
             }
         };
         if data.len() < buffer.length() {
-            return Err(format!("buffer {} is truncated: {} bytes, {} declared", buffer.index(), data.len(), buffer.length()));
+            return Err(format!(
+                "buffer {} is truncated: {} bytes, {} declared",
+                buffer.index(),
+                data.len(),
+                buffer.length()
+            ));
         }
         buffers.push(data);
     }
@@ -76,8 +83,11 @@ pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
             let where_ = || format!("mesh {} primitive {}", m.index(), prim.index());
-            let positions: Vec<Vec3> =
-                reader.read_positions().ok_or_else(|| format!("{}: no POSITION attribute", where_()))?.map(Vec3::from).collect();
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| format!("{}: no POSITION attribute", where_()))?
+                .map(Vec3::from)
+                .collect();
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(i) => i.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),

@@ -170,7 +170,8 @@ impl Scene {
     /// Reads, parses and validates a scene file, importing or generating every mesh.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError::file(path, format!("cannot read scene file: {e}")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SceneError::file(path, format!("cannot read scene file: {e}")))?;
         Self::from_toml_str(&text, path)
     }
 
@@ -186,7 +187,11 @@ impl Scene {
             Some(s) => (s.at(t) * env.rotation).normalize(),
             None => env.rotation,
         };
-        SceneState { time: t, world_from_env, objects: self.objects.iter().map(|o| o.motion.at(&o.transform, t)).collect() }
+        SceneState {
+            time: t,
+            world_from_env,
+            objects: self.objects.iter().map(|o| o.motion.at(&o.transform, t)).collect(),
+        }
     }
 
     /// Whether anything moves over time.
@@ -215,7 +220,13 @@ impl Scene {
             }
         }
         let (axis, angle) = env.rotation.to_axis_angle();
-        let _ = write!(s, "               rotation {:.1}° about {}, {} RSLs", angle.to_degrees(), fmt_vec(axis), env.rsl_count);
+        let _ = write!(
+            s,
+            "               rotation {:.1}° about {}, {} RSLs",
+            angle.to_degrees(),
+            fmt_vec(axis),
+            env.rsl_count
+        );
         if let Some(sp) = &env.spin {
             let _ = write!(s, ", spinning {:.1}°/s about {}", sp.radians_per_second.to_degrees(), fmt_vec(sp.axis));
         }
@@ -249,7 +260,12 @@ impl Scene {
                 o.mesh.triangle_count(),
                 radius
             );
-            let _ = writeln!(s, "                 at {} scale {}", fmt_vec(o.transform.translation), fmt_vec(o.transform.scale));
+            let _ = writeln!(
+                s,
+                "                 at {} scale {}",
+                fmt_vec(o.transform.translation),
+                fmt_vec(o.transform.scale)
+            );
             let _ = writeln!(s, "                 material {}", o.material);
             let mut moves = Vec::new();
             if let Some(sp) = &o.motion.spin {

@@ -144,14 +144,15 @@ impl Material {
             Ok(())
         };
         let exponent = |e: f32| -> Result<(), (String, String)> {
-            if !e.is_finite() || !(e > 0.0 && e <= 1e6) {
+            if !(e.is_finite() && e > 0.0 && e <= 1e6) {
                 return Err(("exponent".into(), format!("must be in (0, 1e6], got {e}")));
             }
             Ok(())
         };
         match self {
             Material::Lambert { albedo } => colour("albedo", albedo),
-            Material::Phong { exponent: e, specular, diffuse } | Material::BlinnPhong { exponent: e, specular, diffuse } => {
+            Material::Phong { exponent: e, specular, diffuse }
+            | Material::BlinnPhong { exponent: e, specular, diffuse } => {
                 exponent(*e)?;
                 colour("specular", specular)?;
                 colour("diffuse", diffuse)
@@ -173,7 +174,8 @@ impl Material {
                     _ => {
                         return Err((
                             "alpha".into(),
-                            "ward needs either `alpha` (isotropic) or both `alpha_x` and `alpha_y` (anisotropic)".into(),
+                            "ward needs either `alpha` (isotropic) or both `alpha_x` and `alpha_y` (anisotropic)"
+                                .into(),
                         ));
                     }
                 }

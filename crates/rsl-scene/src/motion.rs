@@ -163,7 +163,11 @@ mod tests {
 
     #[test]
     fn matrix_is_translate_rotate_scale() {
-        let t = Transform { translation: Vec3::new(1.0, 2.0, 3.0), rotation: Quat::from_rotation_z(FRAC_PI_2), scale: Vec3::splat(2.0) };
+        let t = Transform {
+            translation: Vec3::new(1.0, 2.0, 3.0),
+            rotation: Quat::from_rotation_z(FRAC_PI_2),
+            scale: Vec3::splat(2.0),
+        };
         // S first: X → 2X; then R: 2X → 2Y; then T.
         let p = t.matrix().transform_point3(Vec3::X);
         assert!((p - Vec3::new(1.0, 4.0, 3.0)).length() < 1e-5);

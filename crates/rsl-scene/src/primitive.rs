@@ -71,7 +71,11 @@ impl Primitive {
     /// Checks dimensions and resolution; returns `(field, problem)`.
     pub fn validate(&self) -> Result<(), (String, String)> {
         let positive = |name: &str, v: f32| {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err((name.to_string(), format!("must be finite and > 0, got {v}"))) }
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err((name.to_string(), format!("must be finite and > 0, got {v}")))
+            }
         };
         let res = |r: u32, min: u32| {
             if (min..=MAX_RESOLUTION).contains(&r) {

@@ -233,7 +233,10 @@ pub(crate) fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
     for (i, o) in raw.objects.into_iter().enumerate() {
         let obj = object(&cx, i, o, &mut meshes)?;
         if let Some(prev) = objects.iter().position(|p: &Object| p.name == obj.name) {
-            return Err(cx.err(&format!("objects[{i}].name"), format!("\"{}\" is already the name of objects[{prev}]", obj.name)));
+            return Err(cx.err(
+                &format!("objects[{i}].name"),
+                format!("\"{}\" is already the name of objects[{prev}]", obj.name),
+            ));
         }
         objects.push(obj);
     }
@@ -247,7 +250,10 @@ fn environment(cx: &Ctx, e: RawEnvironment) -> Result<Environment, SceneError> {
         (Some(written), None) => {
             let lower = written.to_ascii_lowercase();
             if !(lower.ends_with(".exr") || lower.ends_with(".hdr")) {
-                return Err(cx.err("environment.map", format!("\"{written}\": expected a lat-long OpenEXR (.exr) or Radiance (.hdr) file")));
+                return Err(cx.err(
+                    "environment.map",
+                    format!("\"{written}\": expected a lat-long OpenEXR (.exr) or Radiance (.hdr) file"),
+                ));
             }
             let path = cx.existing_file("environment.map", &written)?;
             EnvironmentSource::Map { written, path }
@@ -284,7 +290,8 @@ fn camera(cx: &Ctx, c: RawCamera) -> Result<Camera, SceneError> {
     let eye = cx.vec3("camera.eye", c.eye)?;
     let target = cx.vec3("camera.target", c.target)?;
     let up = cx.axis("camera.up", c.up)?;
-    let view = rsl_sphere::frame::try_normalize(target - eye).ok_or_else(|| cx.err("camera.target", "equals camera.eye; the camera needs a direction"))?;
+    let view = rsl_sphere::frame::try_normalize(target - eye)
+        .ok_or_else(|| cx.err("camera.target", "equals camera.eye; the camera needs a direction"))?;
     if view.cross(up).length() < 1e-4 {
         return Err(cx.err("camera.up", "is parallel to the view direction"));
     }
@@ -293,14 +300,26 @@ fn camera(cx: &Ctx, c: RawCamera) -> Result<Camera, SceneError> {
         return Err(cx.err("camera.fov_y_degrees", format!("must be between 0 and 180, got {fov}")));
     }
     let dim = |field: &str, v: i64| -> Result<u32, SceneError> {
-        if (1..=16384).contains(&v) { Ok(v as u32) } else { Err(cx.err(field, format!("must be in 1..=16384 pixels, got {v}"))) }
+        if (1..=16384).contains(&v) {
+            Ok(v as u32)
+        } else {
+            Err(cx.err(field, format!("must be in 1..=16384 pixels, got {v}")))
+        }
     };
-    Ok(Camera { eye, target, up, fov_y: fov.to_radians(), width: dim("camera.width", c.width)?, height: dim("camera.height", c.height)? })
+    Ok(Camera {
+        eye,
+        target,
+        up,
+        fov_y: fov.to_radians(),
+        width: dim("camera.width", c.width)?,
+        height: dim("camera.height", c.height)?,
+    })
 }
 
 fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
     let preset_of = |field: &str, name: &str| {
-        Preset::from_name(name).ok_or_else(|| cx.err(field, format!("unknown preset \"{name}\"; known: draft, paper, high")))
+        Preset::from_name(name)
+            .ok_or_else(|| cx.err(field, format!("unknown preset \"{name}\"; known: draft, paper, high")))
     };
     match q {
         None => Ok(Quality::default()),
@@ -396,7 +415,8 @@ fn motion(cx: &Ctx, field: &str, m: RawMotion, base: &Transform) -> Result<Motio
     let orbit = match m.orbit {
         Some(o) => Some(Orbit {
             centre: cx.vec3(&format!("{field}.orbit.centre"), o.centre)?,
-            spin: cx.spin(&format!("{field}.orbit"), RawSpin { axis: o.axis, degrees_per_second: o.degrees_per_second })?,
+            spin: cx
+                .spin(&format!("{field}.orbit"), RawSpin { axis: o.axis, degrees_per_second: o.degrees_per_second })?,
         }),
         None => None,
     };

@@ -88,7 +88,10 @@ fn toml_syntax_errors_give_line_and_column() {
 
 #[test]
 fn unknown_fields_are_located_and_named() {
-    let e = expect_err(parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\ncolour = 3\n"), &["colour"]);
+    let e = expect_err(
+        parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\ncolour = 3\n"),
+        &["colour"],
+    );
     assert!(e.location.is_some(), "{e}");
 }
 
@@ -115,11 +118,16 @@ fn missing_environment_map_names_both_paths() {
 
 #[test]
 fn non_finite_numbers_are_rejected() {
-    expect_err(parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\ntranslation = [nan, 0.0, 0.0]\n"), &[
-        "objects[0] \"a\".translation",
-        "finite",
-    ]);
-    expect_err(parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = inf }\n"), &["primitive.radius", "finite"]);
+    expect_err(
+        parse(
+            "[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\ntranslation = [nan, 0.0, 0.0]\n",
+        ),
+        &["objects[0] \"a\".translation", "finite"],
+    );
+    expect_err(
+        parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = inf }\n"),
+        &["primitive.radius", "finite"],
+    );
     let text = HEAD.replace("constant = [1.0, 1.0, 1.0]", "constant = [1.0, 1.0, 1.0]\nintensity = -inf");
     let e = Scene::from_toml_str(&text, Path::new("s.toml")).unwrap_err().to_string();
     assert!(e.contains("environment.intensity"), "{e}");
@@ -128,18 +136,27 @@ fn non_finite_numbers_are_rejected() {
 #[test]
 fn zero_axes_are_rejected() {
     expect_err(
-        parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nrotation = { axis = [0.0, 0.0, 0.0], degrees = 10.0 }\n"),
+        parse(
+            "[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nrotation = { axis = [0.0, 0.0, 0.0], degrees = 10.0 }\n",
+        ),
         &["objects[0] \"a\".rotation.axis", "axis is zero"],
     );
     expect_err(
-        parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmotion = { spin = { axis = [0.0, 0.0, 0.0], degrees_per_second = 1.0 } }\n"),
+        parse(
+            "[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmotion = { spin = { axis = [0.0, 0.0, 0.0], degrees_per_second = 1.0 } }\n",
+        ),
         &["motion.spin.axis", "axis is zero"],
     );
 }
 
 #[test]
 fn unknown_material_models_list_the_known_ones() {
-    let e = expect_err(parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"velvet\" }\n"), &["velvet"]);
+    let e = expect_err(
+        parse(
+            "[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"velvet\" }\n",
+        ),
+        &["velvet"],
+    );
     let msg = e.to_string();
     for m in rsl_scene::material::MODEL_NAMES {
         assert!(msg.contains(m), "{msg} does not list {m}");
@@ -149,12 +166,18 @@ fn unknown_material_models_list_the_known_ones() {
 
 #[test]
 fn bad_material_parameters_name_the_parameter() {
-    expect_err(parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"ggx\", alpha = 0.0 }\n"), &[
-        "material.alpha",
-    ]);
-    expect_err(parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"ward\", alpha_x = 0.1 }\n"), &[
-        "alpha_x` and `alpha_y",
-    ]);
+    expect_err(
+        parse(
+            "[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"ggx\", alpha = 0.0 }\n",
+        ),
+        &["material.alpha"],
+    );
+    expect_err(
+        parse(
+            "[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"ward\", alpha_x = 0.1 }\n",
+        ),
+        &["alpha_x` and `alpha_y"],
+    );
     let s = parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"ward\", alpha_x = 0.1, alpha_y = 0.3 }\n").unwrap();
     assert!(s.objects[0].material.is_anisotropic());
     // Anisotropic materials get tangents.
@@ -194,7 +217,10 @@ fn meshes_with_no_triangles_are_rejected() {
 fn nan_positions_are_rejected() {
     let dir = temp_dir("nan-position");
     write_gltf(&dir, [[0.0; 3], [f32::NAN, 0.0, 0.0], [0.0, 1.0, 0.0]], 4);
-    expect_err(parse_in(&dir, "[[objects]]\nname = \"p\"\nmesh = \"tri.gltf\"\n"), &["tri.gltf", "vertex 1", "non-finite position"]);
+    expect_err(
+        parse_in(&dir, "[[objects]]\nname = \"p\"\nmesh = \"tri.gltf\"\n"),
+        &["tri.gltf", "vertex 1", "non-finite position"],
+    );
     // The same file without the NaN imports, with normals computed.
     write_gltf(&dir, [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], 4);
     let s = parse_in(&dir, "[[objects]]\nname = \"p\"\nmesh = \"tri.gltf\"\n").unwrap();
@@ -214,9 +240,14 @@ fn corrupt_mesh_files_are_reported_not_panicked() {
 #[test]
 fn structural_mistakes_are_explained() {
     expect_err(parse("[[objects]]\nname = \"a\"\n"), &["needs `mesh", "primitive"]);
-    expect_err(parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"cone\", radius = 1.0 }\n"), &["cone", "sphere", "torus"]);
     expect_err(
-        parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\n[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\n"),
+        parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"cone\", radius = 1.0 }\n"),
+        &["cone", "sphere", "torus"],
+    );
+    expect_err(
+        parse(
+            "[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\n[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\n",
+        ),
         &["objects[1].name", "already the name of objects[0]"],
     );
     expect_err(

@@ -27,7 +27,7 @@ fn axes(face: usize) -> (DVec3, DVec3, DVec3) {
 /// A zero or non-finite direction maps to the centre of face +Y.
 pub fn face_uv_from_dir(d: DVec3) -> (usize, f64, f64) {
     let a = d.abs();
-    let face = if !(a.max_element() > 0.0) || !d.is_finite() {
+    let face = if !d.is_finite() || a.max_element() <= 0.0 {
         return (2, 0.0, 0.0);
     } else if a.x >= a.y && a.x >= a.z {
         if d.x > 0.0 { 0 } else { 1 }

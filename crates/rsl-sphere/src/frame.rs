@@ -8,11 +8,7 @@ use glam::Vec3;
 /// Normalises `v`, or returns `None` when its length is zero or not finite.
 pub fn try_normalize(v: Vec3) -> Option<Vec3> {
     let len2 = v.length_squared();
-    if len2.is_finite() && len2 > 0.0 {
-        Some(v / len2.sqrt())
-    } else {
-        None
-    }
+    if len2.is_finite() && len2 > 0.0 { Some(v / len2.sqrt()) } else { None }
 }
 
 /// A right-handed orthonormal basis: `t × b = n`. Local coordinates are `(t, b, n)`.
@@ -47,7 +43,8 @@ impl Frame {
         let n = try_normalize(n).unwrap_or(Vec3::Y);
         let ortho = tangent - n * n.dot(tangent);
         // Below ~1e-4 of the tangent's length the projection is dominated by rounding.
-        if !(ortho.length_squared() > 1e-8 * tangent.length_squared()) {
+        // NaN lengths fail the comparison too, and fall back.
+        if ortho.length_squared().partial_cmp(&(1e-8 * tangent.length_squared())) != Some(std::cmp::Ordering::Greater) {
             return Self::from_normal(n);
         }
         match try_normalize(ortho) {

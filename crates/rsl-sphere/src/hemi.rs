@@ -24,11 +24,7 @@ pub fn hemi_from_dir(d: Vec3) -> Vec2 {
         xy / (1.0 + d.z).sqrt()
     } else {
         let r = xy.length();
-        if r > 0.0 {
-            xy * ((1.0 - d.z).max(0.0).sqrt() / r)
-        } else {
-            Vec2::new(MAX_RADIUS, 0.0)
-        }
+        if r > 0.0 { xy * ((1.0 - d.z).max(0.0).sqrt() / r) } else { Vec2::new(MAX_RADIUS, 0.0) }
     }
 }
 

@@ -70,7 +70,7 @@ impl TriMesh {
     /// Checks indices, finiteness and attribute lengths; a mesh that passes can be used by
     /// every stage without further checks.
     pub fn validate(&self) -> Result<(), MeshError> {
-        if self.indices.len() % 3 != 0 {
+        if !self.indices.len().is_multiple_of(3) {
             return Err(MeshError::RaggedIndices(self.indices.len()));
         }
         if self.indices.is_empty() {
@@ -102,7 +102,8 @@ impl TriMesh {
         let mut acc = vec![glam::DVec3::ZERO; self.positions.len()];
         for tri in self.indices.chunks_exact(3) {
             let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-            let (pa, pb, pc) = (self.positions[a].as_dvec3(), self.positions[b].as_dvec3(), self.positions[c].as_dvec3());
+            let (pa, pb, pc) =
+                (self.positions[a].as_dvec3(), self.positions[b].as_dvec3(), self.positions[c].as_dvec3());
             let n = (pb - pa).cross(pc - pa);
             for v in [a, b, c] {
                 acc[v] += n;
@@ -276,7 +277,8 @@ mod tests {
 
     #[test]
     fn transforms_keep_normals_perpendicular_under_non_uniform_scale() {
-        let mut m = TriMesh { positions: vec![Vec3::X, Vec3::Y, Vec3::Z], indices: vec![0, 1, 2], ..Default::default() };
+        let mut m =
+            TriMesh { positions: vec![Vec3::X, Vec3::Y, Vec3::Z], indices: vec![0, 1, 2], ..Default::default() };
         m.compute_normals();
         let t = Mat4::from_scale(Vec3::new(3.0, 1.0, 0.5)) * Mat4::from_rotation_y(0.7);
         m.transform(&t);

@@ -384,7 +384,13 @@ mod tests {
 
     #[test]
     fn uniform_hemisphere_matches_its_pdf() {
-        chi2_test("uniform hemisphere", uniform_hemisphere, |d| if d.z >= 0.0 { f64::from(UNIFORM_HEMISPHERE_PDF) } else { 0.0 }, true, 8);
+        chi2_test(
+            "uniform hemisphere",
+            uniform_hemisphere,
+            |d| if d.z >= 0.0 { f64::from(UNIFORM_HEMISPHERE_PDF) } else { 0.0 },
+            true,
+            8,
+        );
     }
 
     #[test]
@@ -418,7 +424,10 @@ mod tests {
         };
         let mut expected = vec![0.0; nu * nv];
         for jj in 0..nv {
-            let (za, zb) = (z_edge(jj), if jj % 2 == 0 { z_edge(jj + 1) } else { (PI64 * ((jj / 2) + 1) as f64 / h as f64).cos() });
+            let (za, zb) = (
+                z_edge(jj),
+                if jj % 2 == 0 { z_edge(jj + 1) } else { (PI64 * ((jj / 2) + 1) as f64 / h as f64).cos() },
+            );
             for ii in 0..nu {
                 let phi = 2.0 * PI64 * (ii as f64 + 0.5) / nu as f64;
                 let z = 0.5 * (za + zb);
