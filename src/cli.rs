@@ -25,12 +25,37 @@ pub enum Command {
         #[arg(long)]
         time: Option<f32>,
     },
+    /// Decompose an environment map into rotatable square lights (Xu et al. 2006, §4.1) and
+    /// print a one-line summary; optionally write every RSL as JSON and a figure as PNG.
+    Decompose(DecomposeArgs),
+}
+
+/// Arguments of `rsl decompose`.
+#[derive(Debug, clap::Args)]
+pub struct DecomposeArgs {
+    /// The lat-long environment map (OpenEXR or Radiance .hdr).
+    pub map: PathBuf,
+    /// Number of RSLs.
+    #[arg(long = "rsl", default_value_t = 30)]
+    pub rsl: usize,
+    /// Cube grid resolution R of the 6×R×R grid the map is resampled to.
+    #[arg(long, default_value_t = 32)]
+    pub grid: usize,
+    /// Write every RSL (centre, half-diagonal, RGB intensity, energy, solid angle, texel
+    /// count, fitting error) and the totals as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write a figure like the paper's fig. 6: the map with region borders and fitted squares,
+    /// and below it the RSLs alone.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
 }
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Scene { scene, time } => scene_summary(&scene, time),
+        Command::Decompose(args) => crate::decompose::run(&args),
     }
 }
 

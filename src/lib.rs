@@ -5,6 +5,9 @@
 //! command-line tool; the stages live in the `rsl-*` crates (see ARCHITECTURE.md).
 
 pub mod cli;
+pub mod decompose;
+pub mod output;
 
+pub use rsl_env as env;
 pub use rsl_scene as scene;
 pub use rsl_sphere as sphere;

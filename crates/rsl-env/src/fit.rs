@@ -1,0 +1,484 @@
+//! Fitting a region of the environment with a rotatable square light (Xu et al. 2006,
+//! §4.1.1).
+//!
+//! A region `S` (a set of cube texels) is fitted in the equal-area plane centred on the
+//! RSL's centre `c` (the hemisphere map with `c` as its pole, DESIGN.md): the square of
+//! half-diagonal `r` has plane area `2r²`, i.e. solid angle `4r²`, and its intensity is set
+//! by exact energy preservation, `I = ∫_S L dω / 4r²`. The fitting error of eq. 7,
+//!
+//! `|S ∪ O_r| · E_θ[ ∫ (T − F_θ)² dω ]`,  θ ∈ {0, π/8, π/4, 3π/8},
+//!
+//! expands, with `A = ∫_S L²`, `E = ∫_S L` and `B(θ) = ∫_{S ∩ Q_θ} L`, into
+//! `η²(θ) = A − 2·I·B(θ) + I²·4r²`. Luminance drives the fit; the RGB energy is carried
+//! exactly. Each texel enters as a small square of its own area in that plane (aligned
+//! with the RSL's square), so `B` is a continuous function of `r` even for regions of one
+//! texel. The centre is the region's luminance-weighted mean direction (its area-weighted
+//! mean for black regions); `r` minimises the penalised error (see [`fit_region`]).
+
+use glam::{DVec3, Vec3};
+use rsl_sphere::frame::Frame;
+use rsl_sphere::hemi::hemi_from_dir;
+use std::f64::consts::PI;
+
+/// Rotations at which the square's fit is averaged (Xu et al. §4.1.1).
+pub const ROTATIONS: [f64; 4] = [0.0, PI / 8.0, PI / 4.0, 3.0 * PI / 8.0];
+
+/// Additive statistics of a region; merging two regions adds them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RegionStats {
+    /// `∫ L dω` per RGB channel.
+    pub energy: [f64; 3],
+    /// `∫ Y dω` (luminance).
+    pub lum_energy: f64,
+    /// `∫ Y² dω`.
+    pub lum_sq: f64,
+    /// Solid angle.
+    pub area: f64,
+    /// `Σ Y_t Ω_t d_t`: luminance-weighted direction sum.
+    pub dir_energy: DVec3,
+    /// `Σ Ω_t d_t`: area-weighted direction sum.
+    pub dir_area: DVec3,
+    /// Number of texels.
+    pub texels: u32,
+}
+
+impl RegionStats {
+    /// Statistics of one texel of direction `d`, solid angle `omega` and energy `energy`.
+    pub fn texel(d: Vec3, omega: f64, energy: [f64; 3]) -> Self {
+        let y = crate::cube_env::luminance_f64(energy);
+        let d = d.as_dvec3();
+        Self {
+            energy,
+            lum_energy: y,
+            lum_sq: if omega > 0.0 { y * y / omega } else { 0.0 },
+            area: omega,
+            dir_energy: d * y,
+            dir_area: d * omega,
+            texels: 1,
+        }
+    }
+
+    /// The statistics of the union of two disjoint regions.
+    pub fn merged(&self, o: &Self) -> Self {
+        Self {
+            energy: [self.energy[0] + o.energy[0], self.energy[1] + o.energy[1], self.energy[2] + o.energy[2]],
+            lum_energy: self.lum_energy + o.lum_energy,
+            lum_sq: self.lum_sq + o.lum_sq,
+            area: self.area + o.area,
+            dir_energy: self.dir_energy + o.dir_energy,
+            dir_area: self.dir_area + o.dir_area,
+            texels: self.texels + o.texels,
+        }
+    }
+
+    /// The RSL centre: luminance-weighted mean direction, else area-weighted, else +Y.
+    pub fn centre(&self) -> Vec3 {
+        let pick = |v: DVec3, scale: f64| (v.length() > 1e-9 * scale).then(|| v.normalize());
+        pick(self.dir_energy, self.lum_energy).or_else(|| pick(self.dir_area, self.area)).unwrap_or(DVec3::Y).as_vec3()
+    }
+
+    /// The light-variance term of Xu et al. eq. 13 for this region, `|S|·σ_L`, with
+    /// `σ_L² = (1/|S|)∫(Y − ū)²`: it equals `√(|S|·∫Y² − (∫Y)²)`.
+    pub fn light_variance_term(&self) -> f64 {
+        (self.area * self.lum_sq - self.lum_energy * self.lum_energy).max(0.0).sqrt()
+    }
+}
+
+/// Per-texel data the fit reads: direction, solid angle and luminance energy.
+#[derive(Clone, Debug)]
+pub struct TexelTable {
+    /// Unit direction of each texel's centre.
+    pub dir: Vec<Vec3>,
+    /// Solid angle of each texel.
+    pub omega: Vec<f64>,
+    /// Luminance energy `Y·Ω` of each texel.
+    pub lum_energy: Vec<f64>,
+    /// Half the side of each texel's equal-area square in the fit plane, `√(Ω/2)/2`.
+    half: Vec<f32>,
+    /// `1 / (2·half)`.
+    inv_side: Vec<f32>,
+}
+
+impl TexelTable {
+    /// The table of a cube grid and per-texel luminance energies.
+    pub fn new(grid: &rsl_sphere::cube::CubeGrid, lum_energy: Vec<f64>) -> Self {
+        let n = grid.len();
+        assert_eq!(lum_energy.len(), n, "one luminance energy per texel");
+        let omega: Vec<f64> = (0..n).map(|t| grid.texel_solid_angle(t)).collect();
+        let half: Vec<f32> = omega.iter().map(|&o| 0.5 * (o / 2.0).sqrt() as f32).collect();
+        let inv_side = half.iter().map(|&h| 0.5 / h).collect();
+        Self { dir: (0..n).map(|t| grid.texel_dir(t)).collect(), omega, lum_energy, half, inv_side }
+    }
+}
+
+/// The result of fitting one region.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fit {
+    /// Unit centre direction.
+    pub centre: Vec3,
+    /// Half-diagonal in the equal-area plane (solid angle `4r²`).
+    pub r: f64,
+    /// `E_θ[η²(θ)]`, luminance² · sr.
+    pub error: f64,
+    /// `|S ∪ O_r| · E_θ[η²(θ)]` (eq. 7), the merge criterion.
+    pub penalised: f64,
+}
+
+/// The region's texels as the objective sees them, in the fit plane, struct-of-arrays and
+/// padded to a multiple of [`LANES`] with empty texels (zero energy and area).
+#[derive(Default)]
+struct PlaneTexels {
+    /// |u| and |v| in the square's frame, per rotation.
+    u: [Vec<f32>; 4],
+    v: [Vec<f32>; 4],
+    /// Half the side of the texel's square in the plane.
+    half: Vec<f32>,
+    /// 1 / (2·half).
+    inv_side: Vec<f32>,
+    /// Distance of the centre from the plane's origin.
+    rho: Vec<f32>,
+    /// Luminance energy.
+    e: Vec<f32>,
+    /// Solid angle.
+    omega: Vec<f32>,
+}
+
+/// Independent accumulators in the objective's loops: wide enough for the compiler to keep
+/// them in vector registers, and a fixed summation order, so results are deterministic.
+const LANES: usize = 4;
+
+impl PlaneTexels {
+    fn clear(&mut self) {
+        for col in self.u.iter_mut().chain(self.v.iter_mut()) {
+            col.clear();
+        }
+        for col in [&mut self.half, &mut self.inv_side, &mut self.rho, &mut self.e, &mut self.omega] {
+            col.clear();
+        }
+    }
+}
+
+#[inline(always)]
+fn fmax(a: f32, b: f32) -> f32 {
+    // Plain comparisons (no NaN handling: inputs are finite) compile to one vector max.
+    if a > b { a } else { b }
+}
+
+#[inline(always)]
+fn fmin(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+/// The `c`-th chunk of [`LANES`] values of a padded column.
+#[inline(always)]
+fn chunk(v: &[f32], c: usize) -> &[f32; LANES] {
+    v[c * LANES..(c + 1) * LANES].try_into().expect("columns are padded to whole chunks")
+}
+
+struct Objective<'a> {
+    t: &'a PlaneTexels,
+    stats: &'a RegionStats,
+}
+
+impl Objective<'_> {
+    /// `(E_θ[η²], |S ∪ O_r|·E_θ[η²])` at half-diagonal `r`.
+    ///
+    /// A texel's square `[x − h, x + h] × [y − h, y + h]` (in the RSL square's frame, with
+    /// `x, y ≥ 0` by symmetry) overlaps the RSL square `[−s, s]²` by the product of
+    /// `max(0, min(x + h, s) − max(x − h, −s)) = max(0, min(2h, 2s, s + h − x))` and the same
+    /// in `y`, divided by the texel's area `(2h)²`.
+    fn eval(&self, r: f64) -> (f64, f64) {
+        let s = (r / std::f64::consts::SQRT_2) as f32;
+        let rf = r as f32;
+        let disc_area = std::f32::consts::PI * rf * rf;
+        let t = self.t;
+        let mut b = [0.0f32; LANES];
+        let mut inside_disc = [0.0f32; LANES];
+        for c in 0..t.e.len() / LANES {
+            let (h, inv) = (chunk(&t.half, c), chunk(&t.inv_side, c));
+            let mut cap = [0.0f32; LANES];
+            let mut sh = [0.0f32; LANES];
+            for l in 0..LANES {
+                cap[l] = fmin(2.0 * h[l], 2.0 * s);
+                sh[l] = s + h[l];
+            }
+            let mut cover = [0.0f32; LANES];
+            for k in 0..4 {
+                let (u, v) = (chunk(&t.u[k], c), chunk(&t.v[k], c));
+                for l in 0..LANES {
+                    let ox = fmax(fmin(cap[l], sh[l] - u[l]), 0.0);
+                    let oy = fmax(fmin(cap[l], sh[l] - v[l]), 0.0);
+                    cover[l] += ox * oy;
+                }
+            }
+            let (e, rho, omega) = (chunk(&t.e, c), chunk(&t.rho, c), chunk(&t.omega, c));
+            for l in 0..LANES {
+                b[l] += e[l] * cover[l] * inv[l] * inv[l];
+                // Part of the texel inside the disc O_r swept by the rotating square: the
+                // radial overlap, capped by the disc's area relative to the texel's.
+                let radial = fmin(fmax((rf - rho[l] + h[l]) * inv[l], 0.0), 1.0);
+                let disc = fmin(disc_area * inv[l] * inv[l], 1.0);
+                inside_disc[l] += omega[l] * fmin(radial, disc);
+            }
+        }
+        let b = 0.25 * b.iter().map(|&x| f64::from(x)).sum::<f64>();
+        let inside_disc: f64 = inside_disc.iter().map(|&x| f64::from(x)).sum();
+        let st = self.stats;
+        let q = 4.0 * r * r;
+        let i = st.lum_energy / q;
+        let eta2 = (st.lum_sq - 2.0 * i * b + i * i * q).max(0.0);
+        let union = (st.area + 2.0 * PI * r * r - inside_disc).max(st.area);
+        (eta2, union * eta2)
+    }
+}
+
+fn plane_texels(parts: &[&[u32]], centre: Vec3, table: &TexelTable, t: &mut PlaneTexels) {
+    let frame = Frame::from_normal(centre);
+    let n: usize = parts.iter().map(|p| p.len()).sum();
+    let padded = n.div_ceil(LANES) * LANES;
+    t.clear();
+    for col in t.u.iter_mut().chain(t.v.iter_mut()) {
+        col.resize(padded, 1e6);
+    }
+    t.rho.resize(padded, 1e6);
+    t.half.resize(padded, 1.0);
+    t.inv_side.resize(padded, 0.5);
+    t.e.resize(padded, 0.0);
+    t.omega.resize(padded, 0.0);
+    let mut k = 0;
+    for part in parts {
+        for &i in *part {
+            let i = i as usize;
+            let p = hemi_from_dir(frame.to_local(table.dir[i]));
+            t.u[0][k] = p.x;
+            t.v[0][k] = p.y;
+            t.half[k] = table.half[i];
+            t.inv_side[k] = table.inv_side[i];
+            t.e[k] = table.lum_energy[i] as f32;
+            t.omega[k] = table.omega[i] as f32;
+            k += 1;
+        }
+    }
+    // Rotations, |·| and radii in whole chunks (vectorisable).
+    let rot: [(f32, f32); 4] = ROTATIONS.map(|a| (a.cos() as f32, a.sin() as f32));
+    let (u_cols, v_cols) = (&mut t.u, &mut t.v);
+    for c in 0..padded / LANES {
+        let range = c * LANES..(c + 1) * LANES;
+        let x: [f32; LANES] = u_cols[0][range.clone()].try_into().expect("whole chunk");
+        let y: [f32; LANES] = v_cols[0][range.clone()].try_into().expect("whole chunk");
+        for (kk, &(cs, sn)) in rot.iter().enumerate().rev() {
+            for l in 0..LANES {
+                u_cols[kk][c * LANES + l] = (cs * x[l] + sn * y[l]).abs();
+                v_cols[kk][c * LANES + l] = (-sn * x[l] + cs * y[l]).abs();
+            }
+        }
+        for l in 0..LANES {
+            t.rho[c * LANES + l] = (x[l] * x[l] + y[l] * y[l]).sqrt();
+        }
+    }
+    // Padding stays far away with zero energy and area.
+    for j in n..padded {
+        for kk in 0..4 {
+            u_cols[kk][j] = 1e6;
+            v_cols[kk][j] = 1e6;
+        }
+        t.rho[j] = 1e6;
+    }
+}
+
+thread_local! {
+    /// Per-thread scratch for the plane texels, so fits do not allocate.
+    static SCRATCH: std::cell::RefCell<PlaneTexels> = std::cell::RefCell::new(PlaneTexels::default());
+}
+
+/// Fits the region made of the texels in `parts` (disjoint lists) with statistics `stats`.
+///
+/// `r_hint` starts the search for `r` (for a merge, `√(r_a² + r_b²)` of the two parts is a
+/// good start; any positive value works). The penalised error is bracketed by growing steps
+/// from ±10% in `r` within `[r0/32, 4·r0]` (`r0 = √(|S|/4)`, the equal-area half-diagonal), then
+/// refined by parabolic interpolation in `ln r` to the given precision.
+pub fn fit_region(parts: &[&[u32]], stats: &RegionStats, table: &TexelTable, r_hint: f64, precision: Precision) -> Fit {
+    let centre = stats.centre();
+    let r0 = (stats.area / 4.0).sqrt();
+    if stats.lum_energy <= 0.0 || r0 <= 0.0 {
+        // Black: any square fits exactly; use the region's own solid angle.
+        return Fit { centre, r: r0, error: 0.0, penalised: 0.0 };
+    }
+    SCRATCH.with_borrow_mut(|texels| {
+        plane_texels(parts, centre, table, texels);
+        let obj = Objective { t: texels, stats };
+        let (r, (error, penalised)) = minimise_log(|r| obj.eval(r), r0 / 32.0, 4.0 * r0, r_hint, precision.tolerance());
+        Fit { centre, r, error, penalised }
+    })
+}
+
+/// Minimises `f(r).1` over `[lo, hi]` starting near `start`: bracket by growing steps, then
+/// parabolic steps in `ln r` (golden-section steps where a parabola is unusable).
+fn minimise_log(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, start: f64, tolerance: f64) -> (f64, (f64, f64)) {
+    // Start with ±10% around the hint; while walking downhill, steps grow by 2 each time.
+    let mut step = 0.1f64;
+    let (tlo, thi) = (lo.ln(), hi.ln());
+    let eval = |t: f64| (t, f(t.exp()));
+    let start = if start.is_finite() && start > 0.0 { start.ln().clamp(tlo, thi) } else { 0.5 * (tlo + thi) };
+    let mut b = eval(start);
+    let mut a = eval((start - step).max(tlo));
+    let mut c = eval((start + step).min(thi));
+    // Walk downhill until the middle point is the lowest (or a bound is reached).
+    for _ in 0..64 {
+        if a.1.1 < b.1.1 && a.0 > tlo {
+            step *= 2.0;
+            (c, b) = (b, a);
+            a = eval((b.0 - step).max(tlo));
+        } else if c.1.1 < b.1.1 && c.0 < thi {
+            step *= 2.0;
+            (a, b) = (b, c);
+            c = eval((b.0 + step).min(thi));
+        } else {
+            break;
+        }
+    }
+    let mut best = [a, b, c].into_iter().min_by(|x, y| x.1.1.total_cmp(&y.1.1)).unwrap_or(b);
+    if best.0 != b.0 {
+        // Minimum on a bound of the range: nothing to refine.
+        return (best.0.exp(), best.1);
+    }
+    const GOLD: f64 = 0.381_966_011_250_105;
+    for _ in 0..REFINE_STEPS {
+        if c.0 - a.0 < 2.0 * tolerance {
+            break;
+        }
+        let (fa, fb, fc) = (a.1.1, b.1.1, c.1.1);
+        let (p, q) = ((b.0 - a.0) * (fb - fc), (b.0 - c.0) * (fb - fa));
+        let denom = 2.0 * (p - q);
+        let mut x = b.0 - ((b.0 - a.0) * p - (b.0 - c.0) * q) / denom;
+        if !x.is_finite() || x <= a.0 + tolerance || x >= c.0 - tolerance || (x - b.0).abs() < tolerance {
+            // Golden-section step into the larger side.
+            x = if c.0 - b.0 > b.0 - a.0 { b.0 + GOLD * (c.0 - b.0) } else { b.0 - GOLD * (b.0 - a.0) };
+        }
+        let y = eval(x);
+        if y.1.1 < b.1.1 {
+            if x > b.0 {
+                a = b;
+            } else {
+                c = b;
+            }
+            b = y;
+        } else if x > b.0 {
+            c = y;
+        } else {
+            a = y;
+        }
+    }
+    if b.1.1 < best.1.1 {
+        best = b;
+    }
+    (best.0.exp(), best.1)
+}
+
+/// Refinement steps after bracketing.
+const REFINE_STEPS: usize = 8;
+
+/// How precisely to locate the optimal `r`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    /// About 3% in `r`: the penalised error is quadratic near its minimum, so this ranks
+    /// candidate merges to about 0.1%.
+    Rank,
+    /// About 0.5% in `r`, for the RSLs that are kept.
+    Final,
+}
+
+impl Precision {
+    fn tolerance(self) -> f64 {
+        match self {
+            Precision::Rank => 0.03,
+            Precision::Final => 0.005,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rsl_sphere::cube::CubeGrid;
+
+    fn table(grid: &CubeGrid, lum: impl Fn(usize) -> f64) -> TexelTable {
+        TexelTable::new(grid, (0..grid.len()).map(|t| lum(t) * grid.texel_solid_angle(t)).collect())
+    }
+
+    fn stats_of(tab: &TexelTable, texels: &[u32]) -> RegionStats {
+        texels.iter().fold(RegionStats::default(), |acc, &t| {
+            let t = t as usize;
+            // Grey: equal RGB so luminance energy equals each channel's.
+            let e = tab.lum_energy[t];
+            acc.merged(&RegionStats::texel(tab.dir[t], tab.omega[t], [e, e, e]))
+        })
+    }
+
+    #[test]
+    fn one_uniform_texel_fits_its_own_area_with_no_error() {
+        let grid = CubeGrid::new(16);
+        let tab = table(&grid, |_| 3.0);
+        let t = grid.index(4, 7, 9) as u32;
+        let st = stats_of(&tab, &[t]);
+        let f = fit_region(&[&[t]], &st, &tab, 1.0, Precision::Final);
+        let omega = grid.texel_solid_angle(t as usize);
+        // Golden-section precision on r (~1e-3 of the bracket) bounds the match.
+        assert!(((4.0 * f.r * f.r) / omega - 1.0).abs() < 2e-2, "4r² = {} vs Ω = {omega}", 4.0 * f.r * f.r);
+        assert!(f.error <= 1e-3 * st.lum_sq, "error {} vs A {}", f.error, st.lum_sq);
+        assert!((f.centre - grid.texel_dir(t as usize)).length() < 1e-5);
+    }
+
+    #[test]
+    fn uniform_patch_fits_an_equal_area_square_and_peaks_shrink_it() {
+        let grid = CubeGrid::new(32);
+        // A 6×6 patch on +Z.
+        let patch: Vec<u32> = (13..19)
+            .flat_map(|j| (13..19).map(move |i| (4, i, j)))
+            .map(|(f, i, j)| grid.index(f, i, j) as u32)
+            .collect();
+        let flat = table(&grid, |_| 1.0);
+        let st = stats_of(&flat, &patch);
+        let f = fit_region(&[&patch], &st, &flat, 1.0, Precision::Final);
+        let ratio = 4.0 * f.r * f.r / st.area;
+        assert!((0.6..1.4).contains(&ratio), "square/region area {ratio}");
+        // Brute force: the same penalised error is no better at nearby radii.
+        let centre_t = grid.index(4, 15, 15);
+        let peaked = table(&grid, |t| if t == centre_t { 500.0 } else { 1.0 });
+        let sp = stats_of(&peaked, &patch);
+        let g = fit_region(&[&patch], &sp, &peaked, f.r, Precision::Final);
+        assert!(g.r < 0.6 * f.r, "a bright texel should pull the square in: {} vs {}", g.r, f.r);
+        assert!(g.error.is_finite() && g.penalised.is_finite());
+    }
+
+    #[test]
+    fn the_chosen_radius_beats_a_dense_scan() {
+        let grid = CubeGrid::new(16);
+        let region: Vec<u32> = (0..40).map(|k| grid.index(2, k % 8, k / 8) as u32).collect();
+        let tab = table(&grid, |t| 1.0 + (t % 7) as f64);
+        let st = stats_of(&tab, &region);
+        let f = fit_region(&[&region], &st, &tab, 0.01, Precision::Final);
+        // Re-evaluate the objective on a dense grid of r: no radius in [r0/16, 2r0] may be
+        // more than 1% better than the chosen one.
+        let mut texels = PlaneTexels::default();
+        plane_texels(&[&region], st.centre(), &tab, &mut texels);
+        let obj = Objective { t: &texels, stats: &st };
+        let r0 = (st.area / 4.0).sqrt();
+        let best = (0..2000)
+            .map(|k| r0 / 16.0 * (32.0f64).powf(k as f64 / 1999.0))
+            .map(|r| obj.eval(r).1)
+            .fold(f64::INFINITY, f64::min);
+        assert!(f.penalised <= best * 1.01, "fit {} vs dense scan {best}", f.penalised);
+    }
+
+    #[test]
+    fn black_regions_fit_exactly() {
+        let grid = CubeGrid::new(8);
+        let tab = table(&grid, |_| 0.0);
+        let region: Vec<u32> = (0..10).collect();
+        let st = stats_of(&tab, &region);
+        let f = fit_region(&[&region], &st, &tab, 1.0, Precision::Final);
+        assert_eq!((f.error, f.penalised), (0.0, 0.0));
+        assert!(f.r > 0.0 && f.centre.is_finite());
+    }
+}

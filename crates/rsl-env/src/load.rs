@@ -1,0 +1,120 @@
+//! Loading lat-long environment maps (OpenEXR, Radiance .hdr) with validation.
+
+use glam::Vec3;
+use rsl_sphere::latlong::LatLongMap;
+use std::path::{Path, PathBuf};
+
+/// An environment-map problem, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvError {
+    /// The file could not be read or decoded (missing, unreadable, truncated, not an image).
+    #[error("{}: cannot read environment map: {message}", path.display())]
+    Unreadable {
+        /// The file.
+        path: PathBuf,
+        /// The decoder's or the file system's message.
+        message: String,
+    },
+    /// Width is not twice the height.
+    #[error("{}: a lat-long map must be twice as wide as it is high, got {width}×{height}", path.display())]
+    AspectRatio {
+        /// The file.
+        path: PathBuf,
+        /// Width in pixels.
+        width: u32,
+        /// Height in pixels.
+        height: u32,
+    },
+    /// A pixel is NaN or infinite.
+    #[error("{}: pixel ({x}, {y}) channel {channel} is {value}; environment maps must be finite", path.display())]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// Column.
+        x: u32,
+        /// Row from the top.
+        y: u32,
+        /// `R`, `G` or `B`.
+        channel: char,
+        /// The value.
+        value: f32,
+    },
+    /// An argument is out of range (RSL count, grid resolution).
+    #[error("{0}")]
+    Argument(String),
+}
+
+/// A loaded map and what was repaired while loading.
+#[derive(Clone, Debug)]
+pub struct LoadedMap {
+    /// The radiance, linear RGB.
+    pub map: LatLongMap,
+    /// Number of channel values below zero that were clamped to zero.
+    pub clamped_negative: usize,
+    /// The most negative value found (0 if none).
+    pub most_negative: f32,
+}
+
+/// Loads a lat-long map from an OpenEXR or Radiance `.hdr` file as linear RGB `f32`.
+///
+/// The map must be twice as wide as high. NaN and infinite values are errors. Negative
+/// values — ringing from lossy compression, common around suns — are clamped to zero,
+/// counted in [`LoadedMap::clamped_negative`] and reported with a warning.
+pub fn load_latlong(path: &Path) -> Result<LoadedMap, EnvError> {
+    let unreadable = |message: String| EnvError::Unreadable { path: path.to_path_buf(), message };
+    let reader = image::ImageReader::open(path).map_err(|e| unreadable(e.to_string()))?;
+    let reader = reader.with_guessed_format().map_err(|e| unreadable(e.to_string()))?;
+    let img = reader.decode().map_err(|e| unreadable(e.to_string()))?.into_rgb32f();
+    let (w, h) = img.dimensions();
+    from_rgb_f32(path, w, h, img.as_raw())
+}
+
+/// Validates raw row-major RGB `f32` pixels (from a file at `path`, for messages) into a map.
+pub fn from_rgb_f32(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Result<LoadedMap, EnvError> {
+    if width == 0 || height == 0 || width != 2 * height {
+        return Err(EnvError::AspectRatio { path: path.to_path_buf(), width, height });
+    }
+    if rgb.len() != (width as usize) * (height as usize) * 3 {
+        return Err(EnvError::Unreadable {
+            path: path.to_path_buf(),
+            message: format!(
+                "expected {} values for {width}×{height} RGB, got {}",
+                width as usize * height as usize * 3,
+                rgb.len()
+            ),
+        });
+    }
+    let mut clamped = 0usize;
+    let mut most_negative = 0.0f32;
+    let mut texels = Vec::with_capacity(rgb.len() / 3);
+    for (k, px) in rgb.chunks_exact(3).enumerate() {
+        let mut c = [0.0f32; 3];
+        for (ch, &v) in px.iter().enumerate() {
+            if !v.is_finite() {
+                let k = k as u32;
+                return Err(EnvError::NonFinite {
+                    path: path.to_path_buf(),
+                    x: k % width,
+                    y: k / width,
+                    channel: ['R', 'G', 'B'][ch],
+                    value: v,
+                });
+            }
+            if v < 0.0 {
+                clamped += 1;
+                most_negative = most_negative.min(v);
+            }
+            c[ch] = v.max(0.0);
+        }
+        texels.push(Vec3::from(c));
+    }
+    if clamped > 0 {
+        tracing::warn!(
+            "{}: clamped {clamped} negative channel values to 0 (most negative {most_negative})",
+            path.display()
+        );
+    }
+    let map = LatLongMap::new(width as usize, height as usize, texels)
+        .map_err(|e| EnvError::Unreadable { path: path.to_path_buf(), message: e.to_string() })?;
+    Ok(LoadedMap { map, clamped_negative: clamped, most_negative })
+}
