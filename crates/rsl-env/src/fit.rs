@@ -17,7 +17,6 @@
 
 use glam::{DVec3, Vec3};
 use rsl_sphere::frame::Frame;
-use rsl_sphere::hemi::hemi_from_dir;
 use std::f64::consts::PI;
 
 /// Rotations at which the square's fit is averaged (Xu et al. §4.1.1).
@@ -139,45 +138,43 @@ struct PlaneTexels {
     rho: Vec<f32>,
     /// Luminance energy.
     e: Vec<f32>,
+    /// Luminance energy over the texel's plane area, `e/(2h)²`.
+    w: Vec<f32>,
+    /// Gathered texel directions (environment space), x, y, z.
+    d: [Vec<f32>; 3],
     /// Solid angle.
     omega: Vec<f32>,
 }
 
 /// Independent accumulators in the objective's loops: wide enough for the compiler to keep
 /// them in vector registers, and a fixed summation order, so results are deterministic.
-const LANES: usize = 4;
+const LANES: usize = 8;
 
-impl PlaneTexels {
-    fn clear(&mut self) {
-        for col in self.u.iter_mut().chain(self.v.iter_mut()) {
-            col.clear();
-        }
-        for col in [&mut self.half, &mut self.inv_side, &mut self.rho, &mut self.e, &mut self.omega] {
-            col.clear();
+/// Sums a column in [`LANES`] fixed lanes (vectorisable, and the same order every time).
+#[inline(always)]
+fn lane_sum(v: &[f32]) -> f64 {
+    let mut acc = [0.0f32; LANES];
+    for c in v.chunks_exact(LANES) {
+        for l in 0..LANES {
+            acc[l] += c[l];
         }
     }
+    acc.iter().map(|&x| f64::from(x)).sum()
 }
 
-#[inline(always)]
-fn fmax(a: f32, b: f32) -> f32 {
-    // Plain comparisons (no NaN handling: inputs are finite) compile to one vector max.
-    if a > b { a } else { b }
-}
-
-#[inline(always)]
-fn fmin(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
-}
-
-/// The `c`-th chunk of [`LANES`] values of a padded column.
-#[inline(always)]
-fn chunk(v: &[f32], c: usize) -> &[f32; LANES] {
-    v[c * LANES..(c + 1) * LANES].try_into().expect("columns are padded to whole chunks")
+/// Scratch columns for one evaluation of the objective.
+#[derive(Default)]
+struct EvalScratch {
+    cap: Vec<f32>,
+    sh: Vec<f32>,
+    cover: Vec<f32>,
+    disc: Vec<f32>,
 }
 
 struct Objective<'a> {
     t: &'a PlaneTexels,
     stats: &'a RegionStats,
+    scratch: &'a std::cell::RefCell<EvalScratch>,
 }
 
 impl Objective<'_> {
@@ -188,107 +185,139 @@ impl Objective<'_> {
     /// `max(0, min(x + h, s) − max(x − h, −s)) = max(0, min(2h, 2s, s + h − x))` and the same
     /// in `y`, divided by the texel's area `(2h)²`.
     fn eval(&self, r: f64) -> (f64, f64) {
-        let s = (r / std::f64::consts::SQRT_2) as f32;
-        let rf = r as f32;
-        let disc_area = std::f32::consts::PI * rf * rf;
-        let t = self.t;
-        let mut b = [0.0f32; LANES];
-        let mut inside_disc = [0.0f32; LANES];
-        for c in 0..t.e.len() / LANES {
-            let (h, inv) = (chunk(&t.half, c), chunk(&t.inv_side, c));
-            let mut cap = [0.0f32; LANES];
-            let mut sh = [0.0f32; LANES];
-            for l in 0..LANES {
-                cap[l] = fmin(2.0 * h[l], 2.0 * s);
-                sh[l] = s + h[l];
-            }
-            let mut cover = [0.0f32; LANES];
-            for k in 0..4 {
-                let (u, v) = (chunk(&t.u[k], c), chunk(&t.v[k], c));
-                for l in 0..LANES {
-                    let ox = fmax(fmin(cap[l], sh[l] - u[l]), 0.0);
-                    let oy = fmax(fmin(cap[l], sh[l] - v[l]), 0.0);
-                    cover[l] += ox * oy;
-                }
-            }
-            let (e, rho, omega) = (chunk(&t.e, c), chunk(&t.rho, c), chunk(&t.omega, c));
-            for l in 0..LANES {
-                b[l] += e[l] * cover[l] * inv[l] * inv[l];
-                // Part of the texel inside the disc O_r swept by the rotating square: the
-                // radial overlap, capped by the disc's area relative to the texel's.
-                let radial = fmin(fmax((rf - rho[l] + h[l]) * inv[l], 0.0), 1.0);
-                let disc = fmin(disc_area * inv[l] * inv[l], 1.0);
-                inside_disc[l] += omega[l] * fmin(radial, disc);
-            }
-        }
-        let b = 0.25 * b.iter().map(|&x| f64::from(x)).sum::<f64>();
-        let inside_disc: f64 = inside_disc.iter().map(|&x| f64::from(x)).sum();
-        let st = self.stats;
-        let q = 4.0 * r * r;
-        let i = st.lum_energy / q;
-        let eta2 = (st.lum_sq - 2.0 * i * b + i * i * q).max(0.0);
-        let union = (st.area + 2.0 * PI * r * r - inside_disc).max(st.area);
-        (eta2, union * eta2)
+        let mut scratch = self.scratch.borrow_mut();
+        eval_objective(self.t, self.stats, &mut scratch, r)
     }
+}
+
+/// The objective of [`Objective::eval`], compiled for AVX2 and SSE4.1 with run-time
+/// dispatch. Every pass is element-wise over whole columns and the sums use fixed lanes, so
+/// every path gives the same bits.
+#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1"))]
+fn eval_objective(t: &PlaneTexels, st: &RegionStats, sc: &mut EvalScratch, r: f64) -> (f64, f64) {
+    let n = t.e.len();
+    let s = (r / std::f64::consts::SQRT_2) as f32;
+    let rf = r as f32;
+    let disc_area = std::f32::consts::PI * rf * rf;
+    sc.cap.resize(n, 0.0);
+    sc.sh.resize(n, 0.0);
+    sc.cover.resize(n, 0.0);
+    sc.disc.resize(n, 0.0);
+    // Equal-length views: the bounds checks hoist out and the loops vectorise.
+    let (cap, sh, cover, disc) = (&mut sc.cap[..n], &mut sc.sh[..n], &mut sc.cover[..n], &mut sc.disc[..n]);
+    let (half, rho, inv, omega, w) = (&t.half[..n], &t.rho[..n], &t.inv_side[..n], &t.omega[..n], &t.w[..n]);
+    for i in 0..n {
+        cap[i] = (2.0 * half[i]).min(2.0 * s);
+        sh[i] = s + half[i];
+        // Part of the texel inside the disc O_r swept by the rotating square: the radial
+        // overlap, capped by the disc's area relative to the texel's.
+        let radial = ((rf - rho[i] + half[i]) * inv[i]).max(0.0).min(1.0);
+        disc[i] = omega[i] * radial.min((disc_area * inv[i] * inv[i]).min(1.0));
+        cover[i] = 0.0;
+    }
+    for k in 0..4 {
+        let (u, v) = (&t.u[k][..n], &t.v[k][..n]);
+        for i in 0..n {
+            cover[i] += cap[i].min(sh[i] - u[i]).max(0.0) * cap[i].min(sh[i] - v[i]).max(0.0);
+        }
+    }
+    for i in 0..n {
+        cover[i] *= w[i];
+    }
+    let b = 0.25 * lane_sum(&sc.cover);
+    let inside_disc = lane_sum(&sc.disc);
+    let q = 4.0 * r * r;
+    let i = st.lum_energy / q;
+    let eta2 = (st.lum_sq - 2.0 * i * b + i * i * q).max(0.0);
+    let union = (st.area + 2.0 * PI * r * r - inside_disc).max(st.area);
+    (eta2, union * eta2)
 }
 
 fn plane_texels(parts: &[&[u32]], centre: Vec3, table: &TexelTable, t: &mut PlaneTexels) {
     let frame = Frame::from_normal(centre);
     let n: usize = parts.iter().map(|p| p.len()).sum();
     let padded = n.div_ceil(LANES) * LANES;
-    t.clear();
-    for col in t.u.iter_mut().chain(t.v.iter_mut()) {
-        col.resize(padded, 1e6);
-    }
-    t.rho.resize(padded, 1e6);
+    // Gather the texels' data; padding is far away (local direction −n, which maps to the
+    // rim |p| = √2) with zero energy and area.
     t.half.resize(padded, 1.0);
     t.inv_side.resize(padded, 0.5);
-    t.e.resize(padded, 0.0);
-    t.omega.resize(padded, 0.0);
+    for col in [&mut t.e, &mut t.w, &mut t.omega] {
+        col.resize(padded, 0.0);
+    }
+    let mut d = std::mem::take(&mut t.d);
+    for col in &mut d {
+        col.resize(padded, 0.0);
+    }
     let mut k = 0;
     for part in parts {
         for &i in *part {
             let i = i as usize;
-            let p = hemi_from_dir(frame.to_local(table.dir[i]));
-            t.u[0][k] = p.x;
-            t.v[0][k] = p.y;
+            let dir = table.dir[i];
+            d[0][k] = dir.x;
+            d[1][k] = dir.y;
+            d[2][k] = dir.z;
             t.half[k] = table.half[i];
             t.inv_side[k] = table.inv_side[i];
-            t.e[k] = table.lum_energy[i] as f32;
+            let e = table.lum_energy[i] as f32;
+            t.e[k] = e;
+            t.w[k] = e * table.inv_side[i] * table.inv_side[i];
             t.omega[k] = table.omega[i] as f32;
             k += 1;
         }
     }
-    // Rotations, |·| and radii in whole chunks (vectorisable).
-    let rot: [(f32, f32); 4] = ROTATIONS.map(|a| (a.cos() as f32, a.sin() as f32));
-    let (u_cols, v_cols) = (&mut t.u, &mut t.v);
-    for c in 0..padded / LANES {
-        let range = c * LANES..(c + 1) * LANES;
-        let x: [f32; LANES] = u_cols[0][range.clone()].try_into().expect("whole chunk");
-        let y: [f32; LANES] = v_cols[0][range.clone()].try_into().expect("whole chunk");
-        for (kk, &(cs, sn)) in rot.iter().enumerate().rev() {
-            for l in 0..LANES {
-                u_cols[kk][c * LANES + l] = (cs * x[l] + sn * y[l]).abs();
-                v_cols[kk][c * LANES + l] = (-sn * x[l] + cs * y[l]).abs();
-            }
-        }
-        for l in 0..LANES {
-            t.rho[c * LANES + l] = (x[l] * x[l] + y[l] * y[l]).sqrt();
-        }
-    }
-    // Padding stays far away with zero energy and area.
     for j in n..padded {
-        for kk in 0..4 {
-            u_cols[kk][j] = 1e6;
-            v_cols[kk][j] = 1e6;
-        }
-        t.rho[j] = 1e6;
+        (t.half[j], t.inv_side[j], t.e[j], t.w[j], t.omega[j]) = (1.0, 0.5, 0.0, 0.0, 0.0);
+        (d[0][j], d[1][j], d[2][j]) = (-centre.x, -centre.y, -centre.z);
+    }
+    let [dx, dy, dz] = &d;
+    project_columns(&frame, dx, dy, dz, t);
+    t.d = d;
+}
+
+/// Local frame, equal-area map, radius and the four rotations, element-wise over columns
+/// (the same formulas as [`rsl_sphere::hemi::hemi_from_dir`], written branch-free so they vectorise).
+#[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1"))]
+fn project_columns(frame: &Frame, dx: &[f32], dy: &[f32], dz: &[f32], t: &mut PlaneTexels) {
+    let n = dx.len();
+    for col in t.u.iter_mut().chain(t.v.iter_mut()) {
+        col.resize(n, 0.0);
+    }
+    t.rho.resize(n, 0.0);
+    let (ft, fb, fnn) = (frame.t, frame.b, frame.n);
+    let [u0, u1, u2, u3] = &mut t.u;
+    let [v0, v1, v2, v3] = &mut t.v;
+    let (u0, u1, u2, u3) = (&mut u0[..n], &mut u1[..n], &mut u2[..n], &mut u3[..n]);
+    let (v0, v1, v2, v3) = (&mut v0[..n], &mut v1[..n], &mut v2[..n], &mut v3[..n]);
+    let (dx, dy, dz, rho) = (&dx[..n], &dy[..n], &dz[..n], &mut t.rho[..n]);
+    let rot: [(f32, f32); 4] = ROTATIONS.map(|a| (a.cos() as f32, a.sin() as f32));
+    for i in 0..n {
+        let (x, y, z) = (dx[i], dy[i], dz[i]);
+        let lx = x * ft.x + y * ft.y + z * ft.z;
+        let ly = x * fb.x + y * fb.y + z * fb.z;
+        let lz = x * fnn.x + y * fnn.y + z * fnn.z;
+        let rxy = (lx * lx + ly * ly).sqrt();
+        // Upper hemisphere: 1/√(1 + z); lower: √(1 − z)/|(x, y)|, the stable equivalent.
+        let up = 1.0 / (1.0 + lz.max(0.0)).sqrt();
+        let down = (1.0 - lz).max(0.0).sqrt() / rxy.max(1e-30);
+        let scale = if lz >= 0.0 { up } else { down };
+        let rim = lz < 0.0 && rxy <= 1e-30;
+        let px = if rim { std::f32::consts::SQRT_2 } else { lx * scale };
+        let py = if rim { 0.0 } else { ly * scale };
+        rho[i] = (px * px + py * py).sqrt();
+        u0[i] = (rot[0].0 * px + rot[0].1 * py).abs();
+        v0[i] = (-rot[0].1 * px + rot[0].0 * py).abs();
+        u1[i] = (rot[1].0 * px + rot[1].1 * py).abs();
+        v1[i] = (-rot[1].1 * px + rot[1].0 * py).abs();
+        u2[i] = (rot[2].0 * px + rot[2].1 * py).abs();
+        v2[i] = (-rot[2].1 * px + rot[2].0 * py).abs();
+        u3[i] = (rot[3].0 * px + rot[3].1 * py).abs();
+        v3[i] = (-rot[3].1 * px + rot[3].0 * py).abs();
     }
 }
 
 thread_local! {
     /// Per-thread scratch for the plane texels, so fits do not allocate.
-    static SCRATCH: std::cell::RefCell<PlaneTexels> = std::cell::RefCell::new(PlaneTexels::default());
+    static SCRATCH: std::cell::RefCell<(PlaneTexels, std::cell::RefCell<EvalScratch>)> = std::cell::RefCell::default();
 }
 
 /// Fits the region made of the texels in `parts` (disjoint lists) with statistics `stats`.
@@ -304,19 +333,29 @@ pub fn fit_region(parts: &[&[u32]], stats: &RegionStats, table: &TexelTable, r_h
         // Black: any square fits exactly; use the region's own solid angle.
         return Fit { centre, r: r0, error: 0.0, penalised: 0.0 };
     }
-    SCRATCH.with_borrow_mut(|texels| {
+    if stats.texels == 1 {
+        // One texel has uniform radiance: its own equal-area square (4r² = Ω) reproduces it
+        // exactly, η² = 0 (the objective's minimum; `one_uniform_texel_…` checks this).
+        return Fit { centre, r: r0, error: 0.0, penalised: 0.0 };
+    }
+    SCRATCH.with_borrow_mut(|(texels, scratch)| {
         plane_texels(parts, centre, table, texels);
-        let obj = Objective { t: texels, stats };
-        let (r, (error, penalised)) = minimise_log(|r| obj.eval(r), r0 / 32.0, 4.0 * r0, r_hint, precision.tolerance());
+        let obj = Objective { t: texels, stats, scratch };
+        let (r, (error, penalised)) = minimise_log(|r| obj.eval(r), r0 / 32.0, 4.0 * r0, r_hint, precision);
         Fit { centre, r, error, penalised }
     })
 }
 
 /// Minimises `f(r).1` over `[lo, hi]` starting near `start`: bracket by growing steps, then
 /// parabolic steps in `ln r` (golden-section steps where a parabola is unusable).
-fn minimise_log(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, start: f64, tolerance: f64) -> (f64, (f64, f64)) {
-    // Start with ±10% around the hint; while walking downhill, steps grow by 2 each time.
-    let mut step = 0.1f64;
+fn minimise_log(
+    f: impl Fn(f64) -> (f64, f64),
+    lo: f64,
+    hi: f64,
+    start: f64,
+    precision: Precision,
+) -> (f64, (f64, f64)) {
+    let (tolerance, mut step, refine_steps) = precision.search();
     let (tlo, thi) = (lo.ln(), hi.ln());
     let eval = |t: f64| (t, f(t.exp()));
     let start = if start.is_finite() && start > 0.0 { start.ln().clamp(tlo, thi) } else { 0.5 * (tlo + thi) };
@@ -343,7 +382,7 @@ fn minimise_log(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, start: f64, tol
         return (best.0.exp(), best.1);
     }
     const GOLD: f64 = 0.381_966_011_250_105;
-    for _ in 0..REFINE_STEPS {
+    for _ in 0..refine_steps {
         if c.0 - a.0 < 2.0 * tolerance {
             break;
         }
@@ -375,24 +414,24 @@ fn minimise_log(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, start: f64, tol
     (best.0.exp(), best.1)
 }
 
-/// Refinement steps after bracketing.
-const REFINE_STEPS: usize = 8;
-
 /// How precisely to locate the optimal `r`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Precision {
-    /// About 3% in `r`: the penalised error is quadratic near its minimum, so this ranks
-    /// candidate merges to about 0.1%.
+    /// For ranking candidate merges: bracket from ±10% around the hint, then one parabolic
+    /// step. The penalised error is smooth near its minimum, so the key is off by a few
+    /// parts in a thousand at most.
     Rank,
-    /// About 0.5% in `r`, for the RSLs that are kept.
+    /// For the RSLs that are kept: bracket from ±3% around the hint (the ranking fit's
+    /// radius), then refine to 0.5% in `r`.
     Final,
 }
 
 impl Precision {
-    fn tolerance(self) -> f64 {
+    /// `(tolerance in ln r, initial half-bracket in ln r, refinement steps)`.
+    fn search(self) -> (f64, f64, usize) {
         match self {
-            Precision::Rank => 0.03,
-            Precision::Final => 0.005,
+            Precision::Rank => (0.03, 0.1, 1),
+            Precision::Final => (0.005, 0.03, 10),
         }
     }
 }
@@ -423,6 +462,17 @@ mod tests {
         let st = stats_of(&tab, &[t]);
         let f = fit_region(&[&[t]], &st, &tab, 1.0, Precision::Final);
         let omega = grid.texel_solid_angle(t as usize);
+        // The shortcut agrees with minimising the objective itself.
+        let mut texels = PlaneTexels::default();
+        plane_texels(&[&[t]], st.centre(), &tab, &mut texels);
+        let scratch = Default::default();
+        let obj = Objective { t: &texels, stats: &st, scratch: &scratch };
+        let (r_min, (e_min, _)) = minimise_log(|r| obj.eval(r), f.r / 32.0, 4.0 * f.r, 1.0, Precision::Final);
+        assert!((r_min / f.r - 1.0).abs() < 1e-2, "objective's minimum at r = {r_min}, shortcut r = {}", f.r);
+        // At the shortcut's radius the objective itself is ~0 (f32 rounding of the texel's
+        // overlap), and no worse than what the search found.
+        let (e_at, _) = obj.eval(f.r);
+        assert!(e_at <= 1e-5 * st.lum_sq && e_at <= e_min, "η² at shortcut {e_at}, searched {e_min}, A {}", st.lum_sq);
         // Golden-section precision on r (~1e-3 of the bracket) bounds the match.
         assert!(((4.0 * f.r * f.r) / omega - 1.0).abs() < 2e-2, "4r² = {} vs Ω = {omega}", 4.0 * f.r * f.r);
         assert!(f.error <= 1e-3 * st.lum_sq, "error {} vs A {}", f.error, st.lum_sq);
@@ -462,7 +512,8 @@ mod tests {
         // more than 1% better than the chosen one.
         let mut texels = PlaneTexels::default();
         plane_texels(&[&region], st.centre(), &tab, &mut texels);
-        let obj = Objective { t: &texels, stats: &st };
+        let scratch = Default::default();
+        let obj = Objective { t: &texels, stats: &st, scratch: &scratch };
         let r0 = (st.area / 4.0).sqrt();
         let best = (0..2000)
             .map(|k| r0 / 16.0 * (32.0f64).powf(k as f64 / 1999.0))
