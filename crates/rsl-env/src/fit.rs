@@ -211,7 +211,7 @@ fn eval_objective(t: &PlaneTexels, st: &RegionStats, sc: &mut EvalScratch, r: f6
         sh[i] = s + half[i];
         // Part of the texel inside the disc O_r swept by the rotating square: the radial
         // overlap, capped by the disc's area relative to the texel's.
-        let radial = ((rf - rho[i] + half[i]) * inv[i]).max(0.0).min(1.0);
+        let radial = ((rf - rho[i] + half[i]) * inv[i]).clamp(0.0, 1.0);
         disc[i] = omega[i] * radial.min((disc_area * inv[i] * inv[i]).min(1.0));
         cover[i] = 0.0;
     }
@@ -265,9 +265,13 @@ fn plane_texels(parts: &[&[u32]], centre: Vec3, table: &TexelTable, t: &mut Plan
             k += 1;
         }
     }
-    for j in n..padded {
-        (t.half[j], t.inv_side[j], t.e[j], t.w[j], t.omega[j]) = (1.0, 0.5, 0.0, 0.0, 0.0);
-        (d[0][j], d[1][j], d[2][j]) = (-centre.x, -centre.y, -centre.z);
+    t.half[n..].fill(1.0);
+    t.inv_side[n..].fill(0.5);
+    for col in [&mut t.e, &mut t.w, &mut t.omega] {
+        col[n..].fill(0.0);
+    }
+    for (col, c) in d.iter_mut().zip([-centre.x, -centre.y, -centre.z]) {
+        col[n..].fill(c);
     }
     let [dx, dy, dz] = &d;
     project_columns(&frame, dx, dy, dz, t);
