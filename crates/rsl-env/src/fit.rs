@@ -22,6 +22,14 @@ use std::f64::consts::PI;
 /// Rotations at which the square's fit is averaged (Xu et al. §4.1.1).
 pub const ROTATIONS: [f64; 4] = [0.0, PI / 8.0, PI / 4.0, 3.0 * PI / 8.0];
 
+/// `(cos θ, sin θ)` of [`ROTATIONS`] (checked against them in a test).
+const ROTATION_COS_SIN: [(f32, f32); 4] = [
+    (1.0, 0.0),
+    (0.923_879_5, 0.382_683_43),
+    (std::f32::consts::FRAC_1_SQRT_2, std::f32::consts::FRAC_1_SQRT_2),
+    (0.382_683_43, 0.923_879_5),
+];
+
 /// Additive statistics of a region; merging two regions adds them.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RegionStats {
@@ -92,10 +100,10 @@ pub struct TexelTable {
     pub omega: Vec<f64>,
     /// Luminance energy `Y·Ω` of each texel.
     pub lum_energy: Vec<f64>,
-    /// Half the side of each texel's equal-area square in the fit plane, `√(Ω/2)/2`.
-    half: Vec<f32>,
-    /// `1 / (2·half)`.
-    inv_side: Vec<f32>,
+    /// Per texel, what a fit gathers, packed: direction x, y, z; half the side of its
+    /// equal-area square in the fit plane `h = √(Ω/2)/2`; `1/(2h)`; luminance energy `e`;
+    /// `e/(2h)²`; solid angle.
+    packed: Vec<[f32; 8]>,
 }
 
 impl TexelTable {
@@ -104,9 +112,16 @@ impl TexelTable {
         let n = grid.len();
         assert_eq!(lum_energy.len(), n, "one luminance energy per texel");
         let omega: Vec<f64> = (0..n).map(|t| grid.texel_solid_angle(t)).collect();
-        let half: Vec<f32> = omega.iter().map(|&o| 0.5 * (o / 2.0).sqrt() as f32).collect();
-        let inv_side = half.iter().map(|&h| 0.5 / h).collect();
-        Self { dir: (0..n).map(|t| grid.texel_dir(t)).collect(), omega, lum_energy, half, inv_side }
+        let dir: Vec<Vec3> = (0..n).map(|t| grid.texel_dir(t)).collect();
+        let packed = (0..n)
+            .map(|t| {
+                let half = 0.5 * (omega[t] / 2.0).sqrt() as f32;
+                let inv = 0.5 / half;
+                let e = lum_energy[t] as f32;
+                [dir[t].x, dir[t].y, dir[t].z, half, inv, e, e * inv * inv, omega[t] as f32]
+            })
+            .collect();
+        Self { dir, omega, lum_energy, packed }
     }
 }
 
@@ -150,31 +165,9 @@ struct PlaneTexels {
 /// them in vector registers, and a fixed summation order, so results are deterministic.
 const LANES: usize = 8;
 
-/// Sums a column in [`LANES`] fixed lanes (vectorisable, and the same order every time).
-#[inline(always)]
-fn lane_sum(v: &[f32]) -> f64 {
-    let mut acc = [0.0f32; LANES];
-    for c in v.chunks_exact(LANES) {
-        for l in 0..LANES {
-            acc[l] += c[l];
-        }
-    }
-    acc.iter().map(|&x| f64::from(x)).sum()
-}
-
-/// Scratch columns for one evaluation of the objective.
-#[derive(Default)]
-struct EvalScratch {
-    cap: Vec<f32>,
-    sh: Vec<f32>,
-    cover: Vec<f32>,
-    disc: Vec<f32>,
-}
-
 struct Objective<'a> {
     t: &'a PlaneTexels,
     stats: &'a RegionStats,
-    scratch: &'a std::cell::RefCell<EvalScratch>,
 }
 
 impl Objective<'_> {
@@ -185,47 +178,46 @@ impl Objective<'_> {
     /// `max(0, min(x + h, s) − max(x − h, −s)) = max(0, min(2h, 2s, s + h − x))` and the same
     /// in `y`, divided by the texel's area `(2h)²`.
     fn eval(&self, r: f64) -> (f64, f64) {
-        let mut scratch = self.scratch.borrow_mut();
-        eval_objective(self.t, self.stats, &mut scratch, r)
+        eval_objective(self.t, self.stats, r)
     }
 }
 
 /// The objective of [`Objective::eval`], compiled for AVX2 and SSE4.1 with run-time
-/// dispatch. Every pass is element-wise over whole columns and the sums use fixed lanes, so
-/// every path gives the same bits.
+/// dispatch. Lanes are independent and summed in a fixed order, so every path gives the
+/// same bits.
 #[multiversion::multiversion(targets("x86_64+avx2", "x86_64+sse4.1"))]
-fn eval_objective(t: &PlaneTexels, st: &RegionStats, sc: &mut EvalScratch, r: f64) -> (f64, f64) {
+fn eval_objective(t: &PlaneTexels, st: &RegionStats, r: f64) -> (f64, f64) {
+    use wide::f32x8;
+    let lanes = |col: &[f32], c: usize| f32x8::new(col[c * LANES..(c + 1) * LANES].try_into().expect("whole chunk"));
     let n = t.e.len();
     let s = (r / std::f64::consts::SQRT_2) as f32;
-    let rf = r as f32;
-    let disc_area = std::f32::consts::PI * rf * rf;
-    sc.cap.resize(n, 0.0);
-    sc.sh.resize(n, 0.0);
-    sc.cover.resize(n, 0.0);
-    sc.disc.resize(n, 0.0);
-    // Equal-length views: the bounds checks hoist out and the loops vectorise.
-    let (cap, sh, cover, disc) = (&mut sc.cap[..n], &mut sc.sh[..n], &mut sc.cover[..n], &mut sc.disc[..n]);
-    let (half, rho, inv, omega, w) = (&t.half[..n], &t.rho[..n], &t.inv_side[..n], &t.omega[..n], &t.w[..n]);
-    for i in 0..n {
-        cap[i] = (2.0 * half[i]).min(2.0 * s);
-        sh[i] = s + half[i];
+    let rf = f32x8::splat(r as f32);
+    let s2 = f32x8::splat(2.0 * s);
+    let sv = f32x8::splat(s);
+    let disc_area = f32x8::splat(std::f32::consts::PI * (r as f32) * (r as f32));
+    let (zero, one, two) = (f32x8::splat(0.0), f32x8::splat(1.0), f32x8::splat(2.0));
+    let (mut b_acc, mut disc_acc) = (zero, zero);
+    // Whole chunks of 8 (columns are padded): every chunk is straight vector code with no
+    // scalar epilogue, which matters because most regions are small.
+    for c in 0..n / LANES {
+        let (half, inv) = (lanes(&t.half, c), lanes(&t.inv_side, c));
+        let cap = (two * half).fast_min(s2);
+        let sh = sv + half;
+        let mut cover = zero;
+        for k in 0..4 {
+            let ox = cap.fast_min(sh - lanes(&t.u[k], c)).fast_max(zero);
+            let oy = cap.fast_min(sh - lanes(&t.v[k], c)).fast_max(zero);
+            cover += ox * oy;
+        }
+        b_acc += cover * lanes(&t.w, c);
         // Part of the texel inside the disc O_r swept by the rotating square: the radial
         // overlap, capped by the disc's area relative to the texel's.
-        let radial = ((rf - rho[i] + half[i]) * inv[i]).clamp(0.0, 1.0);
-        disc[i] = omega[i] * radial.min((disc_area * inv[i] * inv[i]).min(1.0));
-        cover[i] = 0.0;
+        let radial = ((rf - lanes(&t.rho, c) + half) * inv).fast_max(zero).fast_min(one);
+        let disc = (disc_area * inv * inv).fast_min(one);
+        disc_acc += lanes(&t.omega, c) * radial.fast_min(disc);
     }
-    for k in 0..4 {
-        let (u, v) = (&t.u[k][..n], &t.v[k][..n]);
-        for i in 0..n {
-            cover[i] += cap[i].min(sh[i] - u[i]).max(0.0) * cap[i].min(sh[i] - v[i]).max(0.0);
-        }
-    }
-    for i in 0..n {
-        cover[i] *= w[i];
-    }
-    let b = 0.25 * lane_sum(&sc.cover);
-    let inside_disc = lane_sum(&sc.disc);
+    let b = 0.25 * b_acc.to_array().iter().map(|&x| f64::from(x)).sum::<f64>();
+    let inside_disc: f64 = disc_acc.to_array().iter().map(|&x| f64::from(x)).sum();
     let q = 4.0 * r * r;
     let i = st.lum_energy / q;
     let eta2 = (st.lum_sq - 2.0 * i * b + i * i * q).max(0.0);
@@ -248,21 +240,15 @@ fn plane_texels(parts: &[&[u32]], centre: Vec3, table: &TexelTable, t: &mut Plan
     for col in &mut d {
         col.resize(padded, 0.0);
     }
-    let mut k = 0;
-    for part in parts {
-        for &i in *part {
-            let i = i as usize;
-            let dir = table.dir[i];
-            d[0][k] = dir.x;
-            d[1][k] = dir.y;
-            d[2][k] = dir.z;
-            t.half[k] = table.half[i];
-            t.inv_side[k] = table.inv_side[i];
-            let e = table.lum_energy[i] as f32;
-            t.e[k] = e;
-            t.w[k] = e * table.inv_side[i] * table.inv_side[i];
-            t.omega[k] = table.omega[i] as f32;
-            k += 1;
+    {
+        let [dx, dy, dz] = &mut d;
+        let (dx, dy, dz) = (&mut dx[..n], &mut dy[..n], &mut dz[..n]);
+        let (half, inv, e, w, omega) =
+            (&mut t.half[..n], &mut t.inv_side[..n], &mut t.e[..n], &mut t.w[..n], &mut t.omega[..n]);
+        for (k, &i) in parts.iter().flat_map(|p| p.iter()).enumerate() {
+            let [x, y, z, h, iv, ee, ww, o] = table.packed[i as usize];
+            (dx[k], dy[k], dz[k]) = (x, y, z);
+            (half[k], inv[k], e[k], w[k], omega[k]) = (h, iv, ee, ww, o);
         }
     }
     t.half[n..].fill(1.0);
@@ -287,41 +273,40 @@ fn project_columns(frame: &Frame, dx: &[f32], dy: &[f32], dz: &[f32], t: &mut Pl
         col.resize(n, 0.0);
     }
     t.rho.resize(n, 0.0);
+    use wide::f32x8;
     let (ft, fb, fnn) = (frame.t, frame.b, frame.n);
-    let [u0, u1, u2, u3] = &mut t.u;
-    let [v0, v1, v2, v3] = &mut t.v;
-    let (u0, u1, u2, u3) = (&mut u0[..n], &mut u1[..n], &mut u2[..n], &mut u3[..n]);
-    let (v0, v1, v2, v3) = (&mut v0[..n], &mut v1[..n], &mut v2[..n], &mut v3[..n]);
-    let (dx, dy, dz, rho) = (&dx[..n], &dy[..n], &dz[..n], &mut t.rho[..n]);
-    let rot: [(f32, f32); 4] = ROTATIONS.map(|a| (a.cos() as f32, a.sin() as f32));
-    for i in 0..n {
-        let (x, y, z) = (dx[i], dy[i], dz[i]);
-        let lx = x * ft.x + y * ft.y + z * ft.z;
-        let ly = x * fb.x + y * fb.y + z * fb.z;
-        let lz = x * fnn.x + y * fnn.y + z * fnn.z;
+    let lanes = |col: &[f32], c: usize| f32x8::new(col[c * LANES..(c + 1) * LANES].try_into().expect("whole chunk"));
+    let splat = f32x8::splat;
+    let (zero, one, tiny) = (splat(0.0), splat(1.0), splat(1e-30));
+    let rot = ROTATION_COS_SIN;
+    for c in 0..n / LANES {
+        let (x, y, z) = (lanes(dx, c), lanes(dy, c), lanes(dz, c));
+        let lx = x * splat(ft.x) + y * splat(ft.y) + z * splat(ft.z);
+        let ly = x * splat(fb.x) + y * splat(fb.y) + z * splat(fb.z);
+        let lz = x * splat(fnn.x) + y * splat(fnn.y) + z * splat(fnn.z);
         let rxy = (lx * lx + ly * ly).sqrt();
         // Upper hemisphere: 1/√(1 + z); lower: √(1 − z)/|(x, y)|, the stable equivalent.
-        let up = 1.0 / (1.0 + lz.max(0.0)).sqrt();
-        let down = (1.0 - lz).max(0.0).sqrt() / rxy.max(1e-30);
-        let scale = if lz >= 0.0 { up } else { down };
-        let rim = lz < 0.0 && rxy <= 1e-30;
-        let px = if rim { std::f32::consts::SQRT_2 } else { lx * scale };
-        let py = if rim { 0.0 } else { ly * scale };
-        rho[i] = (px * px + py * py).sqrt();
-        u0[i] = (rot[0].0 * px + rot[0].1 * py).abs();
-        v0[i] = (-rot[0].1 * px + rot[0].0 * py).abs();
-        u1[i] = (rot[1].0 * px + rot[1].1 * py).abs();
-        v1[i] = (-rot[1].1 * px + rot[1].0 * py).abs();
-        u2[i] = (rot[2].0 * px + rot[2].1 * py).abs();
-        v2[i] = (-rot[2].1 * px + rot[2].0 * py).abs();
-        u3[i] = (rot[3].0 * px + rot[3].1 * py).abs();
-        v3[i] = (-rot[3].1 * px + rot[3].0 * py).abs();
+        let up = one / (one + lz.fast_max(zero)).sqrt();
+        let down = (one - lz).fast_max(zero).sqrt() / rxy.fast_max(tiny);
+        let upper = lz.simd_ge(zero);
+        let scale = upper.select(up, down);
+        // The antipode (lower, on the axis) maps to the rim point (√2, 0).
+        let rim = (!upper) & rxy.simd_le(tiny);
+        let px = rim.select(splat(std::f32::consts::SQRT_2), lx * scale);
+        let py = rim.select(zero, ly * scale);
+        let range = c * LANES..(c + 1) * LANES;
+        t.rho[range.clone()].copy_from_slice(&(px * px + py * py).sqrt().to_array());
+        for (k, &(cs, sn)) in rot.iter().enumerate() {
+            let (cs, sn) = (splat(cs), splat(sn));
+            t.u[k][range.clone()].copy_from_slice(&(cs * px + sn * py).abs().to_array());
+            t.v[k][range.clone()].copy_from_slice(&(cs * py - sn * px).abs().to_array());
+        }
     }
 }
 
 thread_local! {
     /// Per-thread scratch for the plane texels, so fits do not allocate.
-    static SCRATCH: std::cell::RefCell<(PlaneTexels, std::cell::RefCell<EvalScratch>)> = std::cell::RefCell::default();
+    static SCRATCH: std::cell::RefCell<PlaneTexels> = std::cell::RefCell::default();
 }
 
 /// Fits the region made of the texels in `parts` (disjoint lists) with statistics `stats`.
@@ -342,9 +327,9 @@ pub fn fit_region(parts: &[&[u32]], stats: &RegionStats, table: &TexelTable, r_h
         // exactly, η² = 0 (the objective's minimum; `one_uniform_texel_…` checks this).
         return Fit { centre, r: r0, error: 0.0, penalised: 0.0 };
     }
-    SCRATCH.with_borrow_mut(|(texels, scratch)| {
+    SCRATCH.with_borrow_mut(|texels| {
         plane_texels(parts, centre, table, texels);
-        let obj = Objective { t: texels, stats, scratch };
+        let obj = Objective { t: texels, stats };
         let (r, (error, penalised)) = minimise_log(|r| obj.eval(r), r0 / 32.0, 4.0 * r0, r_hint, precision);
         Fit { centre, r, error, penalised }
     })
@@ -469,8 +454,7 @@ mod tests {
         // The shortcut agrees with minimising the objective itself.
         let mut texels = PlaneTexels::default();
         plane_texels(&[&[t]], st.centre(), &tab, &mut texels);
-        let scratch = Default::default();
-        let obj = Objective { t: &texels, stats: &st, scratch: &scratch };
+        let obj = Objective { t: &texels, stats: &st };
         let (r_min, (e_min, _)) = minimise_log(|r| obj.eval(r), f.r / 32.0, 4.0 * f.r, 1.0, Precision::Final);
         assert!((r_min / f.r - 1.0).abs() < 1e-2, "objective's minimum at r = {r_min}, shortcut r = {}", f.r);
         // At the shortcut's radius the objective itself is ~0 (f32 rounding of the texel's
@@ -516,14 +500,20 @@ mod tests {
         // more than 1% better than the chosen one.
         let mut texels = PlaneTexels::default();
         plane_texels(&[&region], st.centre(), &tab, &mut texels);
-        let scratch = Default::default();
-        let obj = Objective { t: &texels, stats: &st, scratch: &scratch };
+        let obj = Objective { t: &texels, stats: &st };
         let r0 = (st.area / 4.0).sqrt();
         let best = (0..2000)
             .map(|k| r0 / 16.0 * (32.0f64).powf(k as f64 / 1999.0))
             .map(|r| obj.eval(r).1)
             .fold(f64::INFINITY, f64::min);
         assert!(f.penalised <= best * 1.01, "fit {} vs dense scan {best}", f.penalised);
+    }
+
+    #[test]
+    fn rotation_table_matches_the_angles() {
+        for (&a, &(c, s)) in ROTATIONS.iter().zip(&ROTATION_COS_SIN) {
+            assert!((f64::from(c) - a.cos()).abs() < 1e-7 && (f64::from(s) - a.sin()).abs() < 1e-7);
+        }
     }
 
     #[test]
