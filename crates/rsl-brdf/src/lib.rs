@@ -1,3 +1,12 @@
-//! BRDF models, tables on the hemisphere grid and summed-area tables (Xu et al. 2006, §4.2).
+//! BRDF models, their tables on the hemisphere grid and summed-area tables (Xu et al. 2006,
+//! §4.2).
 //!
-//! Not built yet: this crate is filled by the BRDF work.
+//! BRDF data lives apart from objects: swapping a material or dragging its parameters only
+//! rebuilds its table ([`BrdfTable::build`]). The tabulated quantity is `ρ·cos θ` (DESIGN.md);
+//! a square's integral is returned with its average over the square and its solid angle.
+
+pub mod model;
+pub mod table;
+
+pub use model::{Brdf, ParamError};
+pub use table::{BrdfTable, Resolution, SquareIntegral, Views};

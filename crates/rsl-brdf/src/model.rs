@@ -1,0 +1,297 @@
+//! BRDF models. Directions are in the local frame (normal +z, tangent +x); `wi` points to
+//! the light, `wo` to the viewer. Every model is one-sided: zero when either direction is
+//! at or below the horizon. [`Brdf::eval`] is `ρ` (sr⁻¹, RGB); tables hold `ρ·cos θ_i`.
+
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// A BRDF with its parameters. Colours are linear RGB weights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Brdf {
+    /// `ρ = albedo/π`.
+    Lambert {
+        /// Albedo.
+        albedo: Vec3,
+    },
+    /// Energy-normalised Phong (Lafortune & Willems 1994):
+    /// `ρ = ks·(n+2)/(2π)·max(0, r·wi)^n + kd/π`, `r` the mirror of `wo`.
+    Phong {
+        /// Exponent `n > 0`.
+        exponent: f32,
+        /// Specular weight.
+        specular: Vec3,
+        /// Lambertian albedo.
+        diffuse: Vec3,
+    },
+    /// Energy-normalised Blinn–Phong in the form of Neumann et al. 1999:
+    /// `ρ = ks·D(h)·(n·h)/(4·(wo·h)·max(cos θi, cos θo)) + kd/π` with
+    /// `D(h) = (n+2)/(2π)·(n·h)^n`, whose directional albedo is at most `ks`.
+    BlinnPhong {
+        /// Exponent `n > 0`.
+        exponent: f32,
+        /// Specular weight.
+        specular: Vec3,
+        /// Lambertian albedo.
+        diffuse: Vec3,
+    },
+    /// Cook–Torrance: Beckmann distribution, Schlick's Fresnel with `F0 = specular`, the
+    /// V-cavity shadowing `G = min(1, 2(n·h)(n·wo)/(wo·h), 2(n·h)(n·wi)/(wo·h))`:
+    /// `ρ = F·D·G/(4 cos θi cos θo) + kd/π`.
+    CookTorrance {
+        /// Beckmann roughness (RMS slope).
+        alpha: f32,
+        /// `F0` per channel.
+        specular: Vec3,
+        /// Lambertian albedo.
+        diffuse: Vec3,
+    },
+    /// Ward 1992, anisotropic (`alpha_x` along the tangent, `alpha_y` along the bitangent;
+    /// equal for isotropic): `ρ = ks·exp(−tan²θh(cos²φh/αx² + sin²φh/αy²)) /
+    /// (4π αx αy √(cos θi cos θo)) + kd/π`. Reciprocal, but (as is well known) its albedo
+    /// can exceed 1 at grazing angles.
+    Ward {
+        /// Roughness along the tangent.
+        alpha_x: f32,
+        /// Roughness along the bitangent.
+        alpha_y: f32,
+        /// Specular weight.
+        specular: Vec3,
+        /// Lambertian albedo.
+        diffuse: Vec3,
+    },
+    /// GGX microfacet conductor (Walter et al. 2007) with Fresnel = 1 and separable Smith
+    /// shadowing `G1(wi)·G1(wo)`: Mitsuba 3's `roughconductor` with material "none".
+    Ggx {
+        /// Roughness α.
+        alpha: f32,
+        /// Specular weight.
+        specular: Vec3,
+        /// Lambertian albedo.
+        diffuse: Vec3,
+    },
+    /// Beckmann microfacet conductor (Walter et al. 2007), Fresnel = 1, separable Smith
+    /// shadowing with Walter's rational `G1` (as Mitsuba 3).
+    Beckmann {
+        /// Roughness α.
+        alpha: f32,
+        /// Specular weight.
+        specular: Vec3,
+        /// Lambertian albedo.
+        diffuse: Vec3,
+    },
+}
+
+/// A parameter out of range.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("{model}.{parameter}: {problem}")]
+pub struct ParamError {
+    /// Model name.
+    pub model: &'static str,
+    /// Parameter name.
+    pub parameter: &'static str,
+    /// What is wrong.
+    pub problem: String,
+}
+
+/// Smallest roughness accepted; narrower lobes than this cannot be tabulated meaningfully.
+pub const MIN_ALPHA: f32 = 1e-4;
+/// Largest Phong/Blinn–Phong exponent accepted.
+pub const MAX_EXPONENT: f32 = 1e6;
+
+impl Brdf {
+    /// The model's name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Brdf::Lambert { .. } => "lambert",
+            Brdf::Phong { .. } => "phong",
+            Brdf::BlinnPhong { .. } => "blinn_phong",
+            Brdf::CookTorrance { .. } => "cook_torrance",
+            Brdf::Ward { .. } => "ward",
+            Brdf::Ggx { .. } => "ggx",
+            Brdf::Beckmann { .. } => "beckmann",
+        }
+    }
+
+    /// Checks every parameter: finite, colours ≥ 0, roughness in `[1e-4, 1]`, exponents in
+    /// `(0, 1e6]`.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let model = self.name();
+        let err = |parameter, problem: String| Err(ParamError { model, parameter, problem });
+        let colour = |parameter, c: Vec3| {
+            if c.is_finite() && c.min_element() >= 0.0 {
+                Ok(())
+            } else {
+                err(parameter, format!("must be finite and ≥ 0, got {c:?}"))
+            }
+        };
+        let alpha = |parameter, a: f32| {
+            if a.is_finite() && (MIN_ALPHA..=1.0).contains(&a) {
+                Ok(())
+            } else {
+                err(parameter, format!("must be in [{MIN_ALPHA}, 1], got {a}"))
+            }
+        };
+        let exponent = |e: f32| {
+            if e.is_finite() && e > 0.0 && e <= MAX_EXPONENT {
+                Ok(())
+            } else {
+                err("exponent", format!("must be in (0, {MAX_EXPONENT}], got {e}"))
+            }
+        };
+        match *self {
+            Brdf::Lambert { albedo } => colour("albedo", albedo),
+            Brdf::Phong { exponent: e, specular, diffuse } | Brdf::BlinnPhong { exponent: e, specular, diffuse } => {
+                exponent(e)?;
+                colour("specular", specular)?;
+                colour("diffuse", diffuse)
+            }
+            Brdf::CookTorrance { alpha: a, specular, diffuse }
+            | Brdf::Ggx { alpha: a, specular, diffuse }
+            | Brdf::Beckmann { alpha: a, specular, diffuse } => {
+                alpha("alpha", a)?;
+                colour("specular", specular)?;
+                colour("diffuse", diffuse)
+            }
+            Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
+                alpha("alpha_x", alpha_x)?;
+                alpha("alpha_y", alpha_y)?;
+                colour("specular", specular)?;
+                colour("diffuse", diffuse)
+            }
+        }
+    }
+
+    /// Whether the BRDF depends on the azimuth about the normal.
+    pub fn is_anisotropic(&self) -> bool {
+        matches!(self, Brdf::Ward { alpha_x, alpha_y, .. } if alpha_x != alpha_y)
+    }
+
+    /// Whether the specular part is zero (only a Lambertian term): one view slice suffices.
+    pub fn is_lambertian(&self) -> bool {
+        match self {
+            Brdf::Lambert { .. } => true,
+            Brdf::Phong { specular, .. }
+            | Brdf::BlinnPhong { specular, .. }
+            | Brdf::CookTorrance { specular, .. }
+            | Brdf::Ward { specular, .. }
+            | Brdf::Ggx { specular, .. }
+            | Brdf::Beckmann { specular, .. } => *specular == Vec3::ZERO,
+        }
+    }
+
+    /// Angular width of the specular lobe in radians (about one standard deviation of the
+    /// lobe around its peak), used to choose tabulation resolution and sub-cell sampling.
+    /// `None` for a Lambertian BRDF.
+    pub fn lobe_width(&self) -> Option<f32> {
+        if self.is_lambertian() {
+            return None;
+        }
+        Some(match *self {
+            Brdf::Lambert { .. } => unreachable!("handled above"),
+            // cos^n α ≈ exp(−nα²/2): σ = 1/√n; Blinn–Phong's half-vector lobe is twice as wide
+            // in the light direction.
+            Brdf::Phong { exponent, .. } => 1.0 / exponent.sqrt(),
+            Brdf::BlinnPhong { exponent, .. } => 2.0 / exponent.sqrt(),
+            // Microfacet lobes in the light direction are about twice the normal distribution's.
+            Brdf::CookTorrance { alpha, .. } | Brdf::Ggx { alpha, .. } | Brdf::Beckmann { alpha, .. } => 2.0 * alpha,
+            Brdf::Ward { alpha_x, alpha_y, .. } => 2.0 * alpha_x.min(alpha_y),
+        })
+    }
+
+    /// `ρ(wi, wo)` in sr⁻¹ (RGB); zero unless both directions are above the horizon.
+    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        let (ci, co) = (wi.z, wo.z);
+        if ci <= 0.0 || co <= 0.0 {
+            return Vec3::ZERO;
+        }
+        match *self {
+            Brdf::Lambert { albedo } => albedo * FRAC_1_PI,
+            Brdf::Phong { exponent, specular, diffuse } => {
+                let r = Vec3::new(-wo.x, -wo.y, wo.z);
+                let c = r.dot(wi).max(0.0);
+                specular * ((exponent + 2.0) / (2.0 * PI) * c.powf(exponent)) + diffuse * FRAC_1_PI
+            }
+            Brdf::BlinnPhong { exponent, specular, diffuse } => {
+                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                let d = (exponent + 2.0) / (2.0 * PI) * h.z.powf(exponent);
+                specular * (d * h.z / (4.0 * wo.dot(h).max(1e-12) * ci.max(co))) + diffuse * FRAC_1_PI
+            }
+            Brdf::CookTorrance { alpha, specular, diffuse } => {
+                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                let d = beckmann_d(h, alpha);
+                let oh = wo.dot(h).max(1e-12);
+                let g = (2.0 * h.z * co / oh).min(2.0 * h.z * ci / oh).min(1.0);
+                let f = specular + (Vec3::ONE - specular) * (1.0 - wi.dot(h).clamp(0.0, 1.0)).powi(5);
+                f * (d * g / (4.0 * ci * co)) + diffuse * FRAC_1_PI
+            }
+            Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
+                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                let e = ((h.x / alpha_x).powi(2) + (h.y / alpha_y).powi(2)) / (h.z * h.z);
+                specular * ((-e).exp() / (4.0 * PI * alpha_x * alpha_y * (ci * co).sqrt())) + diffuse * FRAC_1_PI
+            }
+            Brdf::Ggx { alpha, specular, diffuse } => {
+                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                let v = ggx_d(h, alpha) * ggx_g1(wi, h, alpha) * ggx_g1(wo, h, alpha) / (4.0 * ci * co);
+                specular * v + diffuse * FRAC_1_PI
+            }
+            Brdf::Beckmann { alpha, specular, diffuse } => {
+                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                let v = beckmann_d(h, alpha) * beckmann_g1(wi, h, alpha) * beckmann_g1(wo, h, alpha) / (4.0 * ci * co);
+                specular * v + diffuse * FRAC_1_PI
+            }
+        }
+    }
+
+    /// `ρ(wi, wo)·cos θi`, the tabulated quantity.
+    pub fn eval_cos(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        self.eval(wi, wo) * wi.z.max(0.0)
+    }
+}
+
+fn half_vector(wi: Vec3, wo: Vec3) -> Option<Vec3> {
+    let h = wi + wo;
+    let l = h.length();
+    (l > 1e-12).then(|| h / l)
+}
+
+/// GGX normal distribution (Walter et al. 2007, eq. 33) of a unit half vector `m`.
+fn ggx_d(m: Vec3, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    // α²/(π cos⁴θ (α² + tan²θ)²) = α²/(π (α² cos²θ + sin²θ)²), with sin²θ from the tangent
+    // components: no cancellation near the peak, even for tiny α in f32.
+    let t = a2 * m.z * m.z + (m.x * m.x + m.y * m.y);
+    a2 / (PI * t * t)
+}
+
+/// GGX Smith G1 (Walter et al. 2007, eq. 34): `2/(1 + √(1 + α² tan²θv))`, zero when `v·m`
+/// and `v·n` disagree in sign.
+fn ggx_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
+    if v.dot(m) * v.z <= 0.0 {
+        return 0.0;
+    }
+    let tan2 = (v.x * v.x + v.y * v.y) / (v.z * v.z);
+    2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt())
+}
+
+/// Beckmann normal distribution (Walter et al. 2007, eq. 25) of a unit half vector `m`.
+fn beckmann_d(m: Vec3, alpha: f32) -> f32 {
+    if m.z <= 0.0 {
+        return 0.0;
+    }
+    let c2 = m.z * m.z;
+    let tan2 = (m.x * m.x + m.y * m.y) / c2;
+    (-tan2 / (alpha * alpha)).exp() / (PI * alpha * alpha * c2 * c2)
+}
+
+/// Beckmann Smith G1 with Walter et al.'s rational approximation (eq. 27), as Mitsuba 3.
+fn beckmann_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
+    if v.dot(m) * v.z <= 0.0 {
+        return 0.0;
+    }
+    let tan = (v.x * v.x + v.y * v.y).sqrt() / v.z;
+    if tan == 0.0 {
+        return 1.0;
+    }
+    let a = 1.0 / (alpha * tan);
+    if a >= 1.6 { 1.0 } else { (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a) }
+}

@@ -1,0 +1,366 @@
+//! BRDF tables on the hemisphere grid and their summed-area tables (Xu et al. 2006, §4.2).
+//!
+//! For each tabulated view direction, cell `(i, j)` of the `N×N` grid holds
+//! `∫_cell ρ(ω, v)·cos θ dω` over the part of the cell above the horizon (in steradians;
+//! plane area is half the solid angle). The integral is computed by recursive adaptive
+//! quadrature: a cell is split into quarters while its angular size exceeds half the lobe
+//! width and it lies within three lobe widths of the lobe's peak (the mirror direction), so
+//! a lobe narrower than a cell keeps its energy; elsewhere a 2×2 Gauss–Legendre rule is used.
+//!
+//! View directions:
+//! - Lambertian BRDFs: one slice (view-independent).
+//! - Isotropic BRDFs: `V` polar angles `θ_k = θ_max·(1 − (1 − k/(V−1))²)`, denser toward
+//!   grazing (the spacing shrinks linearly to zero at `θ_max = acos(10⁻³) ≈ 89.94°`); the view
+//!   is rotated to azimuth 0, which an RSL allows because its square may take any rotation.
+//!   Views beyond `θ_max` use the last slice.
+//! - Anisotropic BRDFs: `V×V` views at the nodes of a grid over the view's hemisphere-plane
+//!   point `[−1, 1]²` (nodes outside the unit disk use the view on the disk's rim), bilinearly
+//!   interpolated.
+//!
+//! Summed-area tables are built and stored in f64 (the prefix sums of `N²` cell integrals
+//! keep ~15 significant digits, so the four-lookup difference of a near-delta lobe's box is
+//! exact to far below the table's own error; DESIGN.md, Numerics). A box is evaluated through
+//! the prefix function `F(x, y)`, the integral over `[−1, x]×[−1, y]`, known exactly at cell
+//! corners and interpolated between them by Catmull–Rom splines (a bilinear `F`, i.e. a
+//! density uniform per cell, errs by several 10⁻³ for boxes of two cells even for Lambert);
+//! the parts of a box outside `[−1, 1]²` or below the horizon add nothing, and results are
+//! clamped to `[0, max density × area]`, which bounds any spline overshoot.
+
+use crate::model::Brdf;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use rsl_sphere::hemi::{HemiGrid, Horizon, dir_from_hemi, hemi_from_dir};
+
+/// Largest polar view angle tabulated: `acos(10⁻³)`.
+pub fn theta_max() -> f32 {
+    (1e-3f32).acos()
+}
+
+/// Deepest recursion of the adaptive cell quadrature (a cell split into up to 4⁸ parts).
+const MAX_DEPTH: u32 = 8;
+
+/// How views are sampled.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Views {
+    /// One view-independent slice.
+    Single,
+    /// Polar angles (radians), increasing.
+    Isotropic(Vec<f32>),
+    /// `v×v` nodes over the view's hemisphere-plane point in `[−1, 1]²`.
+    Anisotropic(usize),
+}
+
+/// Resolutions of a table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Resolution {
+    /// `N` of the `N×N` light grid.
+    pub n: usize,
+    /// View samples: `V` polar angles, or `V×V` for anisotropic BRDFs.
+    pub views: usize,
+}
+
+impl Resolution {
+    /// The paper's resolution: `N = 32`, `V = 32`.
+    pub const PAPER: Resolution = Resolution { n: 32, views: 32 };
+
+    /// Chooses `N` from the lobe width `w` and `V = 32`: the power of two at least `48/w`,
+    /// within `[32, 128]` (32 for Lambertian BRDFs). A cell spans at most `4/N` radians, so
+    /// that is about twelve cells per lobe width, where square integrals of two cells and
+    /// more are within 10⁻³ of direct integration at tabulated views (README: measured per
+    /// model and `N`).
+    pub fn auto(brdf: &Brdf) -> Self {
+        let n = match brdf.lobe_width() {
+            None => 32,
+            Some(w) => ((48.0 / w).ceil() as usize).next_power_of_two().clamp(32, 128),
+        };
+        Self { n, views: 32 }
+    }
+}
+
+/// A BRDF tabulated per view, with summed-area tables.
+#[derive(Clone, Debug)]
+pub struct BrdfTable {
+    brdf: Brdf,
+    grid: HemiGrid,
+    views: Views,
+    /// Per view slice, `(N+1)²` prefix sums (RGB, f64), row-major, `sat[j][i]` = Σ of cells
+    /// with index < i in x and < j in y.
+    sat: Vec<Vec<[f64; 3]>>,
+    /// Largest cell density (integral / cell solid angle), per channel, over all slices.
+    max_density: Vec3,
+}
+
+/// The result of a square query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SquareIntegral {
+    /// `∫ ρ cos θ dω` over the square, RGB.
+    pub integral: Vec3,
+    /// Solid angle of the square, `4r²`.
+    pub solid_angle: f32,
+    /// `integral / solid_angle` (zero for an empty square).
+    pub average: Vec3,
+}
+
+impl BrdfTable {
+    /// Tabulates `brdf` (which must validate) at `res`. Lambertian BRDFs get one slice and
+    /// isotropic BRDFs `res.views` polar slices; only anisotropic ones get `views²` slices.
+    pub fn build(brdf: &Brdf, res: Resolution) -> Result<Self, crate::model::ParamError> {
+        brdf.validate()?;
+        if res.n == 0 || res.views < 2 {
+            return Err(crate::model::ParamError {
+                model: brdf.name(),
+                parameter: "resolution",
+                problem: format!("needs N ≥ 1 and at least 2 view samples, got N = {}, V = {}", res.n, res.views),
+            });
+        }
+        let grid = HemiGrid::new(res.n);
+        let views = if brdf.is_lambertian() {
+            Views::Single
+        } else if brdf.is_anisotropic() {
+            Views::Anisotropic(res.views)
+        } else {
+            let v = res.views;
+            Views::Isotropic((0..v).map(|k| theta_max() * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect())
+        };
+        let view_dirs: Vec<Vec3> = match &views {
+            Views::Single => vec![Vec3::Z],
+            Views::Isotropic(thetas) => thetas.iter().map(|&t| Vec3::new(t.sin(), 0.0, t.cos())).collect(),
+            Views::Anisotropic(v) => {
+                let v = *v;
+                (0..v * v).map(|k| anisotropic_view(v, k % v, k / v)).collect()
+            }
+        };
+        let slices: Vec<(Vec<[f64; 3]>, Vec3)> = view_dirs.par_iter().map(|&wo| slice(brdf, &grid, wo)).collect();
+        let max_density = slices.iter().fold(Vec3::ZERO, |m, s| m.max(s.1));
+        Ok(Self { brdf: *brdf, grid, views, sat: slices.into_iter().map(|s| s.0).collect(), max_density })
+    }
+
+    /// The tabulated BRDF.
+    pub fn brdf(&self) -> &Brdf {
+        &self.brdf
+    }
+
+    /// The light grid.
+    pub fn grid(&self) -> HemiGrid {
+        self.grid
+    }
+
+    /// How views are sampled.
+    pub fn views(&self) -> &Views {
+        &self.views
+    }
+
+    /// Number of view slices stored.
+    pub fn slices(&self) -> usize {
+        self.sat.len()
+    }
+
+    /// Bytes of the summed-area tables.
+    pub fn bytes(&self) -> usize {
+        self.sat.iter().map(|s| std::mem::size_of_val(s.as_slice())).sum()
+    }
+
+    /// Largest cell density `∫ρcos / Ω` in any slice, per channel: no square's average can
+    /// exceed it.
+    pub fn max_density(&self) -> Vec3 {
+        self.max_density
+    }
+
+    /// Directional albedo of view slice `k`: the sum of all its cells.
+    pub fn slice_albedo(&self, k: usize) -> Vec3 {
+        let n = self.grid.n();
+        let e = self.sat[k][n * (n + 1) + n];
+        Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32)
+    }
+
+    /// `∫ ρ(ω, v) cos θ dω` over the axis-aligned square of half-diagonal `r` centred on the
+    /// light direction `light` (unit, local frame: normal +z; for anisotropic BRDFs the tangent
+    /// frame), for the view `view` (unit, same frame).
+    ///
+    /// For isotropic BRDFs both directions are first rotated about the normal so the view has
+    /// azimuth 0 (the square keeps its orientation relative to that frame: RSLs may rotate).
+    /// Views at or below the horizon reflect nothing.
+    pub fn square(&self, light: Vec3, r: f32, view: Vec3) -> SquareIntegral {
+        let r = if r.is_finite() { r.max(0.0) } else { 0.0 };
+        let solid_angle = 4.0 * r * r;
+        let zero = SquareIntegral { integral: Vec3::ZERO, solid_angle, average: Vec3::ZERO };
+        if !(view.z > 0.0) || !light.is_finite() {
+            return zero;
+        }
+        let s = r / std::f32::consts::SQRT_2;
+        let integral = match &self.views {
+            Views::Single => self.box_integral(0, hemi_from_dir(light), s),
+            Views::Isotropic(thetas) => {
+                let rxy = Vec2::new(view.x, view.y).length();
+                let (c, sn) = if rxy > 1e-12 { (view.x / rxy, view.y / rxy) } else { (1.0, 0.0) };
+                // Rotate by −φ_v about z.
+                let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
+                let p = hemi_from_dir(l);
+                let theta = view.z.clamp(-1.0, 1.0).acos().min(theta_max());
+                // Invert θ = θ_max(1 − (1 − t)²): t = 1 − √(1 − θ/θ_max).
+                let v = thetas.len();
+                let t = (1.0 - (1.0 - theta / theta_max()).max(0.0).sqrt()) * (v - 1) as f32;
+                let k = (t.floor() as usize).min(v - 2);
+                let f = (t - k as f32).clamp(0.0, 1.0);
+                self.box_integral(k, p, s) * (1.0 - f) + self.box_integral(k + 1, p, s) * f
+            }
+            Views::Anisotropic(v) => {
+                let v = *v;
+                let q = hemi_from_dir(view);
+                let q = if q.length() > 1.0 { q / q.length() } else { q };
+                let x = ((q.x + 1.0) * 0.5 * (v - 1) as f32).clamp(0.0, (v - 1) as f32);
+                let y = ((q.y + 1.0) * 0.5 * (v - 1) as f32).clamp(0.0, (v - 1) as f32);
+                let (i, j) = ((x.floor() as usize).min(v - 2), (y.floor() as usize).min(v - 2));
+                let (fx, fy) = (x - i as f32, y - j as f32);
+                let p = hemi_from_dir(light);
+                let at = |a: usize, b: usize| self.box_integral(b * v + a, p, s);
+                (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy)
+                    + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
+            }
+        };
+        // The spline can overshoot next to a near-delta lobe; the true value lies in
+        // [0, max density × area].
+        let integral = integral.clamp(Vec3::ZERO, self.max_density * solid_angle);
+        let average = if solid_angle > 0.0 { integral / solid_angle } else { Vec3::ZERO };
+        SquareIntegral { integral, solid_angle, average }
+    }
+
+    /// `∫` over the box `[p − s, p + s]²` (plane coordinates) of slice `k`.
+    fn box_integral(&self, k: usize, p: Vec2, s: f32) -> Vec3 {
+        let (x0, x1) = (f64::from(p.x - s), f64::from(p.x + s));
+        let (y0, y1) = (f64::from(p.y - s), f64::from(p.y + s));
+        let f = |x: f64, y: f64| self.prefix(k, x, y);
+        let [a, b, c, d] = [f(x1, y1), f(x0, y1), f(x1, y0), f(x0, y0)];
+        Vec3::new(
+            (a[0] - b[0] - c[0] + d[0]) as f32,
+            (a[1] - b[1] - c[1] + d[1]) as f32,
+            (a[2] - b[2] - c[2] + d[2]) as f32,
+        )
+    }
+
+    /// The prefix function `F(x, y) = ∫_{[−1,x]×[−1,y]}`, interpolated between grid corners
+    /// by Catmull–Rom splines in x and y (exact at corners; outside `[−1, 1]²` `F` is
+    /// constant, which replicated edge indices reproduce).
+    fn prefix(&self, k: usize, x: f64, y: f64) -> [f64; 3] {
+        let n = self.grid.n();
+        let to_grid = |c: f64| ((c + 1.0) * 0.5 * n as f64).clamp(0.0, n as f64);
+        let (gx, gy) = (to_grid(x), to_grid(y));
+        let (i, j) = ((gx.floor() as usize).min(n - 1), (gy.floor() as usize).min(n - 1));
+        let (wx, wy) = (catmull_rom(gx - i as f64), catmull_rom(gy - j as f64));
+        let sat = &self.sat[k];
+        let idx = |a: usize, d: usize| (a + d).saturating_sub(1).min(n);
+        let mut out = [0.0f64; 3];
+        for (dy, &wyv) in wy.iter().enumerate() {
+            let row = idx(j, dy) * (n + 1);
+            for (dx, &wxv) in wx.iter().enumerate() {
+                let w = wxv * wyv;
+                let v = sat[row + idx(i, dx)];
+                for c in 0..3 {
+                    out[c] += w * v[c];
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Catmull–Rom weights of the points at offsets −1, 0, 1, 2 for a parameter `t ∈ [0, 1]`.
+fn catmull_rom(t: f64) -> [f64; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [0.5 * (-t3 + 2.0 * t2 - t), 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0), 0.5 * (-3.0 * t3 + 4.0 * t2 + t), 0.5 * (t3 - t2)]
+}
+
+/// The view of anisotropic node `(i, j)` of a `v×v` grid over `[−1, 1]²` (clamped to the
+/// unit disk, and kept just above the horizon).
+fn anisotropic_view(v: usize, i: usize, j: usize) -> Vec3 {
+    let q = Vec2::new(-1.0 + 2.0 * i as f32 / (v - 1) as f32, -1.0 + 2.0 * j as f32 / (v - 1) as f32);
+    let max = theta_max();
+    // |p|² = 1 − cos θ: the disk of θ ≤ θ_max has radius √(1 − cos θ_max).
+    let rmax = (1.0 - max.cos()).sqrt();
+    let q = if q.length() > rmax { q * (rmax / q.length()) } else { q };
+    dir_from_hemi(q)
+}
+
+/// One view slice: cell integrals → summed-area table, and the largest cell density.
+fn slice(brdf: &Brdf, grid: &HemiGrid, wo: Vec3) -> (Vec<[f64; 3]>, Vec3) {
+    let n = grid.n();
+    let h = 2.0 / n as f64;
+    let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
+    let width = brdf.lobe_width().map(f64::from);
+    let mut sat = vec![[0.0f64; 3]; (n + 1) * (n + 1)];
+    let mut max_density = Vec3::ZERO;
+    for j in 0..n {
+        let mut row = [0.0f64; 3];
+        for i in 0..n {
+            let cell = if grid.horizon(i, j) == Horizon::Below {
+                [0.0; 3]
+            } else {
+                let [x0, y0, ..] = grid.cell_rect(i, j);
+                let e = integrate(brdf, wo, mirror, width, x0, y0, h, 0);
+                let omega = grid.cell_solid_angle_above(i, j);
+                if omega > 0.0 {
+                    max_density =
+                        max_density.max(Vec3::new((e[0] / omega) as f32, (e[1] / omega) as f32, (e[2] / omega) as f32));
+                }
+                e
+            };
+            for c in 0..3 {
+                row[c] += cell[c];
+                sat[(j + 1) * (n + 1) + i + 1][c] = sat[j * (n + 1) + i + 1][c] + row[c];
+            }
+        }
+    }
+    (sat, max_density)
+}
+
+/// `∫ ρ cos θ dω` over the plane square `[x0, x0 + side] × [y0, y0 + side]` ∩ unit disk.
+#[allow(clippy::too_many_arguments)]
+fn integrate(
+    brdf: &Brdf,
+    wo: Vec3,
+    mirror: Vec3,
+    width: Option<f64>,
+    x0: f64,
+    y0: f64,
+    side: f64,
+    depth: u32,
+) -> [f64; 3] {
+    if let Some(w) = width
+        && depth < MAX_DEPTH
+    {
+        // Angular size of the square is at most 2·side (the map's largest stretch).
+        let angular = 2.0 * side;
+        if angular > 0.5 * w {
+            let centre = dir_from_hemi(Vec2::new((x0 + 0.5 * side) as f32, (y0 + 0.5 * side) as f32));
+            let dist = f64::from(centre.dot(mirror).clamp(-1.0, 1.0).acos());
+            if dist < 3.0 * w + angular {
+                let half = 0.5 * side;
+                let mut sum = [0.0; 3];
+                for (dx, dy) in [(0.0, 0.0), (half, 0.0), (0.0, half), (half, half)] {
+                    let part = integrate(brdf, wo, mirror, width, x0 + dx, y0 + dy, half, depth + 1);
+                    for c in 0..3 {
+                        sum[c] += part[c];
+                    }
+                }
+                return sum;
+            }
+        }
+    }
+    // 2×2 Gauss–Legendre rule (exact for bicubic integrands, the same four evaluations as a
+    // midpoint rule but fourth-order accurate); each point carries a quarter of the square's
+    // solid angle 2·side², points outside the unit disk (below the horizon) nothing.
+    let weight = 0.5 * side * side;
+    let (lo, hi) = (0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt());
+    let mut sum = [0.0; 3];
+    for (a, b) in [(lo, lo), (hi, lo), (lo, hi), (hi, hi)] {
+        let p = Vec2::new((x0 + a * side) as f32, (y0 + b * side) as f32);
+        if p.length_squared() >= 1.0 {
+            continue;
+        }
+        let v = brdf.eval_cos(dir_from_hemi(p), wo);
+        for c in 0..3 {
+            sum[c] += f64::from(v[c]) * weight;
+        }
+    }
+    sum
+}
