@@ -225,17 +225,20 @@ impl Brdf {
                 f * (d * g / (4.0 * ci * co)) + diffuse * FRAC_1_PI
             }
             Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
-                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                // tan²θh·(cos²φh/αx² + sin²φh/αy²) = ((hx/αx)² + (hy/αy)²)/hz², unchanged by the
+                // length of h: the unnormalised half vector will do.
+                let h = wi + wo;
                 let e = ((h.x / alpha_x).powi(2) + (h.y / alpha_y).powi(2)) / (h.z * h.z);
                 specular * ((-e).exp() / (4.0 * PI * alpha_x * alpha_y * (ci * co).sqrt())) + diffuse * FRAC_1_PI
             }
             Brdf::Ggx { alpha, specular, diffuse } => {
-                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                // D and G1's sign test only need the direction of h: no normalisation.
+                let h = wi + wo;
                 let v = ggx_d(h, alpha) * ggx_g1(wi, h, alpha) * ggx_g1(wo, h, alpha) / (4.0 * ci * co);
                 specular * v + diffuse * FRAC_1_PI
             }
             Brdf::Beckmann { alpha, specular, diffuse } => {
-                let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
+                let h = wi + wo;
                 let v = beckmann_d(h, alpha) * beckmann_g1(wi, h, alpha) * beckmann_g1(wo, h, alpha) / (4.0 * ci * co);
                 specular * v + diffuse * FRAC_1_PI
             }
@@ -254,13 +257,18 @@ fn half_vector(wi: Vec3, wo: Vec3) -> Option<Vec3> {
     (l > 1e-12).then(|| h / l)
 }
 
-/// GGX normal distribution (Walter et al. 2007, eq. 33) of a unit half vector `m`.
+/// GGX normal distribution (Walter et al. 2007, eq. 33) of the half vector `m` (any length).
 fn ggx_d(m: Vec3, alpha: f32) -> f32 {
     let a2 = alpha * alpha;
-    // α²/(π cos⁴θ (α² + tan²θ)²) = α²/(π (α² cos²θ + sin²θ)²), with sin²θ from the tangent
-    // components: no cancellation near the peak, even for tiny α in f32.
+    // α²/(π cos⁴θ (α² + tan²θ)²) = α²/(π (α² cos²θ + sin²θ)²) = α²|m|⁴/(π (α² m_z² + m_x² + m_y²)²),
+    // with sin²θ from the tangent components: no cancellation near the peak, even for tiny
+    // α in f32.
+    let l2 = m.length_squared();
     let t = a2 * m.z * m.z + (m.x * m.x + m.y * m.y);
-    a2 / (PI * t * t)
+    if t <= 0.0 {
+        return 0.0;
+    }
+    a2 * l2 * l2 / (PI * t * t)
 }
 
 /// GGX Smith G1 (Walter et al. 2007, eq. 34): `2/(1 + √(1 + α² tan²θv))`, zero when `v·m`
@@ -273,13 +281,14 @@ fn ggx_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
     2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt())
 }
 
-/// Beckmann normal distribution (Walter et al. 2007, eq. 25) of a unit half vector `m`.
+/// Beckmann normal distribution (Walter et al. 2007, eq. 25) of the half vector `m` (any
+/// length): `cos²θ = m_z²/|m|²`, `tan²θ = (m_x² + m_y²)/m_z²`.
 fn beckmann_d(m: Vec3, alpha: f32) -> f32 {
     if m.z <= 0.0 {
         return 0.0;
     }
-    let c2 = m.z * m.z;
-    let tan2 = (m.x * m.x + m.y * m.y) / c2;
+    let c2 = m.z * m.z / m.length_squared();
+    let tan2 = (m.x * m.x + m.y * m.y) / (m.z * m.z);
     (-tan2 / (alpha * alpha)).exp() / (PI * alpha * alpha * c2 * c2)
 }
 

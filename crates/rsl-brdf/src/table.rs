@@ -15,7 +15,8 @@
 //!   Views beyond `θ_max` use the last slice.
 //! - Anisotropic BRDFs: `V×V` views at the nodes of a grid over the view's hemisphere-plane
 //!   point `[−1, 1]²` (nodes outside the unit disk use the view on the disk's rim), bilinearly
-//!   interpolated.
+//!   interpolated. The models are symmetric under x → −x and y → −y, so only a quarter of the
+//!   views is tabulated and stored; the others are the same slices with the box mirrored.
 //!
 //! Summed-area tables are built and stored in f64 (the prefix sums of `N²` cell integrals
 //! keep ~15 significant digits, so the four-lookup difference of a near-delta lobe's box is
@@ -122,17 +123,29 @@ impl BrdfTable {
             let v = res.views;
             Views::Isotropic((0..v).map(|k| theta_max() * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect())
         };
-        let view_dirs: Vec<Vec3> = match &views {
-            Views::Single => vec![Vec3::Z],
-            Views::Isotropic(thetas) => thetas.iter().map(|&t| Vec3::new(t.sin(), 0.0, t.cos())).collect(),
+        let points = QuadraturePoints::new(&grid);
+        let slices: Vec<(Vec<[f64; 3]>, Vec3)> = match &views {
+            Views::Single => vec![slice(brdf, &grid, &points, Vec3::Z, true)],
+            Views::Isotropic(thetas) => thetas
+                .par_iter()
+                .map(|&t| slice(brdf, &grid, &points, Vec3::new(t.sin(), 0.0, t.cos()), true))
+                .collect(),
             Views::Anisotropic(v) => {
-                let v = *v;
-                (0..v * v).map(|k| anisotropic_view(v, k % v, k / v)).collect()
+                // The anisotropic models here are symmetric under x → −x and y → −y (Ward
+                // depends on h_x² and h_y²): the view at node (v−1−i, j) sees the cells of node
+                // (i, j) mirrored in x, and likewise in y. Only the quarter i, j < ⌈v/2⌉ is
+                // stored; queries mirror the box instead (see `square`).
+                let half = v.div_ceil(2);
+                (0..half * half)
+                    .into_par_iter()
+                    .map(|k| slice(brdf, &grid, &points, anisotropic_view(*v, k % half, k / half), false))
+                    .collect()
             }
         };
-        let slices: Vec<(Vec<[f64; 3]>, Vec3)> = view_dirs.par_iter().map(|&wo| slice(brdf, &grid, wo)).collect();
         let max_density = slices.iter().fold(Vec3::ZERO, |m, s| m.max(s.1));
-        Ok(Self { brdf: *brdf, grid, views, sat: slices.into_iter().map(|s| s.0).collect(), max_density })
+        let n = grid.n();
+        let sat = slices.into_par_iter().map(|(cells, _)| summed_area(&cells, n)).collect();
+        Ok(Self { brdf: *brdf, grid, views, sat, max_density })
     }
 
     /// The tabulated BRDF.
@@ -150,7 +163,8 @@ impl BrdfTable {
         &self.views
     }
 
-    /// Number of view slices stored.
+    /// Number of view slices stored: 1 (Lambertian), `V` (isotropic), or the quarter
+    /// `⌈V/2⌉²` of the `V×V` anisotropic views that symmetry leaves distinct.
     pub fn slices(&self) -> usize {
         self.sat.len()
     }
@@ -213,7 +227,13 @@ impl BrdfTable {
                 let (i, j) = ((x.floor() as usize).min(v - 2), (y.floor() as usize).min(v - 2));
                 let (fx, fy) = (x - i as f32, y - j as f32);
                 let p = hemi_from_dir(light);
-                let at = |a: usize, b: usize| self.box_integral(b * v + a, p, s);
+                let half = v.div_ceil(2);
+                // Node (a, b) is the stored node (min(a, v−1−a), min(b, v−1−b)) mirrored.
+                let at = |a: usize, b: usize| {
+                    let (qa, qb) = (a.min(v - 1 - a), b.min(v - 1 - b));
+                    let q = Vec2::new(if qa != a { -p.x } else { p.x }, if qb != b { -p.y } else { p.y });
+                    self.box_integral(qb * half + qa, q, s)
+                };
                 (at(i, j) * (1.0 - fx) + at(i + 1, j) * fx) * (1.0 - fy)
                     + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
             }
@@ -281,36 +301,124 @@ fn anisotropic_view(v: usize, i: usize, j: usize) -> Vec3 {
     dir_from_hemi(q)
 }
 
-/// One view slice: cell integrals → summed-area table, and the largest cell density.
-fn slice(brdf: &Brdf, grid: &HemiGrid, wo: Vec3) -> (Vec<[f64; 3]>, Vec3) {
+/// The regular 2×2 Gauss–Legendre points of every cell (directions and which are above the
+/// horizon), shared by all the view slices of a build.
+struct QuadraturePoints {
+    dirs: Vec<[Vec3; 4]>,
+    inside: Vec<[bool; 4]>,
+    centres: Vec<Vec3>,
+}
+
+/// 2×2 Gauss–Legendre abscissae on `[0, 1]`.
+fn gauss2() -> (f64, f64) {
+    (0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt())
+}
+
+impl QuadraturePoints {
+    fn new(grid: &HemiGrid) -> Self {
+        let n = grid.n();
+        let h = 2.0 / n as f64;
+        let (lo, hi) = gauss2();
+        let mut dirs = Vec::with_capacity(n * n);
+        let mut inside = Vec::with_capacity(n * n);
+        let mut centres = Vec::with_capacity(n * n);
+        for j in 0..n {
+            for i in 0..n {
+                let [x0, y0, ..] = grid.cell_rect(i, j);
+                centres.push(dir_from_hemi(Vec2::new((x0 + 0.5 * h) as f32, (y0 + 0.5 * h) as f32)));
+                let pts = [(lo, lo), (hi, lo), (lo, hi), (hi, hi)]
+                    .map(|(a, b)| Vec2::new((x0 + a * h) as f32, (y0 + b * h) as f32));
+                inside.push(pts.map(|p| p.length_squared() < 1.0));
+                dirs.push(pts.map(dir_from_hemi));
+            }
+        }
+        Self { dirs, inside, centres }
+    }
+}
+
+/// One view slice's cell integrals (row-major `N×N`) and its largest cell density. With
+/// `mirror_y` (isotropic BRDFs, view in the xz-plane) the slice is symmetric in y: only the
+/// upper half of the rows is integrated and the rest copied.
+fn slice(brdf: &Brdf, grid: &HemiGrid, points: &QuadraturePoints, wo: Vec3, mirror_y: bool) -> (Vec<[f64; 3]>, Vec3) {
     let n = grid.n();
     let h = 2.0 / n as f64;
     let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
     let width = brdf.lobe_width().map(f64::from);
-    let mut sat = vec![[0.0f64; 3]; (n + 1) * (n + 1)];
+    let mut cells = vec![[0.0f64; 3]; n * n];
     let mut max_density = Vec3::ZERO;
+    let first_row = if mirror_y { n / 2 } else { 0 };
+    // Whole cells need refining only when wider than half the lobe; then only those whose
+    // centre is within 3w + 2h of the peak (the test of `refine`, as a cosine).
+    let near_cos =
+        width.filter(|&w| 2.0 * h > 0.5 * w).map(|w| (3.0 * w + 2.0 * h).min(std::f64::consts::PI).cos() as f32);
+    for j in first_row..n {
+        for i in 0..n {
+            if grid.horizon(i, j) == Horizon::Below {
+                continue;
+            }
+            let [x0, y0, ..] = grid.cell_rect(i, j);
+            let k = j * n + i;
+            let near = near_cos.is_some_and(|c| points.centres[k].dot(mirror) > c);
+            let e = match near && refine(width, mirror, x0, y0, h, 0) {
+                true => integrate(brdf, wo, mirror, width, x0, y0, h, 0),
+                false => {
+                    let weight = 0.5 * h * h;
+                    let mut sum = [0.0; 3];
+                    for (d, &inside) in points.dirs[k].iter().zip(&points.inside[k]) {
+                        if inside {
+                            let v = brdf.eval_cos(*d, wo);
+                            for c in 0..3 {
+                                sum[c] += f64::from(v[c]) * weight;
+                            }
+                        }
+                    }
+                    sum
+                }
+            };
+            let omega = grid.cell_solid_angle_above(i, j);
+            if omega > 0.0 {
+                max_density =
+                    max_density.max(Vec3::new((e[0] / omega) as f32, (e[1] / omega) as f32, (e[2] / omega) as f32));
+            }
+            cells[k] = e;
+        }
+    }
+    if mirror_y {
+        for j in 0..first_row {
+            for i in 0..n {
+                cells[j * n + i] = cells[(n - 1 - j) * n + i];
+            }
+        }
+    }
+    (cells, max_density)
+}
+
+/// Summed-area table of `N×N` cells: `(N+1)²` prefix sums.
+fn summed_area(cells: &[[f64; 3]], n: usize) -> Vec<[f64; 3]> {
+    let mut sat = vec![[0.0f64; 3]; (n + 1) * (n + 1)];
     for j in 0..n {
         let mut row = [0.0f64; 3];
         for i in 0..n {
-            let cell = if grid.horizon(i, j) == Horizon::Below {
-                [0.0; 3]
-            } else {
-                let [x0, y0, ..] = grid.cell_rect(i, j);
-                let e = integrate(brdf, wo, mirror, width, x0, y0, h, 0);
-                let omega = grid.cell_solid_angle_above(i, j);
-                if omega > 0.0 {
-                    max_density =
-                        max_density.max(Vec3::new((e[0] / omega) as f32, (e[1] / omega) as f32, (e[2] / omega) as f32));
-                }
-                e
-            };
             for c in 0..3 {
-                row[c] += cell[c];
+                row[c] += cells[j * n + i][c];
                 sat[(j + 1) * (n + 1) + i + 1][c] = sat[j * (n + 1) + i + 1][c] + row[c];
             }
         }
     }
-    (sat, max_density)
+    sat
+}
+
+/// Whether the square `[x0, x0 + side] × [y0, y0 + side]` must be split: it is wider than half
+/// the lobe and within three lobe widths of the lobe's peak.
+fn refine(width: Option<f64>, mirror: Vec3, x0: f64, y0: f64, side: f64, depth: u32) -> bool {
+    let Some(w) = width else { return false };
+    // Angular size of the square is at most 2·side (the map's largest stretch).
+    let angular = 2.0 * side;
+    if depth >= MAX_DEPTH || angular <= 0.5 * w {
+        return false;
+    }
+    let centre = dir_from_hemi(Vec2::new((x0 + 0.5 * side) as f32, (y0 + 0.5 * side) as f32));
+    f64::from(centre.dot(mirror).clamp(-1.0, 1.0).acos()) < 3.0 * w + angular
 }
 
 /// `∫ ρ cos θ dω` over the plane square `[x0, x0 + side] × [y0, y0 + side]` ∩ unit disk.
@@ -325,32 +433,22 @@ fn integrate(
     side: f64,
     depth: u32,
 ) -> [f64; 3] {
-    if let Some(w) = width
-        && depth < MAX_DEPTH
-    {
-        // Angular size of the square is at most 2·side (the map's largest stretch).
-        let angular = 2.0 * side;
-        if angular > 0.5 * w {
-            let centre = dir_from_hemi(Vec2::new((x0 + 0.5 * side) as f32, (y0 + 0.5 * side) as f32));
-            let dist = f64::from(centre.dot(mirror).clamp(-1.0, 1.0).acos());
-            if dist < 3.0 * w + angular {
-                let half = 0.5 * side;
-                let mut sum = [0.0; 3];
-                for (dx, dy) in [(0.0, 0.0), (half, 0.0), (0.0, half), (half, half)] {
-                    let part = integrate(brdf, wo, mirror, width, x0 + dx, y0 + dy, half, depth + 1);
-                    for c in 0..3 {
-                        sum[c] += part[c];
-                    }
-                }
-                return sum;
+    if refine(width, mirror, x0, y0, side, depth) {
+        let half = 0.5 * side;
+        let mut sum = [0.0; 3];
+        for (dx, dy) in [(0.0, 0.0), (half, 0.0), (0.0, half), (half, half)] {
+            let part = integrate(brdf, wo, mirror, width, x0 + dx, y0 + dy, half, depth + 1);
+            for c in 0..3 {
+                sum[c] += part[c];
             }
         }
+        return sum;
     }
     // 2×2 Gauss–Legendre rule (exact for bicubic integrands, the same four evaluations as a
     // midpoint rule but fourth-order accurate); each point carries a quarter of the square's
     // solid angle 2·side², points outside the unit disk (below the horizon) nothing.
     let weight = 0.5 * side * side;
-    let (lo, hi) = (0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt());
+    let (lo, hi) = gauss2();
     let mut sum = [0.0; 3];
     for (a, b) in [(lo, lo), (hi, lo), (lo, hi), (hi, hi)] {
         let p = Vec2::new((x0 + a * side) as f32, (y0 + b * side) as f32);
