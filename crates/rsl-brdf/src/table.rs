@@ -198,7 +198,7 @@ impl BrdfTable {
         let r = if r.is_finite() { r.max(0.0) } else { 0.0 };
         let solid_angle = 4.0 * r * r;
         let zero = SquareIntegral { integral: Vec3::ZERO, solid_angle, average: Vec3::ZERO };
-        if !(view.z > 0.0) || !light.is_finite() {
+        if view.z.is_nan() || view.z <= 0.0 || !light.is_finite() {
             return zero;
         }
         let s = r / std::f32::consts::SQRT_2;
