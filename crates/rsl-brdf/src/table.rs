@@ -3,8 +3,8 @@
 //! For each tabulated view direction, cell `(i, j)` of the `N×N` grid holds
 //! `∫_cell ρ(ω, v)·cos θ dω` over the part of the cell above the horizon (in steradians;
 //! plane area is half the solid angle). The integral is computed by recursive adaptive
-//! quadrature: a cell is split into quarters while its angular size exceeds half the lobe
-//! width and it lies within three lobe widths of the lobe's peak (the mirror direction), so
+//! quadrature: a cell is split into quarters while its angular size exceeds the lobe width
+//! and it lies within three lobe widths of the lobe's peak (the mirror direction), so
 //! a lobe narrower than a cell keeps its energy; elsewhere a 2×2 Gauss–Legendre rule is used.
 //!
 //! View directions:
@@ -408,13 +408,14 @@ fn summed_area(cells: &[[f64; 3]], n: usize) -> Vec<[f64; 3]> {
     sat
 }
 
-/// Whether the square `[x0, x0 + side] × [y0, y0 + side]` must be split: it is wider than half
-/// the lobe and within three lobe widths of the lobe's peak.
+/// Whether the square `[x0, x0 + side] × [y0, y0 + side]` must be split: it is wider than the
+/// lobe and within three lobe widths of the lobe's peak (the 2×2 Gauss–Legendre rule is
+/// fourth-order, so sub-cells one lobe width across suffice).
 fn refine(width: Option<f64>, mirror: Vec3, x0: f64, y0: f64, side: f64, depth: u32) -> bool {
     let Some(w) = width else { return false };
     // Angular size of the square is at most 2·side (the map's largest stretch).
     let angular = 2.0 * side;
-    if depth >= MAX_DEPTH || angular <= 0.5 * w {
+    if depth >= MAX_DEPTH || angular <= w {
         return false;
     }
     let centre = dir_from_hemi(Vec2::new((x0 + 0.5 * side) as f32, (y0 + 0.5 * side) as f32));
