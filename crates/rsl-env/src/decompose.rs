@@ -142,26 +142,11 @@ impl Decomposition {
         // Candidate pairs (a < b) with the fit of their union, keyed by penalised error then ids.
         let mut heap: BinaryHeap<Reverse<Candidate>> = BinaryHeap::new();
         let mut pending: Vec<Fit> = Vec::new();
-        let hint = |nodes: &[Node], a: u32, b: u32| {
-            let (ra, rb) = (nodes[a as usize].info.rsl.half_diagonal, nodes[b as usize].info.rsl.half_diagonal);
-            f64::from(ra * ra + rb * rb).sqrt()
-        };
         let initial: Vec<(u32, u32)> = (0..n as u32)
             .flat_map(|a| adjacency[a as usize].iter().filter(move |&&b| b > a).map(move |&b| (a, b)))
             .collect();
-        let fits: Vec<Fit> = initial
-            .par_iter()
-            .map(|&(a, b)| {
-                let s = stats[a as usize].merged(&stats[b as usize]);
-                fit_region(
-                    &[&members[a as usize], &members[b as usize]],
-                    &s,
-                    &table,
-                    hint(&nodes, a, b),
-                    Precision::Rank,
-                )
-            })
-            .collect();
+        let fits: Vec<Fit> =
+            initial.par_iter().map(|&(a, b)| rank_fit(&table, &stats, &members, &nodes, a, b)).collect();
         for (&(a, b), fit) in initial.iter().zip(&fits) {
             heap.push(Reverse(Candidate {
                 key: fit.penalised,
@@ -221,16 +206,7 @@ impl Decomposition {
                 adj.retain(|&y| y != a && y != b);
                 adj.push(c);
             }
-            let fit_with = |&x: &u32| {
-                let s = stats[c as usize].merged(&stats[x as usize]);
-                fit_region(
-                    &[&members[c as usize], &members[x as usize]],
-                    &s,
-                    &table,
-                    hint(&nodes, c, x),
-                    Precision::Rank,
-                )
-            };
+            let fit_with = |&x: &u32| rank_fit(&table, &stats, &members, &nodes, c, x);
             // Split the candidates over two threads with one `join` (a thread-pool wake-up
             // costs about as much as a small fit, so tiny merges stay on this thread). Either
             // way the fits land in `nb` order.
@@ -361,6 +337,14 @@ impl Decomposition {
         let [a, b] = node.children;
         Some((self.nodes[a as usize].info.texels, self.nodes[b as usize].info.texels))
     }
+}
+
+/// The ranking fit of the union of regions `a` and `b`, started from `√(r_a² + r_b²)`.
+fn rank_fit(table: &TexelTable, stats: &[RegionStats], members: &[Vec<u32>], nodes: &[Node], a: u32, b: u32) -> Fit {
+    let (a, b) = (a as usize, b as usize);
+    let (ra, rb) = (nodes[a].info.rsl.half_diagonal, nodes[b].info.rsl.half_diagonal);
+    let hint = f64::from(ra * ra + rb * rb).sqrt();
+    fit_region(&[&members[a], &members[b]], &stats[a].merged(&stats[b]), table, hint, Precision::Rank)
 }
 
 fn info_of(fit: &Fit, st: &RegionStats) -> RslInfo {

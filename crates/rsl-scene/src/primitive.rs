@@ -258,16 +258,6 @@ mod tests {
     use super::*;
     use rsl_sphere::approx::assert_close;
 
-    fn signed_volume(m: &TriMesh) -> f64 {
-        m.indices
-            .chunks_exact(3)
-            .map(|t| {
-                let [a, b, c] = [0, 1, 2].map(|k| m.positions[t[k] as usize].as_dvec3());
-                a.dot(b.cross(c)) / 6.0
-            })
-            .sum()
-    }
-
     fn all() -> Vec<Primitive> {
         vec![
             Primitive::Sphere { radius: 0.5, resolution: 32 },
@@ -299,12 +289,12 @@ mod tests {
         // Polygonal approximations converge as O(1/resolution²): tolerances below fit 32–48
         // segments of a curved surface; the box is exact.
         let s = Primitive::Sphere { radius: 0.5, resolution: 32 }.mesh();
-        assert_close("sphere volume", signed_volume(&s), 4.0 / 3.0 * std::f64::consts::PI * 0.125, 1e-2, 0.0);
+        assert_close("sphere volume", s.signed_volume(), 4.0 / 3.0 * std::f64::consts::PI * 0.125, 1e-2, 0.0);
         let b = Primitive::Box { size: [1.0, 2.0, 0.5], resolution: 3 }.mesh();
-        assert_close("box volume", signed_volume(&b), 1.0, 1e-6, 0.0);
+        assert_close("box volume", b.signed_volume(), 1.0, 1e-6, 0.0);
         let t = Primitive::Torus { major_radius: 1.0, minor_radius: 0.25, resolution: 48 }.mesh();
         let torus = 2.0 * std::f64::consts::PI.powi(2) * 1.0 * 0.0625;
-        assert_close("torus volume", signed_volume(&t), torus, 1e-2, 0.0);
+        assert_close("torus volume", t.signed_volume(), torus, 1e-2, 0.0);
         let p = Primitive::Plane { size: 3.0, resolution: 4 }.mesh();
         assert_close("plane area", p.area(), 9.0, 1e-6, 0.0);
         assert!(p.normals.iter().all(|n| *n == Vec3::Y));

@@ -7,16 +7,6 @@ fn load(name: &str) -> (rsl_sphere::mesh::TriMesh, rsl_scene::gltf_import::Impor
     import(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/models").join(name)).unwrap()
 }
 
-fn signed_volume(m: &rsl_sphere::mesh::TriMesh) -> f64 {
-    m.indices
-        .chunks_exact(3)
-        .map(|t| {
-            let [a, b, c] = [0, 1, 2].map(|k| m.positions[t[k] as usize].as_dvec3());
-            a.dot(b.cross(c)) / 6.0
-        })
-        .sum()
-}
-
 #[test]
 fn bunny_imports_whole_and_closed() {
     let (m, report) = load("bunny.glb");
@@ -29,7 +19,7 @@ fn bunny_imports_whole_and_closed() {
     assert!(extent.max_element() > 1.7 && extent.max_element() < 1.9, "{extent:?}");
     assert!(m.normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-5));
     // Closed and wound outward: positive enclosed volume; every edge shared by two faces.
-    assert!(signed_volume(&m) > 0.5, "volume {}", signed_volume(&m));
+    assert!(m.signed_volume() > 0.5, "volume {}", m.signed_volume());
     let mut edges = std::collections::HashMap::new();
     for t in m.indices.chunks_exact(3) {
         for k in 0..3 {

@@ -216,6 +216,18 @@ impl TriMesh {
         Some((c, r))
     }
 
+    /// Signed volume enclosed by the triangles (divergence theorem): positive for a closed
+    /// mesh wound counter-clockwise seen from outside.
+    pub fn signed_volume(&self) -> f64 {
+        self.indices
+            .chunks_exact(3)
+            .map(|t| {
+                let [a, b, c] = [0, 1, 2].map(|k| self.positions[t[k] as usize].as_dvec3());
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
     /// Total surface area.
     pub fn area(&self) -> f64 {
         self.indices
@@ -250,6 +262,8 @@ mod tests {
         }
         m.validate().unwrap();
         assert!((m.area() - 1.0).abs() < 1e-12);
+        // An open quad encloses nothing; a unit cube's six faces enclose 1.
+        assert_eq!(m.signed_volume(), 0.0);
     }
 
     #[test]
