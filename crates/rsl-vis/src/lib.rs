@@ -1,3 +1,15 @@
-//! Visibility maps, visibility distance tables, SVDF and OVDF (Xu et al. 2006, §4.3, §5.1).
+//! Visibility (Xu et al. 2006, §4.3): shadow rays on a BVH, visibility maps on the hemisphere
+//! grid, visibility distance tables (VDT) by an exact Euclidean distance transform, the
+//! coverage of a rotatable square from one VDT lookup, and summed-area-table visibility.
 //!
-//! Not built yet: this crate is filled by the visibility work.
+//! The self-visibility field (SVDF) and the occluder field (OVDF) with their (clustered) PCA
+//! compression are not built yet.
+
+pub mod coverage;
+pub mod edt;
+pub mod map;
+pub mod rays;
+
+pub use coverage::coverage;
+pub use map::{Vdt, VisibilityMap};
+pub use rays::{Occluder, VisError};

@@ -1,0 +1,78 @@
+//! Shadow rays against an object's triangles with a BVH (obvhs CWBVH).
+
+use glam::{Vec3, Vec3A};
+use obvhs::{BvhBuildParams, cwbvh::CwBvh, cwbvh::builder::build_cwbvh_from_tris, ray::Ray, triangle::Triangle};
+use rsl_sphere::mesh::TriMesh;
+
+/// Problems with occluder geometry.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum VisError {
+    /// The mesh has no triangles.
+    #[error("mesh has no triangles")]
+    Empty,
+    /// A vertex is NaN or infinite.
+    #[error("vertex {vertex} has a non-finite position {position:?}")]
+    NonFinite {
+        /// Vertex number.
+        vertex: usize,
+        /// Its position.
+        position: Vec3,
+    },
+    /// Every triangle has zero area: nothing can occlude.
+    #[error("all {0} triangles are degenerate (zero area): nothing can cast a shadow")]
+    AllDegenerate(usize),
+    /// Indices out of range or ragged.
+    #[error("{0}")]
+    Mesh(String),
+}
+
+/// An object's triangles in a BVH, for any-hit shadow rays.
+pub struct Occluder {
+    bvh: CwBvh,
+    tris: Vec<Triangle>,
+    /// Zero-area triangles left out (they cannot block a ray).
+    pub degenerate: usize,
+}
+
+impl Occluder {
+    /// Builds the BVH over the mesh's triangles (object space). NaN vertices, empty meshes
+    /// and meshes whose triangles all have zero area are errors; individual zero-area
+    /// triangles are left out and counted in [`Occluder::degenerate`].
+    pub fn new(mesh: &TriMesh) -> Result<Self, VisError> {
+        if mesh.indices.len() < 3 {
+            return Err(VisError::Empty);
+        }
+        if let Some((vertex, &position)) = mesh.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(VisError::NonFinite { vertex, position });
+        }
+        if let Some(&bad) = mesh.indices.iter().find(|&&i| i as usize >= mesh.positions.len()) {
+            return Err(VisError::Mesh(format!("index {bad} out of range ({} vertices)", mesh.positions.len())));
+        }
+        let mut tris = Vec::with_capacity(mesh.triangle_count());
+        let mut degenerate = 0;
+        for t in mesh.indices.chunks_exact(3) {
+            let [a, b, c] = [0, 1, 2].map(|k| mesh.positions[t[k] as usize]);
+            if (b - a).cross(c - a).length_squared() <= 0.0 {
+                degenerate += 1;
+                continue;
+            }
+            tris.push(Triangle { v0: a.into(), v1: b.into(), v2: c.into() });
+        }
+        if tris.is_empty() {
+            return Err(VisError::AllDegenerate(degenerate));
+        }
+        let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
+        Ok(Self { bvh, tris, degenerate })
+    }
+
+    /// Number of triangles in the BVH.
+    pub fn triangles(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Whether the segment from `origin` along unit `dir` up to `tmax` hits any triangle.
+    pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, tmax);
+        !self.bvh.ray_traverse_miss(ray, |ray, id| self.tris[self.bvh.primitive_indices[id] as usize].intersect(ray))
+    }
+}
