@@ -2,14 +2,17 @@
 //! grid, visibility distance tables (VDT) by an exact Euclidean distance transform, the
 //! coverage of a rotatable square from one VDT lookup, and summed-area-table visibility.
 //!
-//! The self-visibility field (SVDF) and the occluder field (OVDF) with their (clustered) PCA
-//! compression are not built yet.
+//! The self-visibility field (SVDF, [`svdf`]) is compressed with clustered PCA ([`cpca`]).
+//! The occluder field (OVDF) is not built yet.
 
 pub mod coverage;
+pub mod cpca;
 pub mod edt;
 pub mod map;
 pub mod rays;
+pub mod svdf;
 
 pub use coverage::coverage;
 pub use map::{Vdt, VisibilityMap};
 pub use rays::{Occluder, VisError};
+pub use svdf::{CompressionReport, Svdf, SvdfParams};

@@ -70,6 +70,15 @@ impl VisibilityMap {
         Self::from_fn(n, s, |d| !occluder.occluded(o, frame.to_world(d), tmax))
     }
 
+    /// Whether every sub-sample above the horizon is visible (nothing occludes this point).
+    pub fn fully_visible(&self) -> bool {
+        let m = self.n * self.s;
+        self.fine.iter().enumerate().all(|(k, &v)| {
+            let p = Vec2::new(-1.0 + (2 * (k % m) + 1) as f32 / m as f32, -1.0 + (2 * (k / m) + 1) as f32 / m as f32);
+            v || p.length_squared() >= 1.0
+        })
+    }
+
     /// Cells per side.
     pub fn n(&self) -> usize {
         self.n
@@ -133,6 +142,12 @@ pub struct Vdt {
 }
 
 impl Vdt {
+    /// A table from row-major distances on an `n×n` grid.
+    pub fn from_values(n: usize, d: Vec<f32>) -> Self {
+        assert_eq!(d.len(), n * n, "one distance per cell");
+        Self { n, d }
+    }
+
     /// Distances, row-major.
     pub fn values(&self) -> &[f32] {
         &self.d
@@ -158,6 +173,20 @@ impl Vdt {
     pub fn coverage(&self, p: Vec2, r: f32) -> f32 {
         coverage(self.lookup(p), r)
     }
+}
+
+/// Bilinear interpolation at plane point `p` between the centres of an `n×n` grid's cells
+/// (clamped at the edges), reading only the four cells it needs through `at(flat index)`.
+pub(crate) fn bilinear_cells(n: usize, p: Vec2, at: impl Fn(usize) -> f32) -> f32 {
+    if n == 1 {
+        return at(0);
+    }
+    let g = |c: f32| ((c + 1.0) * 0.5 * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+    let (x, y) = (g(p.x), g(p.y));
+    let (i, j) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
+    let (fx, fy) = (x - i as f32, y - j as f32);
+    let v = |a: usize, b: usize| at(b * n + a);
+    (v(i, j) * (1.0 - fx) + v(i + 1, j) * fx) * (1.0 - fy) + (v(i, j + 1) * (1.0 - fx) + v(i + 1, j + 1) * fx) * fy
 }
 
 /// Summed-area table of a visibility map: the exact average over any axis-aligned box (cells
