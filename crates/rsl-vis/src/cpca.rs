@@ -135,6 +135,12 @@ impl Cpca {
         (0..self.d).map(|j| self.value(i, j)).collect()
     }
 
+    /// The same model with its coefficients rounded to half precision (what f16 storage
+    /// holds).
+    pub fn with_f16_coefficients(&self) -> Self {
+        Self { coeffs: self.coeffs.iter().map(|&c| half::f16::from_f32(c).to_f32()).collect(), ..self.clone() }
+    }
+
     /// Bytes stored: means, bases (f32), and per vector a cluster index (u16 up to 65,536
     /// clusters) and `k` coefficients of `coefficient_bytes` each.
     pub fn bytes(&self, coefficient_bytes: usize) -> usize {

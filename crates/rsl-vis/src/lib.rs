@@ -10,6 +10,7 @@ pub mod cpca;
 pub mod edt;
 pub mod map;
 pub mod rays;
+pub mod store;
 pub mod svdf;
 
 pub use coverage::coverage;

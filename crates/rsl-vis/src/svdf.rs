@@ -50,11 +50,15 @@ pub struct CompressionReport {
     pub bytes_f32: usize,
     /// Bytes compressed, f16 coefficients.
     pub bytes_f16: usize,
-    /// RMS error of the reconstructed distances (plane units).
+    /// RMS error of the reconstructed distances (plane units), f32 coefficients.
     pub rms_distance_error: f32,
     /// RMS error of the coverage of random squares (half-diagonal 0.02–0.2) from the
-    /// reconstructed tables against the uncompressed ones.
+    /// reconstructed tables against the uncompressed ones, f32 coefficients.
     pub rms_coverage_error: f32,
+    /// The same two with f16 coefficients.
+    pub rms_distance_error_f16: f32,
+    /// Coverage error with f16 coefficients.
+    pub rms_coverage_error_f16: f32,
 }
 
 /// A self-visibility field.
@@ -149,14 +153,15 @@ impl Svdf {
     }
 }
 
-fn report(raw: &[f32], n: usize, cpca: &Cpca) -> CompressionReport {
+/// RMS errors of the distances and of random squares' coverage reconstructed by `cpca`,
+/// against the uncompressed tables `raw`.
+fn errors(raw: &[f32], n: usize, cpca: &Cpca) -> (f32, f32) {
     let d = n * n;
     let nv = raw.len() / d;
     let sq: f64 = (0..nv)
         .into_par_iter()
         .map(|v| (0..d).map(|j| f64::from(cpca.value(v, j) - raw[v * d + j]).powi(2)).sum::<f64>())
         .sum();
-    let rms_distance_error = (sq / raw.len().max(1) as f64).sqrt() as f32;
     let mut rng = Pcg32::new(3);
     let samples = 4000;
     let mut cov = 0.0f64;
@@ -168,12 +173,20 @@ fn report(raw: &[f32], n: usize, cpca: &Cpca) -> CompressionReport {
         let b = coverage(bilinear_cells(n, p, |k| cpca.value(v, k)), r);
         cov += f64::from(a - b).powi(2);
     }
+    ((sq / raw.len().max(1) as f64).sqrt() as f32, (cov / samples as f64).sqrt() as f32)
+}
+
+fn report(raw: &[f32], n: usize, cpca: &Cpca) -> CompressionReport {
+    let (rms_distance_error, rms_coverage_error) = errors(raw, n, cpca);
+    let (rms_distance_error_f16, rms_coverage_error_f16) = errors(raw, n, &cpca.with_f16_coefficients());
     CompressionReport {
-        vectors: nv,
+        vectors: raw.len() / (n * n),
         raw_bytes: raw.len() * 4,
         bytes_f32: cpca.bytes(4),
         bytes_f16: cpca.bytes(2),
         rms_distance_error,
-        rms_coverage_error: (cov / samples as f64).sqrt() as f32,
+        rms_coverage_error,
+        rms_distance_error_f16,
+        rms_coverage_error_f16,
     }
 }

@@ -169,3 +169,40 @@ fn bad_meshes_are_errors() {
     let e = Svdf::build(&nan, &SvdfParams::DRAFT).unwrap_err().to_string();
     assert!(e.contains("non-finite"), "{e}");
 }
+
+#[test]
+fn field_files_round_trip_and_reject_damage() {
+    use rsl_vis::store::{FieldFileError, load_svdf, save_svdf, svdf_from_bytes, svdf_to_bytes};
+    let mut m = TriMesh::default();
+    grid_quad(&mut m, Vec3::new(-1.0, 0.0, -1.0), Vec3::X * 2.0, Vec3::Z * 2.0, 6);
+    grid_quad(&mut m, Vec3::new(0.3, 0.0, -1.0), Vec3::Y, Vec3::Z * 2.0, 4);
+    m.compute_normals();
+    let f = Svdf::build(&m, &SvdfParams { n: 8, supersample: 1, clusters: 3, vectors: 2, iterations: 2 }).unwrap();
+    let bytes = svdf_to_bytes(&f);
+    assert_eq!(svdf_from_bytes(&bytes).unwrap(), f);
+    let convex = Svdf::Convex { vertices: 12 };
+    assert_eq!(svdf_from_bytes(&svdf_to_bytes(&convex)).unwrap(), convex);
+    // Every single-byte corruption of the payload is caught by the checksum.
+    for at in [40usize, bytes.len() / 2, bytes.len() - 1] {
+        let mut bad = bytes.clone();
+        bad[at] ^= 0x40;
+        assert_eq!(svdf_from_bytes(&bad), Err(FieldFileError::Checksum), "byte {at}");
+    }
+    for cut in [0usize, 7, 20, bytes.len() / 2, bytes.len() - 1] {
+        assert!(svdf_from_bytes(&bytes[..cut]).is_err(), "truncated to {cut}");
+    }
+    let mut future = bytes.clone();
+    future[8] = 9;
+    assert_eq!(svdf_from_bytes(&future), Err(FieldFileError::Version { found: 9 }));
+    assert_eq!(svdf_from_bytes(b"not a field at all"), Err(FieldFileError::BadMagic));
+    // Files: saved atomically, read back, and a truncated file is rejected.
+    let dir = std::env::temp_dir().join(format!("rsl-vis-store-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("wall.svdf");
+    save_svdf(&f, &path).unwrap();
+    assert_eq!(load_svdf(&path).unwrap(), f);
+    std::fs::write(&path, &bytes[..bytes.len() - 10]).unwrap();
+    assert!(matches!(load_svdf(&path), Err(FieldFileError::Length { .. })));
+    assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains("tmp")));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,208 @@
+//! The on-disk form of visibility fields (DESIGN.md, precomputation cache): a magic number,
+//! a format version, the payload's length and an FNV-1a 64 checksum, then the little-endian
+//! payload. A wrong magic, an unknown version, a short file or a checksum mismatch is an
+//! error, never a half-read field. Saving writes a temporary file and renames it.
+
+use crate::cpca::Cpca;
+use crate::svdf::{CompressionReport, Svdf};
+use std::path::Path;
+
+/// File magic of a self-visibility field.
+pub const SVDF_MAGIC: [u8; 8] = *b"RSLSVDF\0";
+/// Current format version.
+pub const VERSION: u32 = 1;
+const HEADER: usize = 8 + 4 + 8 + 8;
+
+/// Why a field file was rejected.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum FieldFileError {
+    /// Not a field file of this kind.
+    #[error("not an rsl visibility field (bad magic number)")]
+    BadMagic,
+    /// Written by another format version.
+    #[error("field format version {found}, this build reads version {VERSION}")]
+    Version {
+        /// Version in the file.
+        found: u32,
+    },
+    /// Shorter (or longer) than its header says.
+    #[error("field file is truncated or padded: {got} bytes, expected {expected}")]
+    Length {
+        /// Bytes expected.
+        expected: u64,
+        /// Bytes present.
+        got: u64,
+    },
+    /// The payload does not match its checksum.
+    #[error("field file is corrupt (checksum mismatch)")]
+    Checksum,
+    /// The payload is internally inconsistent.
+    #[error("field file is malformed: {0}")]
+    Malformed(String),
+    /// Reading or writing failed.
+    #[error("{0}")]
+    Io(String),
+}
+
+/// FNV-1a, 64 bits.
+pub fn fnv1a64(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+struct Writer(Vec<u8>);
+
+impl Writer {
+    fn u32(&mut self, v: u32) {
+        self.0.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f32s(&mut self, v: &[f32]) {
+        for x in v {
+            self.0.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+}
+
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], FieldFileError> {
+        let end = self
+            .at
+            .checked_add(n)
+            .filter(|&e| e <= self.b.len())
+            .ok_or_else(|| FieldFileError::Malformed("payload ends early".into()))?;
+        let s = &self.b[self.at..end];
+        self.at = end;
+        Ok(s)
+    }
+    fn u32(&mut self) -> Result<u32, FieldFileError> {
+        Ok(u32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
+    }
+    fn f32s(&mut self, n: usize) -> Result<Vec<f32>, FieldFileError> {
+        let bytes = self.take(n.checked_mul(4).ok_or_else(|| FieldFileError::Malformed("size overflow".into()))?)?;
+        Ok(bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
+    }
+}
+
+/// Serialises a field.
+pub fn svdf_to_bytes(f: &Svdf) -> Vec<u8> {
+    let mut w = Writer(Vec::new());
+    match f {
+        Svdf::Convex { vertices } => {
+            w.u32(0);
+            w.u32(*vertices as u32);
+        }
+        Svdf::Field { n, cpca, report } => {
+            w.u32(1);
+            for v in [*n, cpca.d, cpca.k, cpca.clusters(), cpca.assignment.len()] {
+                w.u32(v as u32);
+            }
+            for m in &cpca.means {
+                w.f32s(m);
+            }
+            for b in &cpca.bases {
+                w.f32s(b);
+            }
+            for &a in &cpca.assignment {
+                w.u32(a);
+            }
+            w.f32s(&cpca.coeffs);
+            for v in [report.vectors, report.raw_bytes, report.bytes_f32, report.bytes_f16] {
+                w.u32(v as u32);
+            }
+            w.f32s(&[
+                report.rms_distance_error,
+                report.rms_coverage_error,
+                report.rms_distance_error_f16,
+                report.rms_coverage_error_f16,
+            ]);
+        }
+    }
+    let payload = w.0;
+    let mut out = Vec::with_capacity(HEADER + payload.len());
+    out.extend_from_slice(&SVDF_MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    out
+}
+
+/// Parses a field, checking magic, version, length, checksum and consistency.
+pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
+    if b.len() < 8 || b[..8] != SVDF_MAGIC {
+        return Err(FieldFileError::BadMagic);
+    }
+    if b.len() < HEADER {
+        return Err(FieldFileError::Length { expected: HEADER as u64, got: b.len() as u64 });
+    }
+    let version = u32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
+    if version != VERSION {
+        return Err(FieldFileError::Version { found: version });
+    }
+    let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
+    let expected = HEADER as u64 + len;
+    if b.len() as u64 != expected {
+        return Err(FieldFileError::Length { expected, got: b.len() as u64 });
+    }
+    let payload = &b[HEADER..];
+    if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
+        return Err(FieldFileError::Checksum);
+    }
+    let mut r = Reader { b: payload, at: 0 };
+    let field = match r.u32()? {
+        0 => Svdf::Convex { vertices: r.u32()? as usize },
+        1 => {
+            let [n, d, k, clusters, vectors] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
+            if d != n * n || clusters == 0 || n < 2 {
+                return Err(FieldFileError::Malformed(format!(
+                    "table {n}×{n} with vectors of {d} and {clusters} clusters"
+                )));
+            }
+            let means = (0..clusters).map(|_| r.f32s(d)).collect::<Result<Vec<_>, _>>()?;
+            let bases = (0..clusters).map(|_| r.f32s(k * d)).collect::<Result<Vec<_>, _>>()?;
+            let assignment = (0..vectors).map(|_| r.u32()).collect::<Result<Vec<_>, _>>()?;
+            if let Some(&bad) = assignment.iter().find(|&&a| a as usize >= clusters) {
+                return Err(FieldFileError::Malformed(format!("vertex assigned to cluster {bad} of {clusters}")));
+            }
+            let coeffs = r.f32s(vectors * k)?;
+            let [rv, raw, b32, b16] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
+            let e = r.f32s(4)?;
+            let report = CompressionReport {
+                vectors: rv,
+                raw_bytes: raw,
+                bytes_f32: b32,
+                bytes_f16: b16,
+                rms_distance_error: e[0],
+                rms_coverage_error: e[1],
+                rms_distance_error_f16: e[2],
+                rms_coverage_error_f16: e[3],
+            };
+            Svdf::Field { n, cpca: Cpca { d, k, means, bases, assignment, coeffs }, report }
+        }
+        kind => return Err(FieldFileError::Malformed(format!("unknown field kind {kind}"))),
+    };
+    if r.at != payload.len() {
+        return Err(FieldFileError::Malformed(format!("{} bytes after the field", payload.len() - r.at)));
+    }
+    Ok(field)
+}
+
+/// Writes a field atomically (temporary file, then rename).
+pub fn save_svdf(f: &Svdf, path: &Path) -> Result<(), FieldFileError> {
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    let r = std::fs::write(&tmp, svdf_to_bytes(f)).and_then(|()| std::fs::rename(&tmp, path));
+    if r.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    r.map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))
+}
+
+/// Reads and verifies a field file.
+pub fn load_svdf(path: &Path) -> Result<Svdf, FieldFileError> {
+    let b = std::fs::read(path).map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))?;
+    svdf_from_bytes(&b)
+}
