@@ -3,17 +3,19 @@
 //! coverage of a rotatable square from one VDT lookup, and summed-area-table visibility.
 //!
 //! The self-visibility field (SVDF, [`svdf`]) is compressed with clustered PCA ([`cpca`]).
-//! The occluder field (OVDF) is not built yet.
+//! The occluder field (OVDF, [`ovdf`]) is compressed with PCA per segment.
 
 pub mod coverage;
 pub mod cpca;
 pub mod edt;
 pub mod map;
+pub mod ovdf;
 pub mod rays;
 pub mod store;
 pub mod svdf;
 
 pub use coverage::coverage;
 pub use map::{Vdt, VisibilityMap};
+pub use ovdf::{Ovdf, OvdfParams};
 pub use rays::{Occluder, VisError};
 pub use svdf::{CompressionReport, Svdf, SvdfParams};

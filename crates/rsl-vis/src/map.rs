@@ -25,6 +25,18 @@ impl VisibilityMap {
     /// sub-samples per cell (cell-centred, equal plane area): each cell's value is the
     /// fraction of its samples above the horizon that are visible.
     pub fn from_fn(n: usize, s: usize, visible: impl Fn(Vec3) -> bool + Sync) -> Self {
+        Self::from_fn_with_horizon(n, s, false, visible)
+    }
+
+    /// As [`VisibilityMap::from_fn`]; with `below_visible`, directions below the horizon count
+    /// as visible (an occluder field: nothing behind the sample's hemisphere is blocked by
+    /// the object it faces) and are evaluated by `visible` too when they fall in the grid.
+    pub fn from_fn_with_horizon(
+        n: usize,
+        s: usize,
+        below_visible: bool,
+        visible: impl Fn(Vec3) -> bool + Sync,
+    ) -> Self {
         let grid = HemiGrid::new(n);
         let s = s.max(1);
         let h = 2.0 / n as f32;
@@ -35,7 +47,7 @@ impl VisibilityMap {
             .map(|k| {
                 let p =
                     Vec2::new(-1.0 + (2 * (k % m) + 1) as f32 / m as f32, -1.0 + (2 * (k / m) + 1) as f32 / m as f32);
-                p.length_squared() < 1.0 && visible(dir_from_hemi(p))
+                if p.length_squared() < 1.0 { visible(dir_from_hemi(p)) } else { below_visible }
             })
             .collect();
         let mut cells = vec![0.0f32; n * n];
@@ -49,7 +61,7 @@ impl VisibilityMap {
                             x0 as f32 + h * (a as f32 + 0.5) / s as f32,
                             y0 as f32 + h * (b as f32 + 0.5) / s as f32,
                         );
-                        if p.length_squared() >= 1.0 {
+                        if p.length_squared() >= 1.0 && !below_visible {
                             continue;
                         }
                         total += 1;
