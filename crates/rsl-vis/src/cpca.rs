@@ -6,7 +6,9 @@
 //! cluster (mean and basis) and moving each vector to the cluster that reconstructs it best.
 //! A cluster's basis comes from randomized subspace iteration (Halko et al. 2011) on the
 //! centred data with `k + 8` columns and two power iterations: no `d×d` eigenproblem, and
-//! data of rank ≤ k is captured exactly.
+//! data of rank ≤ k is captured exactly. Seeding and the choice of candidate clusters work
+//! in a 16-dimensional global PCA space: each round compares the exact reconstruction error
+//! of only the 4 clusters whose means are nearest there (and the current one).
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -29,6 +31,42 @@ pub struct Cpca {
     pub coeffs: Vec<f32>,
 }
 
+/// Dimensions of the global PCA space used for seeding and shortlists.
+const REDUCED_DIMS: usize = 16;
+/// Clusters whose exact reconstruction error is compared per vector and round.
+const SHORTLIST: usize = 4;
+
+/// Every vector's coordinates in a small global PCA basis (randomized, like the clusters').
+struct Reduced {
+    dims: usize,
+    mean: Vec<f32>,
+    basis: Vec<f32>,
+    coords: Vec<f32>,
+}
+
+impl Reduced {
+    fn new(data: &[f32], d: usize, dims: usize, seed: u64) -> Self {
+        let n = data.len() / d;
+        let all: Vec<usize> = (0..n).collect();
+        let row = |i: usize| &data[i * d..(i + 1) * d];
+        let (mean, basis) = fit_cluster(&all, &row, d, dims, seed ^ 0x5eed);
+        let mut r = Self { dims, mean, basis, coords: Vec::new() };
+        r.coords = (0..n).into_par_iter().flat_map_iter(|i| r.project(row(i))).collect();
+        r
+    }
+
+    fn project(&self, x: &[f32]) -> Vec<f32> {
+        let d = self.mean.len();
+        (0..self.dims)
+            .map(|j| x.iter().zip(&self.mean).zip(&self.basis[j * d..(j + 1) * d]).map(|((x, m), b)| (x - m) * b).sum())
+            .collect()
+    }
+
+    fn coords_of(&self, i: usize) -> &[f32] {
+        &self.coords[i * self.dims..(i + 1) * self.dims]
+    }
+}
+
 /// Oversampling columns of the randomized range finder.
 const OVERSAMPLE: usize = 8;
 /// Power iterations of the range finder.
@@ -42,7 +80,9 @@ impl Cpca {
         let n = data.len() / d;
         let clusters = clusters.clamp(1, n.max(1));
         let row = |i: usize| &data[i * d..(i + 1) * d];
-        let mut assignment = seed_clusters(data, d, clusters);
+        // A small global PCA basis: seeding and candidate shortlists work in its space.
+        let reduced = Reduced::new(data, d, REDUCED_DIMS.min(d), seed);
+        let mut assignment = seed_clusters(&reduced.coords, reduced.dims, clusters);
         let mut model = Self { d, k, means: Vec::new(), bases: Vec::new(), assignment: Vec::new(), coeffs: Vec::new() };
         for it in 0..=iterations {
             // Refit every cluster.
@@ -63,8 +103,31 @@ impl Cpca {
             if it == iterations {
                 break;
             }
-            // Reassign each vector to the cluster that reconstructs it best.
-            let new: Vec<u32> = (0..n).into_par_iter().map(|i| model.best_cluster(row(i)).0).collect();
+            // Reassign each vector to the cluster that reconstructs it best among the
+            // SHORTLIST clusters whose means are nearest in the reduced space (all of them
+            // when there are few).
+            let reduced_means: Vec<Vec<f32>> = model.means.iter().map(|m| reduced.project(m)).collect();
+            let new: Vec<u32> = (0..n)
+                .into_par_iter()
+                .map(|i| {
+                    if clusters <= SHORTLIST {
+                        return model.best_cluster(row(i), 0..clusters as u32).0;
+                    }
+                    let x = reduced.coords_of(i);
+                    let mut near: Vec<(f32, u32)> = reduced_means
+                        .iter()
+                        .enumerate()
+                        .map(|(c, m)| (x.iter().zip(m).map(|(a, b)| (a - b) * (a - b)).sum::<f32>(), c as u32))
+                        .collect();
+                    near.select_nth_unstable_by(SHORTLIST - 1, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                    let mut cand: Vec<u32> = near[..SHORTLIST].iter().map(|x| x.1).collect();
+                    // The current cluster always competes, so a vector never moves to a worse one.
+                    cand.push(assignment[i]);
+                    cand.sort_unstable();
+                    cand.dedup();
+                    model.best_cluster(row(i), cand.into_iter()).0
+                })
+                .collect();
             // Empty clusters restart from the worst-reconstructed vectors.
             let mut counts = vec![0usize; clusters];
             for &c in &new {
@@ -114,10 +177,10 @@ impl Cpca {
         (total - along).max(0.0)
     }
 
-    /// The cluster reconstructing `x` best, and its squared error.
-    fn best_cluster(&self, x: &[f32]) -> (u32, f64) {
-        (0..self.clusters())
-            .map(|c| (c as u32, self.error(x, c)))
+    /// The cluster among `candidates` reconstructing `x` best, and its squared error.
+    fn best_cluster(&self, x: &[f32], candidates: impl Iterator<Item = u32>) -> (u32, f64) {
+        candidates
+            .map(|c| (c, self.error(x, c as usize)))
             .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
             .unwrap_or((0, 0.0))
     }
@@ -150,9 +213,10 @@ impl Cpca {
     }
 }
 
-/// Initial clusters by farthest-point seeding: the first seed is the vector farthest from the
-/// mean, each next one the vector farthest from all seeds so far; every vector then joins
-/// its nearest seed. Ties go to the lowest index, so the result is deterministic.
+/// Initial clusters by farthest-point seeding (on the vectors' reduced coordinates): the
+/// first seed is the vector farthest from the mean, each next one the vector farthest from
+/// all seeds so far; every vector then joins its nearest seed. Ties go to the lowest index,
+/// so the result is deterministic.
 fn seed_clusters(data: &[f32], d: usize, clusters: usize) -> Vec<u32> {
     let n = data.len() / d;
     let row = |i: usize| &data[i * d..(i + 1) * d];

@@ -70,6 +70,9 @@ pub struct Ovdf {
     pub bytes_f16: usize,
     /// RMS error of the reconstructed distances (plane units).
     pub rms_distance_error: f32,
+    /// RMS error of the coverage of random squares (half-diagonal 0.02–0.2) from the
+    /// reconstructed tables against the uncompressed ones.
+    pub rms_coverage_error: f32,
 }
 
 impl Ovdf {
@@ -87,6 +90,8 @@ impl Ovdf {
         let d = params.n * params.n;
         let mut segments = Vec::with_capacity(params.shells * 24);
         let (mut sq, mut count, mut raw_bytes) = (0.0f64, 0usize, 0usize);
+        let (mut cov_sq, mut cov_count) = (0.0f64, 0usize);
+        let mut rng = rsl_sphere::sampling::Pcg32::new(17);
         for s in 0..params.shells {
             let r = shell_radius(s, params.shells) * radius;
             for face in 0..6 {
@@ -111,6 +116,16 @@ impl Ovdf {
                             sq += f64::from(pca.value(v, j) - raw[v * d + j]).powi(2);
                         }
                     }
+                    // Coverage of a few random squares per segment, compressed vs raw.
+                    for _ in 0..8 {
+                        let v = rng.next_u32() as usize % (half * half);
+                        let p = Vec2::new(rng.next_f32() * 1.6 - 0.8, rng.next_f32() * 1.6 - 0.8);
+                        let rr = 0.02 + 0.18 * rng.next_f32();
+                        let a = coverage(bilinear_cells(params.n, p, |k| raw[v * d + k]), rr);
+                        let b = coverage(bilinear_cells(params.n, p, |k| pca.value(v, k)), rr);
+                        cov_sq += f64::from(a - b).powi(2);
+                        cov_count += 1;
+                    }
                     count += raw.len();
                     raw_bytes += raw.len() * 4;
                     segments.push(pca);
@@ -120,7 +135,67 @@ impl Ovdf {
         let bytes_f32 = segments.iter().map(|c| c.bytes(4)).sum();
         let bytes_f16 = segments.iter().map(|c| c.bytes(2)).sum();
         let rms_distance_error = (sq / count.max(1) as f64).sqrt() as f32;
-        Ok(Self { centre, radius, params: *params, segments, raw_bytes, bytes_f32, bytes_f16, rms_distance_error })
+        let rms_coverage_error = (cov_sq / cov_count.max(1) as f64).sqrt() as f32;
+        Ok(Self {
+            centre,
+            radius,
+            params: *params,
+            segments,
+            raw_bytes,
+            bytes_f32,
+            bytes_f16,
+            rms_distance_error,
+            rms_coverage_error,
+        })
+    }
+
+    /// Resolutions the field was built with.
+    pub fn params(&self) -> &OvdfParams {
+        &self.params
+    }
+
+    /// The PCA of each segment (`shells × 24`, shell-major, then face, then quadrant).
+    pub fn segments(&self) -> &[Cpca] {
+        &self.segments
+    }
+
+    /// Reassembles a field from its parts (as read from a file); checks their consistency.
+    pub fn from_parts(
+        centre: Vec3,
+        radius: f32,
+        params: OvdfParams,
+        segments: Vec<Cpca>,
+        bytes: [usize; 3],
+        errors: [f32; 2],
+    ) -> Result<Self, String> {
+        let half = params.m / 2;
+        if params.m < 2 || !params.m.is_multiple_of(2) || params.shells < 2 || params.n < 2 {
+            return Err(format!("bad resolutions {params:?}"));
+        }
+        if segments.len() != params.shells * 24 {
+            return Err(format!("{} segments for {} shells", segments.len(), params.shells));
+        }
+        if let Some(bad) = segments
+            .iter()
+            .position(|c| c.d != params.n * params.n || c.assignment.len() != half * half || c.clusters() != 1)
+        {
+            return Err(format!("segment {bad} does not match the resolutions"));
+        }
+        if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
+            return Err("bad bounding sphere".into());
+        }
+        let ([raw_bytes, bytes_f32, bytes_f16], [rms_distance_error, rms_coverage_error]) = (bytes, errors);
+        Ok(Self {
+            centre,
+            radius,
+            params,
+            segments,
+            raw_bytes,
+            bytes_f32,
+            bytes_f16,
+            rms_distance_error,
+            rms_coverage_error,
+        })
     }
 
     /// Bounding-sphere centre and radius the field is built around (object space).

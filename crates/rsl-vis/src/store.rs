@@ -1,4 +1,4 @@
-//! The on-disk form of visibility fields (DESIGN.md, precomputation cache): a magic number,
+//! The on-disk form of visibility fields (SVDF and OVDF) (DESIGN.md, precomputation cache): a magic number,
 //! a format version, the payload's length and an FNV-1a 64 checksum, then the little-endian
 //! payload. A wrong magic, an unknown version, a short file or a checksum mismatch is an
 //! error, never a half-read field. Saving writes a temporary file and renames it.
@@ -9,6 +9,8 @@ use std::path::Path;
 
 /// File magic of a self-visibility field.
 pub const SVDF_MAGIC: [u8; 8] = *b"RSLSVDF\0";
+/// File magic of an occluder field.
+pub const OVDF_MAGIC: [u8; 8] = *b"RSLOVDF\0";
 /// Current format version.
 pub const VERSION: u32 = 1;
 const HEADER: usize = 8 + 4 + 8 + 8;
@@ -97,19 +99,8 @@ pub fn svdf_to_bytes(f: &Svdf) -> Vec<u8> {
         }
         Svdf::Field { n, cpca, report } => {
             w.u32(1);
-            for v in [*n, cpca.d, cpca.k, cpca.clusters(), cpca.assignment.len()] {
-                w.u32(v as u32);
-            }
-            for m in &cpca.means {
-                w.f32s(m);
-            }
-            for b in &cpca.bases {
-                w.f32s(b);
-            }
-            for &a in &cpca.assignment {
-                w.u32(a);
-            }
-            w.f32s(&cpca.coeffs);
+            w.u32(*n as u32);
+            write_cpca(&mut w, cpca);
             for v in [report.vectors, report.raw_bytes, report.bytes_f32, report.bytes_f16] {
                 w.u32(v as u32);
             }
@@ -121,9 +112,13 @@ pub fn svdf_to_bytes(f: &Svdf) -> Vec<u8> {
             ]);
         }
     }
-    let payload = w.0;
+    frame(&SVDF_MAGIC, w.0)
+}
+
+/// Header (magic, version, length, checksum) and payload.
+fn frame(magic: &[u8; 8], payload: Vec<u8>) -> Vec<u8> {
     let mut out = Vec::with_capacity(HEADER + payload.len());
-    out.extend_from_slice(&SVDF_MAGIC);
+    out.extend_from_slice(magic);
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
     out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
@@ -131,9 +126,9 @@ pub fn svdf_to_bytes(f: &Svdf) -> Vec<u8> {
     out
 }
 
-/// Parses a field, checking magic, version, length, checksum and consistency.
-pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
-    if b.len() < 8 || b[..8] != SVDF_MAGIC {
+/// Checks the header and checksum; returns the payload.
+fn unframe<'a>(magic: &[u8; 8], b: &'a [u8]) -> Result<&'a [u8], FieldFileError> {
+    if b.len() < 8 || &b[..8] != magic {
         return Err(FieldFileError::BadMagic);
     }
     if b.len() < HEADER {
@@ -144,7 +139,7 @@ pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
         return Err(FieldFileError::Version { found: version });
     }
     let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
-    let expected = HEADER as u64 + len;
+    let expected = (HEADER as u64).saturating_add(len);
     if b.len() as u64 != expected {
         return Err(FieldFileError::Length { expected, got: b.len() as u64 });
     }
@@ -152,23 +147,91 @@ pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
     if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
         return Err(FieldFileError::Checksum);
     }
+    Ok(payload)
+}
+
+fn write_cpca(w: &mut Writer, c: &Cpca) {
+    for v in [c.d, c.k, c.clusters(), c.assignment.len()] {
+        w.u32(v as u32);
+    }
+    for m in &c.means {
+        w.f32s(m);
+    }
+    for b in &c.bases {
+        w.f32s(b);
+    }
+    for &a in &c.assignment {
+        w.u32(a);
+    }
+    w.f32s(&c.coeffs);
+}
+
+fn read_cpca(r: &mut Reader) -> Result<Cpca, FieldFileError> {
+    let [d, k, clusters, vectors] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
+    if d == 0 || clusters == 0 {
+        return Err(FieldFileError::Malformed(format!("vectors of {d} in {clusters} clusters")));
+    }
+    let means = (0..clusters).map(|_| r.f32s(d)).collect::<Result<Vec<_>, _>>()?;
+    let bases = (0..clusters).map(|_| r.f32s(k * d)).collect::<Result<Vec<_>, _>>()?;
+    let assignment = (0..vectors).map(|_| r.u32()).collect::<Result<Vec<_>, _>>()?;
+    if let Some(&bad) = assignment.iter().find(|&&a| a as usize >= clusters) {
+        return Err(FieldFileError::Malformed(format!("vector assigned to cluster {bad} of {clusters}")));
+    }
+    let coeffs = r.f32s(vectors * k)?;
+    Ok(Cpca { d, k, means, bases, assignment, coeffs })
+}
+
+/// Serialises an occluder field.
+pub fn ovdf_to_bytes(f: &crate::ovdf::Ovdf) -> Vec<u8> {
+    let mut w = Writer(Vec::new());
+    let (c, r) = f.bounds();
+    w.f32s(&[c.x, c.y, c.z, r]);
+    let p = f.params();
+    for v in [p.shells, p.m, p.n, p.supersample, p.vectors] {
+        w.u32(v as u32);
+    }
+    for v in [f.raw_bytes, f.bytes_f32, f.bytes_f16] {
+        w.u32(v as u32);
+    }
+    w.f32s(&[f.rms_distance_error, f.rms_coverage_error]);
+    for s in f.segments() {
+        write_cpca(&mut w, s);
+    }
+    frame(&OVDF_MAGIC, w.0)
+}
+
+/// Parses an occluder field, checking header, checksum and consistency.
+pub fn ovdf_from_bytes(b: &[u8]) -> Result<crate::ovdf::Ovdf, FieldFileError> {
+    let payload = unframe(&OVDF_MAGIC, b)?;
+    let mut r = Reader { b: payload, at: 0 };
+    let cr = r.f32s(4)?;
+    let [shells, m, n, supersample, vectors] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
+    let bytes = [r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
+    let errors: [f32; 2] = r.f32s(2)?.try_into().expect("two figures");
+    if shells == 0 || shells > 4096 {
+        return Err(FieldFileError::Malformed(format!("{shells} shells")));
+    }
+    let segments = (0..shells * 24).map(|_| read_cpca(&mut r)).collect::<Result<Vec<_>, _>>()?;
+    if r.at != payload.len() {
+        return Err(FieldFileError::Malformed(format!("{} bytes after the field", payload.len() - r.at)));
+    }
+    let params = crate::ovdf::OvdfParams { shells, m, n, supersample, vectors };
+    crate::ovdf::Ovdf::from_parts(glam::Vec3::new(cr[0], cr[1], cr[2]), cr[3], params, segments, bytes, errors)
+        .map_err(FieldFileError::Malformed)
+}
+
+/// Parses a field, checking magic, version, length, checksum and consistency.
+pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
+    let payload = unframe(&SVDF_MAGIC, b)?;
     let mut r = Reader { b: payload, at: 0 };
     let field = match r.u32()? {
         0 => Svdf::Convex { vertices: r.u32()? as usize },
         1 => {
-            let [n, d, k, clusters, vectors] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
-            if d != n * n || clusters == 0 || n < 2 {
-                return Err(FieldFileError::Malformed(format!(
-                    "table {n}×{n} with vectors of {d} and {clusters} clusters"
-                )));
+            let n = r.u32()? as usize;
+            let cpca = read_cpca(&mut r)?;
+            if cpca.d != n * n || n < 2 {
+                return Err(FieldFileError::Malformed(format!("table {n}×{n} with vectors of {}", cpca.d)));
             }
-            let means = (0..clusters).map(|_| r.f32s(d)).collect::<Result<Vec<_>, _>>()?;
-            let bases = (0..clusters).map(|_| r.f32s(k * d)).collect::<Result<Vec<_>, _>>()?;
-            let assignment = (0..vectors).map(|_| r.u32()).collect::<Result<Vec<_>, _>>()?;
-            if let Some(&bad) = assignment.iter().find(|&&a| a as usize >= clusters) {
-                return Err(FieldFileError::Malformed(format!("vertex assigned to cluster {bad} of {clusters}")));
-            }
-            let coeffs = r.f32s(vectors * k)?;
             let [rv, raw, b32, b16] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
             let e = r.f32s(4)?;
             let report = CompressionReport {
@@ -181,7 +244,7 @@ pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
                 rms_distance_error_f16: e[2],
                 rms_coverage_error_f16: e[3],
             };
-            Svdf::Field { n, cpca: Cpca { d, k, means, bases, assignment, coeffs }, report }
+            Svdf::Field { n, cpca, report }
         }
         kind => return Err(FieldFileError::Malformed(format!("unknown field kind {kind}"))),
     };
@@ -193,8 +256,23 @@ pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
 
 /// Writes a field atomically (temporary file, then rename).
 pub fn save_svdf(f: &Svdf, path: &Path) -> Result<(), FieldFileError> {
+    save_bytes(&svdf_to_bytes(f), path)
+}
+
+/// Writes an occluder field atomically.
+pub fn save_ovdf(f: &crate::ovdf::Ovdf, path: &Path) -> Result<(), FieldFileError> {
+    save_bytes(&ovdf_to_bytes(f), path)
+}
+
+/// Reads and verifies an occluder field file.
+pub fn load_ovdf(path: &Path) -> Result<crate::ovdf::Ovdf, FieldFileError> {
+    let b = std::fs::read(path).map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))?;
+    ovdf_from_bytes(&b)
+}
+
+fn save_bytes(bytes: &[u8], path: &Path) -> Result<(), FieldFileError> {
     let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    let r = std::fs::write(&tmp, svdf_to_bytes(f)).and_then(|()| std::fs::rename(&tmp, path));
+    let r = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
     if r.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

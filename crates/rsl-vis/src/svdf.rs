@@ -34,9 +34,11 @@ pub struct SvdfParams {
 impl SvdfParams {
     /// Fast, for tests and first looks: 16×16 tables, 2×2 rays per cell, 32 clusters × 4.
     pub const DRAFT: SvdfParams = SvdfParams { n: 16, supersample: 2, clusters: 32, vectors: 4, iterations: 4 };
-    /// Xu et al.: 32×32 tables, 256 clusters × 8 vectors (one ray per cell is their budget;
-    /// we trace 2×2 per cell so cells hold coverage, not point samples).
-    pub const PAPER: SvdfParams = SvdfParams { n: 32, supersample: 2, clusters: 256, vectors: 8, iterations: 4 };
+    /// Xu et al.: 32×32 tables, 256 clusters × 8 vectors, and their budget of 1,024 rays per
+    /// vertex: one ray per cell, so the boundary is placed to about a third of a cell.
+    pub const PAPER: SvdfParams = SvdfParams { n: 32, supersample: 1, clusters: 256, vectors: 8, iterations: 3 };
+    /// Finer boundaries: 32×32 tables with 2×2 rays per cell (4,096 rays per vertex).
+    pub const HIGH: SvdfParams = SvdfParams { n: 32, supersample: 2, clusters: 256, vectors: 8, iterations: 4 };
 }
 
 /// How well a field is compressed.

@@ -108,3 +108,20 @@ fn bad_resolutions_are_errors() {
     assert!(Ovdf::build(&mesh, &OvdfParams { m: 7, ..OvdfParams::DRAFT }).is_err());
     assert!(Ovdf::build(&TriMesh::default(), &OvdfParams::DRAFT).is_err());
 }
+
+#[test]
+fn occluder_field_files_round_trip_and_reject_damage() {
+    use rsl_vis::store::{FieldFileError, ovdf_from_bytes, ovdf_to_bytes, svdf_from_bytes};
+    let field =
+        Ovdf::build(&sphere(1.0, 8), &OvdfParams { shells: 2, m: 2, n: 4, supersample: 1, vectors: 2 }).unwrap();
+    let bytes = ovdf_to_bytes(&field);
+    assert_eq!(ovdf_from_bytes(&bytes).unwrap(), field);
+    let mut bad = bytes.clone();
+    let last = bad.len() - 3;
+    bad[last] ^= 1;
+    assert_eq!(ovdf_from_bytes(&bad), Err(FieldFileError::Checksum));
+    assert!(ovdf_from_bytes(&bytes[..bytes.len() / 3]).is_err());
+    // An occluder field is not a self-visibility field, and the other way round.
+    assert_eq!(svdf_from_bytes(&bytes), Err(FieldFileError::BadMagic));
+    assert!(field.rms_coverage_error.is_finite());
+}
