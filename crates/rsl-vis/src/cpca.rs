@@ -31,6 +31,25 @@ pub struct Cpca {
     pub coeffs: Vec<f32>,
 }
 
+/// `Σ (x − m)·b` with eight independent partial sums (vectorisable, fixed order).
+fn centred_dot(x: &[f32], m: &[f32], b: &[f32]) -> f32 {
+    let mut acc = [0.0f32; 8];
+    let (xc, mc, bc) = (x.chunks_exact(8), m.chunks_exact(8), b.chunks_exact(8));
+    let (xr, mr, br) = (xc.remainder(), mc.remainder(), bc.remainder());
+    for ((x, m), b) in xc.zip(mc).zip(bc) {
+        for l in 0..8 {
+            acc[l] += (x[l] - m[l]) * b[l];
+        }
+    }
+    let tail: f32 = xr.iter().zip(mr).zip(br).map(|((x, m), b)| (x - m) * b).sum();
+    acc.iter().sum::<f32>() + tail
+}
+
+/// `x − m`.
+fn centred(x: &[f32], m: &[f32]) -> Vec<f32> {
+    x.iter().zip(m).map(|(x, m)| x - m).collect()
+}
+
 /// Dimensions of the global PCA space used for seeding and shortlists.
 const REDUCED_DIMS: usize = 16;
 /// Clusters whose exact reconstruction error is compared per vector and round.
@@ -161,20 +180,26 @@ impl Cpca {
     /// Coefficients of `x` in cluster `c`.
     fn project(&self, x: &[f32], c: usize) -> Vec<f32> {
         let (mean, basis) = (&self.means[c], &self.bases[c]);
-        (0..self.k)
-            .map(|j| {
-                let b = &basis[j * self.d..(j + 1) * self.d];
-                x.iter().zip(mean).zip(b).map(|((x, m), b)| (x - m) * b).sum::<f32>()
-            })
-            .collect()
+        (0..self.k).map(|j| centred_dot(x, mean, &basis[j * self.d..(j + 1) * self.d])).collect()
     }
 
     /// Squared reconstruction error of `x` in cluster `c`: `‖x − μ‖² − Σ (bⱼ·(x − μ))²`.
     fn error(&self, x: &[f32], c: usize) -> f64 {
         let mean = &self.means[c];
-        let total: f64 = x.iter().zip(mean).map(|(x, m)| f64::from((x - m) * (x - m))).sum();
+        let total = f64::from(centred_dot(x, mean, &centred(x, mean)));
         let along: f64 = self.project(x, c).iter().map(|&a| f64::from(a * a)).sum();
         (total - along).max(0.0)
+    }
+
+    /// Vector `i` reconstructed into `out` (`d` values): mean plus coefficients × basis.
+    pub fn reconstruct_into(&self, i: usize, out: &mut [f32]) {
+        let c = self.assignment[i] as usize;
+        out.copy_from_slice(&self.means[c]);
+        for (t, &a) in self.coeffs[i * self.k..(i + 1) * self.k].iter().enumerate() {
+            for (o, b) in out.iter_mut().zip(&self.bases[c][t * self.d..(t + 1) * self.d]) {
+                *o += a * b;
+            }
+        }
     }
 
     /// The cluster among `candidates` reconstructing `x` best, and its squared error.
@@ -195,7 +220,9 @@ impl Cpca {
 
     /// Vector `i`, reconstructed.
     pub fn reconstruct(&self, i: usize) -> Vec<f32> {
-        (0..self.d).map(|j| self.value(i, j)).collect()
+        let mut out = vec![0.0; self.d];
+        self.reconstruct_into(i, &mut out);
+        out
     }
 
     /// The same model with its coefficients rounded to half precision (what f16 storage

@@ -42,8 +42,10 @@ impl VisibilityMap {
         let h = 2.0 / n as f32;
         let m = n * s;
         // Fine sub-samples, row by row in parallel; points below the horizon are invisible.
+        // Large chunks: callers usually run many maps in parallel already.
         let fine: Vec<bool> = (0..m * m)
             .into_par_iter()
+            .with_min_len(1024)
             .map(|k| {
                 let p =
                     Vec2::new(-1.0 + (2 * (k % m) + 1) as f32 / m as f32, -1.0 + (2 * (k / m) + 1) as f32 / m as f32);

@@ -19,6 +19,7 @@ use crate::cpca::Cpca;
 use crate::map::{VisibilityMap, bilinear_cells};
 use crate::rays::{Occluder, VisError};
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use rsl_sphere::Frame;
 use rsl_sphere::cube::CubeGrid;
 use rsl_sphere::hemi::hemi_from_dir;
@@ -97,24 +98,33 @@ impl Ovdf {
             for face in 0..6 {
                 for (qx, qy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     // One segment: trace, compress, drop.
-                    let mut raw = Vec::with_capacity(half * half * d);
-                    for b in 0..half {
-                        for a in 0..half {
+                    let samples: Vec<Vec<f32>> = (0..half * half)
+                        .into_par_iter()
+                        .map(|k| {
+                            let (a, b) = (k % half, k / half);
                             let t = grid.index(face, qx * half + a, qy * half + b);
                             let u = grid.texel_dir(t);
                             let q = centre + u * r;
                             let frame = Frame::from_normal(-u);
+                            // The object lies inside the cone of half-angle asin(R/r) around the
+                            // sample's pole (its centre's direction): rays outside it cannot hit.
+                            let cos_cone = if r > radius { (1.0 - (radius / r).powi(2)).sqrt() } else { -1.0 };
                             let map = VisibilityMap::from_fn_with_horizon(params.n, params.supersample, true, |l| {
-                                !occluder.occluded(q, frame.to_world(l), r + 2.0 * radius)
+                                l.z < cos_cone || !occluder.occluded(q, frame.to_world(l), r + 2.0 * radius)
                             });
-                            raw.extend_from_slice(map.vdt().values());
-                        }
-                    }
+                            map.vdt().values().to_vec()
+                        })
+                        .collect();
+                    let raw: Vec<f32> = samples.concat();
                     let pca = Cpca::fit(&raw, d, 1, params.vectors, 0, (s * 24 + face * 4 + qy * 2 + qx) as u64);
+                    let mut rec = vec![0.0f32; d];
                     for v in 0..half * half {
-                        for j in 0..d {
-                            sq += f64::from(pca.value(v, j) - raw[v * d + j]).powi(2);
-                        }
+                        pca.reconstruct_into(v, &mut rec);
+                        sq += rec
+                            .iter()
+                            .zip(&raw[v * d..(v + 1) * d])
+                            .map(|(a, b)| f64::from(a - b).powi(2))
+                            .sum::<f64>();
                     }
                     // Coverage of a few random squares per segment, compressed vs raw.
                     for _ in 0..8 {

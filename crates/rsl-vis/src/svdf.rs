@@ -162,7 +162,13 @@ fn errors(raw: &[f32], n: usize, cpca: &Cpca) -> (f32, f32) {
     let nv = raw.len() / d;
     let sq: f64 = (0..nv)
         .into_par_iter()
-        .map(|v| (0..d).map(|j| f64::from(cpca.value(v, j) - raw[v * d + j]).powi(2)).sum::<f64>())
+        .map_init(
+            || vec![0.0f32; d],
+            |rec, v| {
+                cpca.reconstruct_into(v, rec);
+                rec.iter().zip(&raw[v * d..(v + 1) * d]).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>()
+            },
+        )
         .sum();
     let mut rng = Pcg32::new(3);
     let samples = 4000;
