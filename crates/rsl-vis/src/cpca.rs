@@ -29,6 +29,8 @@ pub struct Cpca {
     pub assignment: Vec<u32>,
     /// `k` coefficients of each vector.
     pub coeffs: Vec<f32>,
+    /// Whether the coefficients are half-precision values (stored as f16).
+    pub f16: bool,
 }
 
 /// `Σ (x − m)·b` with eight independent partial sums (vectorisable, fixed order).
@@ -102,7 +104,8 @@ impl Cpca {
         // A small global PCA basis: seeding and candidate shortlists work in its space.
         let reduced = Reduced::new(data, d, REDUCED_DIMS.min(d), seed);
         let mut assignment = seed_clusters(&reduced.coords, reduced.dims, clusters);
-        let mut model = Self { d, k, means: Vec::new(), bases: Vec::new(), assignment: Vec::new(), coeffs: Vec::new() };
+        let mut model =
+            Self { d, k, means: Vec::new(), bases: Vec::new(), assignment: Vec::new(), coeffs: Vec::new(), f16: false };
         for it in 0..=iterations {
             // Refit every cluster.
             let members: Vec<Vec<usize>> = {
@@ -228,7 +231,27 @@ impl Cpca {
     /// The same model with its coefficients rounded to half precision (what f16 storage
     /// holds).
     pub fn with_f16_coefficients(&self) -> Self {
-        Self { coeffs: self.coeffs.iter().map(|&c| half::f16::from_f32(c).to_f32()).collect(), ..self.clone() }
+        Self {
+            coeffs: self.coeffs.iter().map(|&c| half::f16::from_f32(c).to_f32()).collect(),
+            f16: true,
+            ..self.clone()
+        }
+    }
+
+    /// Bytes as stored: f16 or f32 coefficients.
+    pub fn stored_bytes(&self) -> usize {
+        self.bytes(if self.f16 { 2 } else { 4 })
+    }
+
+    /// Squared reconstruction error summed over the rows of `raw` (this model's vectors).
+    pub fn squared_error(&self, raw: &[f32]) -> f64 {
+        let mut rec = vec![0.0f32; self.d];
+        (0..self.assignment.len())
+            .map(|v| {
+                self.reconstruct_into(v, &mut rec);
+                rec.iter().zip(&raw[v * self.d..(v + 1) * self.d]).map(|(a, b)| f64::from(a - b).powi(2)).sum::<f64>()
+            })
+            .sum()
     }
 
     /// Bytes stored: means, bases (f32), and per vector a cluster index (u16 up to 65,536

@@ -7,7 +7,8 @@
 //! grid. Each sample holds the VDT over the hemisphere facing the centre, in the frame
 //! `Frame::from_normal(−u)` fixed to its cube direction `u`; directions facing away from the
 //! object count as visible. Each shell's cube faces are split 2×2 into 24 segments, each
-//! compressed by PCA (one cluster), and built one segment at a time, so the uncompressed
+//! compressed by PCA (one cluster; half-precision coefficients where that raises the
+//! segment's RMS error by at most 1%), and built one segment at a time, so the uncompressed
 //! field is never held in memory.
 //!
 //! A lookup at a point interpolates the distances of the 8 nearest samples (2 shells × 4 cube

@@ -163,7 +163,14 @@ fn write_cpca(w: &mut Writer, c: &Cpca) {
     for &a in &c.assignment {
         w.u32(a);
     }
-    w.f32s(&c.coeffs);
+    w.u32(u32::from(c.f16));
+    if c.f16 {
+        for &x in &c.coeffs {
+            w.0.extend_from_slice(&half::f16::from_f32(x).to_bits().to_le_bytes());
+        }
+    } else {
+        w.f32s(&c.coeffs);
+    }
 }
 
 fn read_cpca(r: &mut Reader) -> Result<Cpca, FieldFileError> {
@@ -177,8 +184,23 @@ fn read_cpca(r: &mut Reader) -> Result<Cpca, FieldFileError> {
     if let Some(&bad) = assignment.iter().find(|&&a| a as usize >= clusters) {
         return Err(FieldFileError::Malformed(format!("vector assigned to cluster {bad} of {clusters}")));
     }
-    let coeffs = r.f32s(vectors * k)?;
-    Ok(Cpca { d, k, means, bases, assignment, coeffs })
+    let f16 = match r.u32()? {
+        0 => false,
+        1 => true,
+        other => return Err(FieldFileError::Malformed(format!("coefficient precision flag {other}"))),
+    };
+    let coeffs = if f16 {
+        let bytes = r.take(
+            vectors
+                .checked_mul(k)
+                .and_then(|v| v.checked_mul(2))
+                .ok_or_else(|| FieldFileError::Malformed("size overflow".into()))?,
+        )?;
+        bytes.chunks_exact(2).map(|b| half::f16::from_bits(u16::from_le_bytes([b[0], b[1]])).to_f32()).collect()
+    } else {
+        r.f32s(vectors * k)?
+    };
+    Ok(Cpca { d, k, means, bases, assignment, coeffs, f16 })
 }
 
 /// Serialises an occluder field.

@@ -129,6 +129,12 @@ impl Svdf {
         let raw: Vec<f32> = maps.into_iter().flat_map(|m| m.0).collect();
         let cpca = Cpca::fit(&raw, n * n, params.clusters, params.vectors, params.iterations, 1);
         let report = report(&raw, n, &cpca);
+        // Half-precision coefficients where the error allows: within 1% of f32's.
+        let cpca = if report.rms_distance_error_f16 <= 1.01 * report.rms_distance_error + 1e-6 {
+            cpca.with_f16_coefficients()
+        } else {
+            cpca
+        };
         Ok(Svdf::Field { n, cpca, report })
     }
 
