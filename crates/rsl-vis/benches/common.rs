@@ -1,4 +1,5 @@
-//! Procedural meshes for the visibility benches.
+//! Procedural meshes for the visibility benches and tests (tests include this file).
+#![allow(dead_code)]
 
 use glam::Vec3;
 use rsl_sphere::mesh::TriMesh;
@@ -29,5 +30,26 @@ pub fn torus(u: usize, v: usize) -> TriMesh {
             t.swap(1, 2);
         }
     }
+    m
+}
+
+/// A UV sphere (`rings` rings × `2·rings` segments) of `radius` at `centre`, wound outward.
+pub fn uv_sphere(centre: Vec3, radius: f32, rings: usize) -> TriMesh {
+    let segs = 2 * rings;
+    let mut m = TriMesh::default();
+    for r in 0..=rings {
+        let th = std::f32::consts::PI * r as f32 / rings as f32;
+        for s in 0..segs {
+            let ph = std::f32::consts::TAU * s as f32 / segs as f32;
+            m.positions.push(centre + radius * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()));
+        }
+    }
+    let at = |r: usize, s: usize| (r * segs + s % segs) as u32;
+    for r in 0..rings {
+        for s in 0..segs {
+            m.indices.extend([at(r, s), at(r, s + 1), at(r + 1, s + 1), at(r, s), at(r + 1, s + 1), at(r + 1, s)]);
+        }
+    }
+    m.compute_normals();
     m
 }

@@ -21,17 +21,22 @@ use std::sync::OnceLock;
 /// Samples of the table over `t ∈ [−1, 1]`.
 const SAMPLES: usize = 1025;
 
+/// A square of zero size: visible where `d > 0`, half at the boundary itself.
+fn step(d: f64) -> f64 {
+    if d > 0.0 {
+        1.0
+    } else if d < 0.0 {
+        0.0
+    } else {
+        0.5
+    }
+}
+
 /// `F_θ(d)` for half-widths `a ≥ 0`, `b ≥ 0` of the two uniform variables.
 pub fn cut_fraction(d: f64, a: f64, b: f64) -> f64 {
     let (a, b) = if a >= b { (a, b) } else { (b, a) };
     if a <= 0.0 {
-        return if d > 0.0 {
-            1.0
-        } else if d < 0.0 {
-            0.0
-        } else {
-            0.5
-        };
+        return step(d);
     }
     if b <= 1e-12 * a {
         return ((d + a) / (2.0 * a)).clamp(0.0, 1.0);
@@ -115,13 +120,7 @@ fn table() -> &'static [f32] {
 /// A square of zero size is visible exactly where `d > 0`.
 pub fn coverage(d: f32, r: f32) -> f32 {
     if r.is_nan() || r <= 0.0 {
-        return if d > 0.0 {
-            1.0
-        } else if d < 0.0 {
-            0.0
-        } else {
-            0.5
-        };
+        return step(f64::from(d)) as f32;
     }
     let t = d / r;
     // NaN distances count as invisible.

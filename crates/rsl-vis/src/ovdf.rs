@@ -46,6 +46,14 @@ impl OvdfParams {
     pub const DRAFT: OvdfParams = OvdfParams { shells: 8, m: 8, n: 16, supersample: 2, vectors: 4 };
     /// Xu et al.: 16 shells × 6×32×32 samples, 32×32 tables, 8 vectors.
     pub const PAPER: OvdfParams = OvdfParams { shells: 16, m: 32, n: 32, supersample: 2, vectors: 8 };
+
+    /// Checks that the resolutions can make a field: even M ≥ 2, S ≥ 2, N ≥ 2.
+    pub fn check(&self) -> Result<(), String> {
+        if self.m < 2 || !self.m.is_multiple_of(2) || self.shells < 2 || self.n < 2 {
+            return Err(format!("OVDF resolution needs even M ≥ 2, S ≥ 2, N ≥ 2; got {self:?}"));
+        }
+        Ok(())
+    }
 }
 
 /// Inner and outer shell radii in bounding radii.
@@ -81,9 +89,7 @@ impl Ovdf {
     /// Builds the field of `mesh` (object space).
     pub fn build(mesh: &TriMesh, params: &OvdfParams) -> Result<Self, VisError> {
         mesh.validate().map_err(|e| VisError::Mesh(e.to_string()))?;
-        if params.m < 2 || !params.m.is_multiple_of(2) || params.shells < 2 || params.n < 2 {
-            return Err(VisError::Mesh(format!("OVDF resolution needs even M ≥ 2, S ≥ 2, N ≥ 2; got {params:?}")));
-        }
+        params.check().map_err(VisError::Mesh)?;
         let occluder = Occluder::new(mesh)?;
         let (centre, radius) = mesh.bounding_sphere().unwrap_or_default();
         let radius = radius.max(1e-6);
@@ -180,9 +186,7 @@ impl Ovdf {
         errors: [f32; 2],
     ) -> Result<Self, String> {
         let half = params.m / 2;
-        if params.m < 2 || !params.m.is_multiple_of(2) || params.shells < 2 || params.n < 2 {
-            return Err(format!("bad resolutions {params:?}"));
-        }
+        params.check()?;
         if segments.len() != params.shells * 24 {
             return Err(format!("{} segments for {} shells", segments.len(), params.shells));
         }

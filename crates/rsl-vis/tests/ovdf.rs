@@ -7,24 +7,11 @@ use rsl_sphere::mesh::TriMesh;
 use rsl_vis::ovdf::sample_plane_point;
 use rsl_vis::{Ovdf, OvdfParams};
 
+#[path = "../benches/common.rs"]
+mod common;
+
 fn sphere(radius: f32, rings: usize) -> TriMesh {
-    let segs = 2 * rings;
-    let mut m = TriMesh::default();
-    for r in 0..=rings {
-        let th = std::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..segs {
-            let ph = std::f32::consts::TAU * s as f32 / segs as f32;
-            m.positions.push(radius * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()));
-        }
-    }
-    let at = |r: usize, s: usize| (r * segs + s % segs) as u32;
-    for r in 0..rings {
-        for s in 0..segs {
-            m.indices.extend([at(r, s), at(r, s + 1), at(r + 1, s + 1), at(r, s), at(r + 1, s + 1), at(r + 1, s)]);
-        }
-    }
-    m.compute_normals();
-    m
+    common::uv_sphere(Vec3::ZERO, radius, rings)
 }
 
 /// The rotation-averaged visible fraction of the square (half-diagonal r) around `dir`, in

@@ -7,26 +7,9 @@ use rsl_sphere::mesh::TriMesh;
 use rsl_sphere::sampling::Pcg32;
 use rsl_vis::{Occluder, VisError, VisibilityMap, coverage};
 
-/// A UV sphere (rings × 2·rings segments), wound outward.
-fn sphere(centre: Vec3, radius: f32, rings: usize) -> TriMesh {
-    let segs = 2 * rings;
-    let mut m = TriMesh::default();
-    for r in 0..=rings {
-        let th = std::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..segs {
-            let ph = std::f32::consts::TAU * s as f32 / segs as f32;
-            m.positions.push(centre + radius * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()));
-        }
-    }
-    let at = |r: usize, s: usize| (r * segs + s % segs) as u32;
-    for r in 0..rings {
-        for s in 0..segs {
-            m.indices.extend([at(r, s), at(r, s + 1), at(r + 1, s + 1), at(r, s), at(r + 1, s + 1), at(r + 1, s)]);
-        }
-    }
-    m.compute_normals();
-    m
-}
+#[path = "../benches/common.rs"]
+mod common;
+use common::uv_sphere as sphere;
 
 /// Brute-force visible fraction of the rotatable square (half-diagonal r, centre p) against a
 /// predicate on plane points: averaged over 16 rotations of a 48×48 point grid each.
