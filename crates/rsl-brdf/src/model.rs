@@ -209,11 +209,11 @@ impl Brdf {
             Brdf::Phong { exponent, specular, diffuse } => {
                 let r = Vec3::new(-wo.x, -wo.y, wo.z);
                 let c = r.dot(wi).max(0.0);
-                specular * ((exponent + 2.0) / (2.0 * PI) * c.powf(exponent)) + diffuse * FRAC_1_PI
+                specular * ((exponent + 2.0) / (2.0 * PI) * lobe_power(c, exponent)) + diffuse * FRAC_1_PI
             }
             Brdf::BlinnPhong { exponent, specular, diffuse } => {
                 let Some(h) = half_vector(wi, wo) else { return diffuse * FRAC_1_PI };
-                let d = (exponent + 2.0) / (2.0 * PI) * h.z.powf(exponent);
+                let d = (exponent + 2.0) / (2.0 * PI) * lobe_power(h.z, exponent);
                 specular * (d * h.z / (4.0 * wo.dot(h).max(1e-12) * ci.max(co))) + diffuse * FRAC_1_PI
             }
             Brdf::CookTorrance { alpha, specular, diffuse } => {
@@ -249,6 +249,14 @@ impl Brdf {
     pub fn eval_cos(&self, wi: Vec3, wo: Vec3) -> Vec3 {
         self.eval(wi, wo) * wi.z.max(0.0)
     }
+}
+
+/// `cⁿ` for `c ∈ [0, 1]`, returning 0 without a `powf` where `n(1 − c) > 28`: since
+/// `ln c ≤ −(1 − c)`, the true value there is below `e⁻²⁸ ≈ 7·10⁻¹³`, far below what f32
+/// keeps next to the lobe's peak.
+#[inline]
+fn lobe_power(c: f32, n: f32) -> f32 {
+    if n * (1.0 - c) > 28.0 { 0.0 } else { c.powf(n) }
 }
 
 fn half_vector(wi: Vec3, wo: Vec3) -> Option<Vec3> {
