@@ -309,16 +309,34 @@ struct QuadraturePoints {
     centres: Vec<Vec3>,
 }
 
-/// 2×2 Gauss–Legendre abscissae on `[0, 1]`.
-fn gauss2() -> (f64, f64) {
-    (0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt())
+/// The 2×2 Gauss–Legendre points of the plane square `[x0, x0 + side] × [y0, y0 + side]`.
+fn gauss_points(x0: f64, y0: f64, side: f64) -> [Vec2; 4] {
+    let (lo, hi) = (0.5 - 0.5 / 3f64.sqrt(), 0.5 + 0.5 / 3f64.sqrt());
+    [(lo, lo), (hi, lo), (lo, hi), (hi, hi)].map(|(a, b)| Vec2::new((x0 + a * side) as f32, (y0 + b * side) as f32))
+}
+
+/// The 2×2 Gauss–Legendre rule over a square of side `side` (exact for bicubic integrands,
+/// the same four evaluations as a midpoint rule but fourth-order accurate): each point
+/// carries a quarter of the square's solid angle `2·side²`; points below the horizon add
+/// nothing.
+fn gauss_sum(brdf: &Brdf, wo: Vec3, side: f64, points: impl Iterator<Item = (Vec3, bool)>) -> [f64; 3] {
+    let weight = 0.5 * side * side;
+    let mut sum = [0.0; 3];
+    for (d, inside) in points {
+        if inside {
+            let v = brdf.eval_cos(d, wo);
+            for c in 0..3 {
+                sum[c] += f64::from(v[c]) * weight;
+            }
+        }
+    }
+    sum
 }
 
 impl QuadraturePoints {
     fn new(grid: &HemiGrid) -> Self {
         let n = grid.n();
         let h = 2.0 / n as f64;
-        let (lo, hi) = gauss2();
         let mut dirs = Vec::with_capacity(n * n);
         let mut inside = Vec::with_capacity(n * n);
         let mut centres = Vec::with_capacity(n * n);
@@ -326,8 +344,7 @@ impl QuadraturePoints {
             for i in 0..n {
                 let [x0, y0, ..] = grid.cell_rect(i, j);
                 centres.push(dir_from_hemi(Vec2::new((x0 + 0.5 * h) as f32, (y0 + 0.5 * h) as f32)));
-                let pts = [(lo, lo), (hi, lo), (lo, hi), (hi, hi)]
-                    .map(|(a, b)| Vec2::new((x0 + a * h) as f32, (y0 + b * h) as f32));
+                let pts = gauss_points(x0, y0, h);
                 inside.push(pts.map(|p| p.length_squared() < 1.0));
                 dirs.push(pts.map(dir_from_hemi));
             }
@@ -361,19 +378,7 @@ fn slice(brdf: &Brdf, grid: &HemiGrid, points: &QuadraturePoints, wo: Vec3, mirr
             let near = near_cos.is_some_and(|c| points.centres[k].dot(mirror) > c);
             let e = match near && refine(width, mirror, x0, y0, h, 0) {
                 true => integrate(brdf, wo, mirror, width, x0, y0, h, 0),
-                false => {
-                    let weight = 0.5 * h * h;
-                    let mut sum = [0.0; 3];
-                    for (d, &inside) in points.dirs[k].iter().zip(&points.inside[k]) {
-                        if inside {
-                            let v = brdf.eval_cos(*d, wo);
-                            for c in 0..3 {
-                                sum[c] += f64::from(v[c]) * weight;
-                            }
-                        }
-                    }
-                    sum
-                }
+                false => gauss_sum(brdf, wo, h, points.dirs[k].iter().copied().zip(points.inside[k])),
             };
             let omega = grid.cell_solid_angle_above(i, j);
             if omega > 0.0 {
@@ -445,21 +450,6 @@ fn integrate(
         }
         return sum;
     }
-    // 2×2 Gauss–Legendre rule (exact for bicubic integrands, the same four evaluations as a
-    // midpoint rule but fourth-order accurate); each point carries a quarter of the square's
-    // solid angle 2·side², points outside the unit disk (below the horizon) nothing.
-    let weight = 0.5 * side * side;
-    let (lo, hi) = gauss2();
-    let mut sum = [0.0; 3];
-    for (a, b) in [(lo, lo), (hi, lo), (lo, hi), (hi, hi)] {
-        let p = Vec2::new((x0 + a * side) as f32, (y0 + b * side) as f32);
-        if p.length_squared() >= 1.0 {
-            continue;
-        }
-        let v = brdf.eval_cos(dir_from_hemi(p), wo);
-        for c in 0..3 {
-            sum[c] += f64::from(v[c]) * weight;
-        }
-    }
-    sum
+    let pts = gauss_points(x0, y0, side);
+    gauss_sum(brdf, wo, side, pts.iter().map(|&p| (dir_from_hemi(p), p.length_squared() < 1.0)))
 }

@@ -275,27 +275,26 @@ impl Decomposition {
         node.step <= s && (node.parent == NONE || self.nodes[node.parent as usize].step > s)
     }
 
+    /// Ids of the nodes alive after `s` merges, brightest (by luminance energy) first.
+    fn alive_sorted(&self, s: u32) -> Vec<u32> {
+        let mut alive: Vec<u32> =
+            (0..self.nodes.len() as u32).filter(|&i| self.alive_at(&self.nodes[i as usize], s)).collect();
+        let lum = |i: u32| crate::cube_env::luminance_f64(self.nodes[i as usize].info.energy);
+        alive.sort_by(|&a, &b| lum(b).total_cmp(&lum(a)));
+        alive
+    }
+
     /// The `n` RSLs, brightest (by luminance energy) first.
     pub fn rsls(&self, n: usize) -> Result<Vec<RslInfo>, EnvError> {
         let s = self.check(n)?;
-        let mut out: Vec<RslInfo> = self.nodes.iter().filter(|x| self.alive_at(x, s)).map(|x| x.info).collect();
-        out.sort_by(|a, b| {
-            crate::cube_env::luminance_f64(b.energy).total_cmp(&crate::cube_env::luminance_f64(a.energy))
-        });
-        Ok(out)
+        Ok(self.alive_sorted(s).into_iter().map(|i| self.nodes[i as usize].info).collect())
     }
 
     /// For every texel, the index (in [`Decomposition::rsls`] order) of its region at `n`.
     pub fn regions(&self, n: usize) -> Result<Vec<u32>, EnvError> {
         let s = self.check(n)?;
-        let mut alive: Vec<u32> =
-            (0..self.nodes.len() as u32).filter(|&i| self.alive_at(&self.nodes[i as usize], s)).collect();
-        alive.sort_by(|&a, &b| {
-            let (ea, eb) = (self.nodes[a as usize].info.energy, self.nodes[b as usize].info.energy);
-            crate::cube_env::luminance_f64(eb).total_cmp(&crate::cube_env::luminance_f64(ea))
-        });
         let mut rank = vec![NONE; self.nodes.len()];
-        for (k, &i) in alive.iter().enumerate() {
+        for (k, i) in self.alive_sorted(s).into_iter().enumerate() {
             rank[i as usize] = k as u32;
         }
         Ok((0..self.leaves)

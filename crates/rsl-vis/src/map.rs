@@ -156,12 +156,6 @@ pub struct Vdt {
 }
 
 impl Vdt {
-    /// A table from row-major distances on an `n×n` grid.
-    pub fn from_values(n: usize, d: Vec<f32>) -> Self {
-        assert_eq!(d.len(), n * n, "one distance per cell");
-        Self { n, d }
-    }
-
     /// Distances, row-major.
     pub fn values(&self) -> &[f32] {
         &self.d

@@ -72,6 +72,9 @@ pub struct Ovdf {
     params: OvdfParams,
     /// `shells × 24` segments.
     segments: Vec<Cpca>,
+    /// Each cube texel's sample frame, `Frame::from_normal(−u)` (computed once: lookups read
+    /// eight of them).
+    frames: Vec<Frame>,
     /// Bytes uncompressed, f32, f16; RMS distance error.
     pub raw_bytes: usize,
     /// Compressed bytes with f32 coefficients.
@@ -153,17 +156,15 @@ impl Ovdf {
         let bytes_f16 = segments.iter().map(|c| c.bytes(2)).sum();
         let rms_distance_error = (sq / count.max(1) as f64).sqrt() as f32;
         let rms_coverage_error = (cov_sq / cov_count.max(1) as f64).sqrt() as f32;
-        Ok(Self {
+        Self::from_parts(
             centre,
             radius,
-            params: *params,
+            *params,
             segments,
-            raw_bytes,
-            bytes_f32,
-            bytes_f16,
-            rms_distance_error,
-            rms_coverage_error,
-        })
+            [raw_bytes, bytes_f32, bytes_f16],
+            [rms_distance_error, rms_coverage_error],
+        )
+        .map_err(VisError::Mesh)
     }
 
     /// Resolutions the field was built with.
@@ -200,11 +201,14 @@ impl Ovdf {
             return Err("bad bounding sphere".into());
         }
         let ([raw_bytes, bytes_f32, bytes_f16], [rms_distance_error, rms_coverage_error]) = (bytes, errors);
+        let grid = CubeGrid::new(params.m);
+        let frames = (0..grid.len()).map(|t| Frame::from_normal(-grid.texel_dir(t))).collect();
         Ok(Self {
             centre,
             radius,
             params,
             segments,
+            frames,
             raw_bytes,
             bytes_f32,
             bytes_f16,
@@ -225,8 +229,7 @@ impl Ovdf {
         let (face, i, j) = grid.coords(t);
         let seg = &self.segments[(s * 6 + face) * 4 + (j / half) * 2 + i / half];
         let local_index = (j % half) * half + i % half;
-        let frame = Frame::from_normal(-grid.texel_dir(t));
-        let p = hemi_from_dir(frame.to_local(dir));
+        let p = hemi_from_dir(self.frames[t].to_local(dir));
         bilinear_cells(self.params.n, p, |k| seg.value(local_index, k))
     }
 
