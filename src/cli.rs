@@ -28,6 +28,21 @@ pub enum Command {
     /// Decompose an environment map into rotatable square lights (Xu et al. 2006, §4.1) and
     /// print a one-line summary; optionally write every RSL as JSON and a figure as PNG.
     Decompose(DecomposeArgs),
+    /// Precompute (or load from the cache) everything a scene needs: RSLs, BRDF tables,
+    /// self-visibility and occluder fields.
+    Precompute {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Precomputation options.
+        #[command(flatten)]
+        prepare: crate::render::PrepareArgs,
+    },
+    /// Render a scene to an image (PNG or EXR) or an animation, optionally with its shaded
+    /// vertices as PLY.
+    Render(crate::render::RenderArgs),
+    /// Render the bundled default scene as an animation (objects moving, the environment
+    /// turning, a material swapped halfway) into a folder, and print timings.
+    Demo(crate::render::DemoArgs),
 }
 
 /// Arguments of `rsl decompose`.
@@ -56,6 +71,9 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Scene { scene, time } => scene_summary(&scene, time),
         Command::Decompose(args) => crate::decompose::run(&args),
+        Command::Precompute { scene, prepare } => crate::render::precompute(&scene, &prepare),
+        Command::Render(args) => crate::render::render(&args),
+        Command::Demo(args) => crate::render::demo(&args),
     }
 }
 

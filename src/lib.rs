@@ -4,10 +4,15 @@
 //! The root package holds the engine (scene → prepared data → frame) and the `rsl`
 //! command-line tool; the stages live in the `rsl-*` crates (see ARCHITECTURE.md).
 
+pub mod cache;
 pub mod cli;
 pub mod decompose;
+pub mod engine;
 pub mod output;
+pub mod ply;
+pub mod render;
 
+pub use engine::{Engine, EngineOptions, ShadedFrame};
 pub use rsl_env as env;
 pub use rsl_scene as scene;
 pub use rsl_sphere as sphere;

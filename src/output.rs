@@ -24,6 +24,33 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: Vec<u8>) -> Result<(
     write_atomic(path, bytes.get_ref())
 }
 
+/// Writes linear RGB pixels as an OpenEXR file (32-bit float channels), atomically.
+pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[glam::Vec3]) -> Result<()> {
+    let data: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
+    let img = image::Rgb32FImage::from_raw(width, height, data).context("image buffer does not match its size")?;
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut bytes, image::ImageFormat::OpenExr).context("OpenEXR encoding failed")?;
+    write_atomic(path, bytes.get_ref())
+}
+
+/// Writes 8-bit RGB frames as a looping animated GIF at `fps` frames per second, atomically.
+pub fn write_gif(path: &Path, width: u32, height: u32, frames: &[Vec<u8>], fps: f32) -> Result<()> {
+    use image::codecs::gif::{GifEncoder, Repeat};
+    let mut bytes = Vec::new();
+    {
+        let mut enc = GifEncoder::new_with_speed(&mut bytes, 10);
+        enc.set_repeat(Repeat::Infinite).context("GIF encoding failed")?;
+        let delay = image::Delay::from_numer_denom_ms(1000, fps.max(1e-3).round().max(1.0) as u32);
+        for rgb in frames {
+            let rgba: Vec<u8> = rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect();
+            let buf =
+                image::RgbaImage::from_raw(width, height, rgba).context("frame buffer does not match its size")?;
+            enc.encode_frame(image::Frame::from_parts(buf, 0, 0, delay)).context("GIF encoding failed")?;
+        }
+    }
+    write_atomic(path, &bytes)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

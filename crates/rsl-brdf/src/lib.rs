@@ -9,4 +9,4 @@ pub mod model;
 pub mod table;
 
 pub use model::{Brdf, ParamError};
-pub use table::{BrdfTable, Resolution, SquareIntegral, Views};
+pub use table::{BrdfTable, Resolution, SquareIntegral, ViewLookup, Views};

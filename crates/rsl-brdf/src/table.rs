@@ -91,6 +91,34 @@ pub struct BrdfTable {
     max_density: Vec3,
 }
 
+/// The view-dependent part of a square query (see [`BrdfTable::view_lookup`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ViewLookup {
+    /// The view is at or below the horizon: nothing is reflected.
+    Below,
+    /// A view-independent table.
+    Single,
+    /// Rotation to azimuth 0 (`cos φ`, `sin φ`) and the two polar slices `slice`, `slice + 1`
+    /// blended by `weight`.
+    Isotropic {
+        /// `cos φ_v`.
+        cos: f32,
+        /// `sin φ_v`.
+        sin: f32,
+        /// Lower slice.
+        slice: usize,
+        /// Weight of the upper slice.
+        weight: f32,
+    },
+    /// The view grid node below and left of the view, and the bilinear weights.
+    Anisotropic {
+        /// `(i, j)` of the node.
+        node: [usize; 2],
+        /// `(fx, fy)`.
+        weight: [f32; 2],
+    },
+}
+
 /// The result of a square query.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SquareIntegral {
@@ -193,30 +221,31 @@ impl BrdfTable {
     ///
     /// For isotropic BRDFs both directions are first rotated about the normal so the view has
     /// azimuth 0 (the square keeps its orientation relative to that frame: RSLs may rotate).
-    /// Views at or below the horizon reflect nothing.
+    /// Views at or below the horizon reflect nothing. The same as
+    /// `square_for(&view_lookup(view), light, r)`.
     pub fn square(&self, light: Vec3, r: f32, view: Vec3) -> SquareIntegral {
-        let r = if r.is_finite() { r.max(0.0) } else { 0.0 };
-        let solid_angle = 4.0 * r * r;
-        let zero = SquareIntegral { integral: Vec3::ZERO, solid_angle, average: Vec3::ZERO };
-        if view.z.is_nan() || view.z <= 0.0 || !light.is_finite() {
-            return zero;
+        self.square_for(&self.view_lookup(view), light, r)
+    }
+
+    /// Where `view` (unit, local frame) falls among the tabulated views: the part of a square
+    /// query that depends on the view alone, computed once per vertex and reused for every
+    /// light.
+    pub fn view_lookup(&self, view: Vec3) -> ViewLookup {
+        if view.z.is_nan() || view.z <= 0.0 {
+            return ViewLookup::Below;
         }
-        let s = r / std::f32::consts::SQRT_2;
-        let integral = match &self.views {
-            Views::Single => self.box_integral(0, hemi_from_dir(light), s),
+        match &self.views {
+            Views::Single => ViewLookup::Single,
             Views::Isotropic(thetas) => {
                 let rxy = Vec2::new(view.x, view.y).length();
-                let (c, sn) = if rxy > 1e-12 { (view.x / rxy, view.y / rxy) } else { (1.0, 0.0) };
-                // Rotate by −φ_v about z.
-                let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
-                let p = hemi_from_dir(l);
+                let (cos, sin) = if rxy > 1e-12 { (view.x / rxy, view.y / rxy) } else { (1.0, 0.0) };
                 let theta = view.z.clamp(-1.0, 1.0).acos().min(theta_max());
                 // Invert θ = θ_max(1 − (1 − t)²): t = 1 − √(1 − θ/θ_max).
                 let v = thetas.len();
                 let t = (1.0 - (1.0 - theta / theta_max()).max(0.0).sqrt()) * (v - 1) as f32;
                 let k = (t.floor() as usize).min(v - 2);
                 let f = (t - k as f32).clamp(0.0, 1.0);
-                self.box_integral(k, p, s) * (1.0 - f) + self.box_integral(k + 1, p, s) * f
+                ViewLookup::Isotropic { cos, sin, slice: k, weight: f }
             }
             Views::Anisotropic(v) => {
                 let v = *v;
@@ -225,7 +254,31 @@ impl BrdfTable {
                 let x = ((q.x + 1.0) * 0.5 * (v - 1) as f32).clamp(0.0, (v - 1) as f32);
                 let y = ((q.y + 1.0) * 0.5 * (v - 1) as f32).clamp(0.0, (v - 1) as f32);
                 let (i, j) = ((x.floor() as usize).min(v - 2), (y.floor() as usize).min(v - 2));
-                let (fx, fy) = (x - i as f32, y - j as f32);
+                ViewLookup::Anisotropic { node: [i, j], weight: [x - i as f32, y - j as f32] }
+            }
+        }
+    }
+
+    /// [`BrdfTable::square`] for a view already located by [`BrdfTable::view_lookup`].
+    pub fn square_for(&self, view: &ViewLookup, light: Vec3, r: f32) -> SquareIntegral {
+        let r = if r.is_finite() { r.max(0.0) } else { 0.0 };
+        let solid_angle = 4.0 * r * r;
+        let zero = SquareIntegral { integral: Vec3::ZERO, solid_angle, average: Vec3::ZERO };
+        if !light.is_finite() {
+            return zero;
+        }
+        let s = r / std::f32::consts::SQRT_2;
+        let integral = match *view {
+            ViewLookup::Below => return zero,
+            ViewLookup::Single => self.box_integral(0, hemi_from_dir(light), s),
+            ViewLookup::Isotropic { cos: c, sin: sn, slice: k, weight: f } => {
+                // Rotate by −φ_v about z.
+                let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
+                let p = hemi_from_dir(l);
+                self.box_integral(k, p, s) * (1.0 - f) + self.box_integral(k + 1, p, s) * f
+            }
+            ViewLookup::Anisotropic { node: [i, j], weight: [fx, fy] } => {
+                let Views::Anisotropic(v) = self.views else { return zero };
                 let p = hemi_from_dir(light);
                 let half = v.div_ceil(2);
                 // Node (a, b) is the stored node (min(a, v−1−a), min(b, v−1−b)) mirrored.

@@ -1,4 +1,10 @@
-//! CPU frame shading (the multiple product approximation, Xu et al. 2006 eq. 5) and the CPU
-//! rasteriser.
-//!
-//! Not built yet: this crate is filled by the CPU shading work.
+//! CPU frame shading with rotatable square lights and the multiple product approximation
+//! (Xu et al. 2006, eq. 5 and fig. 8): a plain reference loop and a rayon fast path, the CPU
+//! rasteriser that draws the shaded vertices, and display encoding.
+
+pub mod raster;
+pub mod shade;
+pub mod tonemap;
+
+pub use raster::{Image, RasterMesh, rasterise};
+pub use shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, VertexFrames, shade, shade_reference};

@@ -1,0 +1,414 @@
+//! Per-vertex shading with the multiple product approximation (Xu et al. 2006, eq. 5 and
+//! fig. 8).
+//!
+//! For a vertex `x` with view `v` toward the eye, over the RSLs `⟨c_i, r_i, I_i⟩`:
+//!
+//! `B = Σ_i I_i · ∫_{square_i} ρ cos θ dω · cover_self(square_i) · Π_j cover_Oj(square_i)`
+//!
+//! which is `Σ E_i · avg_ρ · cover_self · Π cover_Oj` with the energy `E_i = I_i·4r_i²`.
+//!
+//! - The BRDF square lies in the vertex's shading frame in world space: the object-space
+//!   frame (normal, and tangent for anisotropic materials) carried by the object's current
+//!   rotation and scale (normals by `R·S⁻¹`, tangents by `R·S`).
+//! - Self visibility is looked up in the vertex's object-space frame `Frame::from_normal(n)`
+//!   (as the SVDF was built), with the light direction carried into object space by
+//!   `S⁻¹·R⁻¹`: ray casting commutes with affine maps, so the direction is exact under any
+//!   scale; the square's size is kept.
+//! - Occluder `j` is looked up in its own object space at its current transform: the point
+//!   by `S⁻¹·R⁻¹·(x − t)`, the direction as above.
+//! - Occluder culling: occluder `j` is skipped for RSL `i` when `x` lies beyond the field's
+//!   outer shell (the field holds nothing there), or when the RSL's cone from `x` cannot meet
+//!   `j`'s bounding sphere. The cone's half-angle is the angle from the centre to a corner of
+//!   the square placed on the pole of the hemisphere map, `acos(1 − r²)`.
+//!
+//! [`shade_reference`] is the plain loop over vertices, RSLs and occluders through the
+//! crates' public lookups; [`shade`] is the fast path (rayon over vertex blocks, the view's
+//! table slices and each occluder's proximity found once per vertex, zero terms skipped).
+//! They agree to float rounding.
+
+use glam::{Mat3, Vec2, Vec3};
+use rayon::prelude::*;
+use rsl_brdf::{BrdfTable, ViewLookup};
+use rsl_scene::Transform;
+use rsl_sphere::Frame;
+use rsl_sphere::hemi::hemi_from_dir;
+use rsl_sphere::mesh::TriMesh;
+use rsl_vis::ovdf::OUTER;
+use rsl_vis::{Ovdf, Svdf};
+
+/// A rotatable square light in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    /// Unit centre direction (world space, toward the light).
+    pub dir: Vec3,
+    /// Half-diagonal of the square in the hemisphere plane (solid angle `4r²`).
+    pub half_diagonal: f32,
+    /// Uniform radiance (RGB).
+    pub radiance: Vec3,
+}
+
+impl Light {
+    /// Half-angle of the cone around `dir` that contains the square: the angle to a corner
+    /// of the square centred on the pole of the hemisphere map, `acos(1 − r²)` (π once the
+    /// square reaches past the equator of the map's plane).
+    pub fn cone_half_angle(&self) -> f32 {
+        let r2 = self.half_diagonal * self.half_diagonal;
+        if r2.is_finite() { (1.0 - r2).clamp(-1.0, 1.0).acos() } else { std::f32::consts::PI }
+    }
+}
+
+/// The per-vertex frames an object needs, computed once from its mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexFrames {
+    /// `Frame::from_normal(n)` per vertex (object space): the frame of the self-visibility
+    /// field.
+    pub visibility: Vec<Frame>,
+    /// Shading frames with the mesh's tangents (object space), for anisotropic BRDFs; `None`
+    /// when the shading frame is the visibility frame.
+    pub tangent: Option<Vec<Frame>>,
+}
+
+impl VertexFrames {
+    /// The frames of `mesh`; `anisotropic` asks for tangent frames (from the mesh's tangents,
+    /// or from a fixed axis when it has none).
+    pub fn new(mesh: &TriMesh, anisotropic: bool) -> Self {
+        let visibility = mesh.normals.iter().map(|&n| Frame::from_normal(n)).collect();
+        let tangent = anisotropic.then(|| match &mesh.tangents {
+            Some(t) => mesh.normals.iter().zip(t).map(|(&n, t)| Frame::from_normal_tangent(n, t.truncate())).collect(),
+            None => {
+                let mut m = mesh.clone();
+                m.compute_tangents_from_axis();
+                let t = m.tangents.unwrap_or_default();
+                mesh.normals.iter().zip(t).map(|(&n, t)| Frame::from_normal_tangent(n, t.truncate())).collect()
+            }
+        });
+        Self { visibility, tangent }
+    }
+
+    /// The object-space shading frame of vertex `v`.
+    pub fn shading(&self, v: usize) -> &Frame {
+        match &self.tangent {
+            Some(t) => &t[v],
+            None => &self.visibility[v],
+        }
+    }
+}
+
+/// One object as the shader sees it: its precomputed data and its current transform.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadeObject<'a> {
+    /// The mesh in object space.
+    pub mesh: &'a TriMesh,
+    /// Its vertex frames.
+    pub frames: &'a VertexFrames,
+    /// The material's table.
+    pub table: &'a BrdfTable,
+    /// Self-visibility (a convex object's field is analytic and stores nothing).
+    pub svdf: &'a Svdf,
+    /// The occluder field, or `None` for an object that casts no shadows.
+    pub ovdf: Option<&'a Ovdf>,
+    /// The current transform.
+    pub transform: Transform,
+}
+
+/// Which terms of the product are evaluated (all of them by default); leaving some out
+/// measures what they cost.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Terms {
+    /// Self-visibility (the SVDF).
+    pub self_visibility: bool,
+    /// Other objects' shadows (the OVDFs).
+    pub occluders: bool,
+}
+
+impl Default for Terms {
+    fn default() -> Self {
+        Self { self_visibility: true, occluders: true }
+    }
+}
+
+/// What a frame cost, in lookups.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameStats {
+    /// Vertices shaded.
+    pub vertices: u64,
+    /// Vertices facing away from the eye (nothing reflected, nothing looked up).
+    pub back_facing: u64,
+    /// BRDF square lookups.
+    pub brdf_lookups: u64,
+    /// Self-visibility lookups.
+    pub self_lookups: u64,
+    /// Occluder-field lookups.
+    pub occluder_lookups: u64,
+    /// (vertex, RSL, occluder) triples skipped by culling.
+    pub occluders_culled: u64,
+}
+
+impl FrameStats {
+    fn add(mut self, o: Self) -> Self {
+        self.vertices += o.vertices;
+        self.back_facing += o.back_facing;
+        self.brdf_lookups += o.brdf_lookups;
+        self.self_lookups += o.self_lookups;
+        self.occluder_lookups += o.occluder_lookups;
+        self.occluders_culled += o.occluders_culled;
+        self
+    }
+}
+
+/// The per-frame form of an object: its transform as matrices, and every light's direction
+/// in its object space.
+struct Placed<'a> {
+    object: ShadeObject<'a>,
+    /// `S⁻¹·R⁻¹`: world directions (and offsets) into object space.
+    to_object: Mat3,
+    /// `R·S⁻¹`: object normals to world.
+    normal_to_world: Mat3,
+    /// `R·S`: object tangents (and offsets) to world.
+    linear_to_world: Mat3,
+    /// Light directions in object space (unit).
+    light_dirs: Vec<Vec3>,
+    /// Bounding sphere of the occluder field in world space, and its object-space form.
+    bound: Option<Bound>,
+}
+
+#[derive(Clone, Copy)]
+struct Bound {
+    centre_world: Vec3,
+    radius_world: f32,
+    centre_object: Vec3,
+    /// Beyond this object-space distance from the centre the field holds nothing.
+    reach_object: f32,
+}
+
+impl<'a> Placed<'a> {
+    fn new(object: ShadeObject<'a>, lights: &[Light]) -> Self {
+        let t = object.transform;
+        let r = Mat3::from_quat(t.rotation);
+        let inv_scale = Mat3::from_diagonal(t.scale.recip());
+        let scale = Mat3::from_diagonal(t.scale);
+        let to_object = inv_scale * r.transpose();
+        let light_dirs = lights.iter().map(|l| (to_object * l.dir).normalize_or_zero()).collect();
+        let bound = object.ovdf.map(|f| {
+            let (c, radius) = f.bounds();
+            Bound {
+                centre_world: t.translation + r * (scale * c),
+                radius_world: radius * t.scale.max_element(),
+                centre_object: c,
+                reach_object: OUTER * radius,
+            }
+        });
+        Self { object, to_object, normal_to_world: r * inv_scale, linear_to_world: r * scale, light_dirs, bound }
+    }
+
+    fn point_to_object(&self, x: Vec3) -> Vec3 {
+        self.to_object * (x - self.object.transform.translation)
+    }
+
+    fn position(&self, v: usize) -> Vec3 {
+        self.object.transform.translation + self.linear_to_world * self.object.mesh.positions[v]
+    }
+
+    /// The world-space shading frame of vertex `v`.
+    fn shading_frame(&self, v: usize) -> Frame {
+        let f = self.object.frames.shading(v);
+        Frame::from_normal_tangent(self.normal_to_world * f.n, self.linear_to_world * f.t)
+    }
+}
+
+/// An occluder near a vertex: where the vertex lies in the occluder's space, and the sphere
+/// test's inputs.
+#[derive(Clone, Copy)]
+struct Near {
+    j: usize,
+    x_object: Vec3,
+    /// Unit direction from the vertex to the bounding-sphere centre (world).
+    to_centre: Vec3,
+    /// Angular radius of the bounding sphere seen from the vertex; `None` when the vertex is
+    /// inside the sphere (nothing can be culled).
+    angular_radius: Option<f32>,
+}
+
+/// Whether the cone of half-angle `cone` around `dir` misses the sphere of `near`.
+fn culled(near: &Near, dir: Vec3, cone: f32) -> bool {
+    match near.angular_radius {
+        None => false,
+        Some(beta) => {
+            let gamma = dir.dot(near.to_centre).clamp(-1.0, 1.0).acos();
+            gamma > cone + beta
+        }
+    }
+}
+
+/// The occluder `j` as seen from the world point `x`, or `None` when `x` lies beyond its
+/// field (which then occludes nothing).
+fn near(placed: &Placed<'_>, j: usize, x: Vec3) -> Option<Near> {
+    let b = placed.bound?;
+    let x_object = placed.point_to_object(x);
+    if (x_object - b.centre_object).length() >= b.reach_object {
+        return None;
+    }
+    let offset = b.centre_world - x;
+    let dist = offset.length();
+    let angular_radius = (dist > b.radius_world).then(|| (b.radius_world / dist).clamp(0.0, 1.0).asin());
+    let to_centre = if dist > 0.0 { offset / dist } else { Vec3::Y };
+    Some(Near { j, x_object, to_centre, angular_radius })
+}
+
+/// Everything a frame needs: objects at their current transforms, lights, eye.
+pub struct FrameSetup<'a> {
+    placed: Vec<Placed<'a>>,
+    lights: Vec<Light>,
+    cones: Vec<f32>,
+    eye: Vec3,
+    terms: Terms,
+}
+
+impl<'a> FrameSetup<'a> {
+    /// Places the objects and carries every light into every object's space.
+    pub fn new(objects: &[ShadeObject<'a>], lights: &[Light], eye: Vec3, terms: Terms) -> Self {
+        Self {
+            placed: objects.iter().map(|&o| Placed::new(o, lights)).collect(),
+            lights: lights.to_vec(),
+            cones: lights.iter().map(Light::cone_half_angle).collect(),
+            eye,
+            terms,
+        }
+    }
+
+    /// World position of vertex `v` of object `i`.
+    pub fn position(&self, i: usize, v: usize) -> Vec3 {
+        self.placed[i].position(v)
+    }
+
+    /// World normal of vertex `v` of object `i`.
+    pub fn normal(&self, i: usize, v: usize) -> Vec3 {
+        let p = &self.placed[i];
+        (p.normal_to_world * p.object.mesh.normals[v]).normalize_or_zero()
+    }
+
+    /// Radiance of vertex `v` of object `i` toward the eye, and its lookups (the fast path's
+    /// inner loop).
+    fn vertex(&self, i: usize, v: usize, nears: &mut Vec<Near>, stats: &mut FrameStats) -> Vec3 {
+        let p = &self.placed[i];
+        let o = &p.object;
+        stats.vertices += 1;
+        let x = p.position(v);
+        let frame = p.shading_frame(v);
+        let view = frame.to_local((self.eye - x).normalize_or_zero());
+        let lookup = o.table.view_lookup(view);
+        if lookup == ViewLookup::Below {
+            stats.back_facing += 1;
+            return Vec3::ZERO;
+        }
+        nears.clear();
+        if self.terms.occluders {
+            nears.extend((0..self.placed.len()).filter(|&j| j != i).filter_map(|j| near(&self.placed[j], j, x)));
+        }
+        let vis_frame = &o.frames.visibility[v];
+        let mut sum = Vec3::ZERO;
+        for (l, light) in self.lights.iter().enumerate() {
+            let r = light.half_diagonal;
+            stats.brdf_lookups += 1;
+            let brdf = o.table.square_for(&lookup, frame.to_local(light.dir), r).integral;
+            if brdf == Vec3::ZERO {
+                continue;
+            }
+            let mut cover = 1.0;
+            if self.terms.self_visibility {
+                stats.self_lookups += 1;
+                cover = o.svdf.coverage(v, hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
+            }
+            for n in nears.iter() {
+                if cover <= 0.0 {
+                    break;
+                }
+                if culled(n, light.dir, self.cones[l]) {
+                    stats.occluders_culled += 1;
+                    continue;
+                }
+                stats.occluder_lookups += 1;
+                let q = &self.placed[n.j];
+                let field = q.object.ovdf.expect("a near occluder has a field");
+                cover *= field.coverage(n.x_object, q.light_dirs[l], r);
+            }
+            sum += light.radiance * brdf * cover;
+        }
+        sum
+    }
+}
+
+/// Vertices per parallel work item of the fast path.
+const BLOCK: usize = 256;
+
+/// Shades every vertex of every object (the fast path): per object, per vertex, the radiance
+/// toward the eye.
+pub fn shade(setup: &FrameSetup<'_>) -> (Vec<Vec<Vec3>>, FrameStats) {
+    let blocks: Vec<(usize, usize)> = setup
+        .placed
+        .iter()
+        .enumerate()
+        .flat_map(|(i, p)| (0..p.object.mesh.vertex_count().div_ceil(BLOCK)).map(move |b| (i, b)))
+        .collect();
+    let done: Vec<(usize, usize, Vec<Vec3>, FrameStats)> = blocks
+        .par_iter()
+        .map_init(Vec::new, |nears, &(i, b)| {
+            let n = setup.placed[i].object.mesh.vertex_count();
+            let mut stats = FrameStats::default();
+            let out = (b * BLOCK..((b + 1) * BLOCK).min(n)).map(|v| setup.vertex(i, v, nears, &mut stats)).collect();
+            (i, b, out, stats)
+        })
+        .collect();
+    let mut result: Vec<Vec<Vec3>> =
+        setup.placed.iter().map(|p| Vec::with_capacity(p.object.mesh.vertex_count())).collect();
+    let mut stats = FrameStats::default();
+    for (i, _, out, s) in done {
+        result[i].extend(out);
+        stats = stats.add(s);
+    }
+    (result, stats)
+}
+
+/// The reference: the formula as written, one vertex, RSL and occluder at a time, through
+/// the public lookups of rsl-brdf and rsl-vis, with nothing hoisted or skipped.
+pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
+    let mut out = Vec::new();
+    for (i, p) in setup.placed.iter().enumerate() {
+        let o = &p.object;
+        let mut radiance = Vec::with_capacity(o.mesh.vertex_count());
+        for v in 0..o.mesh.vertex_count() {
+            let x = p.position(v);
+            let frame = p.shading_frame(v);
+            let view = frame.to_local((setup.eye - x).normalize_or_zero());
+            let vis_frame = Frame::from_normal(o.mesh.normals[v]);
+            let mut sum = Vec3::ZERO;
+            for (l, light) in setup.lights.iter().enumerate() {
+                let r = light.half_diagonal;
+                let brdf = o.table.square(frame.to_local(light.dir), r, view).integral;
+                let mut cover = 1.0;
+                if setup.terms.self_visibility {
+                    let d = (p.to_object * light.dir).normalize_or_zero();
+                    let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
+                    cover = o.svdf.coverage(v, q, r);
+                }
+                if setup.terms.occluders {
+                    for (j, q) in setup.placed.iter().enumerate() {
+                        if j == i {
+                            continue;
+                        }
+                        let Some(n) = near(q, j, x) else { continue };
+                        if culled(&n, light.dir, setup.cones[l]) {
+                            continue;
+                        }
+                        let d = (q.to_object * light.dir).normalize_or_zero();
+                        cover *= q.object.ovdf.expect("near() needs a field").coverage(n.x_object, d, r);
+                    }
+                }
+                sum += light.radiance * brdf * cover;
+            }
+            radiance.push(sum);
+        }
+        out.push(radiance);
+    }
+    out
+}

@@ -1,0 +1,196 @@
+//! The precomputation cache (DESIGN.md): results keyed by a hash of their inputs, their
+//! parameters and a format version, held in memory for the session and on disk between runs.
+//!
+//! On disk, visibility fields use rsl-vis's checksummed format (`svdf-<key>.bin`,
+//! `ovdf-<key>.bin`) and RSL sets this module's (`rsl-<key>.bin`): magic, version, payload
+//! length, FNV-1a 64 checksum, little-endian payload. A stale, truncated or corrupt file is
+//! reported, removed and recomputed, never used. Files are written atomically.
+//!
+//! BRDF tables are held in memory only: they build in milliseconds (rsl-brdf's README),
+//! about as fast as reading their summed-area tables back from disk.
+
+use glam::Vec3;
+use rsl_env::Rsl;
+use rsl_vis::store::fnv1a64;
+use std::path::{Path, PathBuf};
+
+/// Environment variable naming the cache folder.
+pub const CACHE_ENV: &str = "RSL_CACHE_DIR";
+
+/// The default cache folder: `$RSL_CACHE_DIR`, else `$XDG_CACHE_HOME/rsl`, else
+/// `$HOME/.cache/rsl`; `None` when none of them is set.
+pub fn default_dir() -> Option<PathBuf> {
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    var(CACHE_ENV)
+        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("rsl")))
+        .or_else(|| var("HOME").map(|d| d.join(".cache").join("rsl")))
+}
+
+/// How lookups went since the engine started.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CacheStats {
+    /// Found in memory.
+    pub memory_hits: u64,
+    /// Read from disk.
+    pub disk_hits: u64,
+    /// Not found: computed.
+    pub misses: u64,
+    /// Disk files rejected (stale, truncated, corrupt) and recomputed.
+    pub rejected: u64,
+}
+
+impl CacheStats {
+    /// Memory and disk hits.
+    pub fn hits(&self) -> u64 {
+        self.memory_hits + self.disk_hits
+    }
+}
+
+/// A running 64-bit FNV-1a hash of a key's parts.
+#[derive(Clone, Copy, Debug)]
+pub struct KeyHasher(u64);
+
+impl Default for KeyHasher {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl KeyHasher {
+    /// Mixes in bytes.
+    pub fn bytes(mut self, b: &[u8]) -> Self {
+        for &x in b {
+            self.0 = (self.0 ^ u64::from(x)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self
+    }
+    /// Mixes in a string (with its length, so parts cannot run together).
+    pub fn str(self, s: &str) -> Self {
+        self.u64(s.len() as u64).bytes(s.as_bytes())
+    }
+    /// Mixes in an integer.
+    pub fn u64(self, v: u64) -> Self {
+        self.bytes(&v.to_le_bytes())
+    }
+    /// Mixes in floats, bit for bit.
+    pub fn f32s(self, v: &[f32]) -> Self {
+        v.iter().fold(self, |h, x| h.bytes(&x.to_le_bytes()))
+    }
+    /// The hash.
+    pub fn finish(self) -> u64 {
+        self.0
+    }
+}
+
+/// The key of a mesh: its positions, normals and triangles.
+pub fn mesh_key(mesh: &rsl_sphere::mesh::TriMesh) -> u64 {
+    let mut h = KeyHasher::default().str("mesh").u64(mesh.positions.len() as u64);
+    for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
+        h = h.f32s(&p.to_array()).f32s(&n.to_array());
+    }
+    for &i in &mesh.indices {
+        h = h.bytes(&i.to_le_bytes());
+    }
+    h.finish()
+}
+
+const RSL_MAGIC: [u8; 8] = *b"RSLLIGHT";
+/// Version of the RSL-set file format.
+pub const RSL_VERSION: u32 = 1;
+
+/// Serialises an RSL set (environment space, before intensity).
+pub fn rsls_to_bytes(rsls: &[Rsl]) -> Vec<u8> {
+    let mut payload = Vec::with_capacity(4 + rsls.len() * 28);
+    payload.extend_from_slice(&(rsls.len() as u32).to_le_bytes());
+    for r in rsls {
+        for v in [r.centre.x, r.centre.y, r.centre.z, r.half_diagonal, r.intensity.x, r.intensity.y, r.intensity.z] {
+            payload.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let mut out = Vec::with_capacity(payload.len() + 28);
+    out.extend_from_slice(&RSL_MAGIC);
+    out.extend_from_slice(&RSL_VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    out
+}
+
+/// Reads an RSL set written by [`rsls_to_bytes`], verifying everything.
+pub fn rsls_from_bytes(b: &[u8]) -> Result<Vec<Rsl>, String> {
+    if b.len() < 28 || b[..8] != RSL_MAGIC {
+        return Err("not an rsl light set (bad magic number)".into());
+    }
+    let version = u32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
+    if version != RSL_VERSION {
+        return Err(format!("light set format version {version}, this build reads version {RSL_VERSION}"));
+    }
+    let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
+    let payload = &b[28..];
+    if payload.len() as u64 != len {
+        return Err(format!("light set file is truncated or padded: {} payload bytes, expected {len}", payload.len()));
+    }
+    if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
+        return Err("light set file is corrupt (checksum mismatch)".into());
+    }
+    let count = u32::from_le_bytes(payload[..4].try_into().expect("4 bytes")) as usize;
+    if payload.len() != 4 + count * 28 {
+        return Err(format!("light set file is malformed: {count} lights in {} bytes", payload.len()));
+    }
+    let f = |k: usize| f32::from_le_bytes(payload[k..k + 4].try_into().expect("4 bytes"));
+    let rsls: Vec<Rsl> = (0..count)
+        .map(|i| {
+            let o = 4 + i * 28;
+            Rsl {
+                centre: Vec3::new(f(o), f(o + 4), f(o + 8)),
+                half_diagonal: f(o + 12),
+                intensity: Vec3::new(f(o + 16), f(o + 20), f(o + 24)),
+            }
+        })
+        .collect();
+    if rsls.iter().any(|r| !r.centre.is_finite() || !r.half_diagonal.is_finite() || !r.intensity.is_finite()) {
+        return Err("light set file is malformed: non-finite values".into());
+    }
+    Ok(rsls)
+}
+
+/// Writes `bytes` atomically into the cache (temporary file, then rename).
+pub fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create cache folder {}: {e}", dir.display()))?;
+    }
+    crate::output::write_atomic(path, bytes).map_err(|e| format!("{e:#}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn light_sets_round_trip_and_damage_is_detected() {
+        let rsls = vec![
+            Rsl { centre: Vec3::Y, half_diagonal: 0.1, intensity: Vec3::new(1.0, 2.0, 3.0) },
+            Rsl { centre: Vec3::X, half_diagonal: 0.5, intensity: Vec3::splat(20_000.0) },
+        ];
+        let b = rsls_to_bytes(&rsls);
+        assert_eq!(rsls_from_bytes(&b).unwrap(), rsls);
+        let mut flipped = b.clone();
+        flipped[40] ^= 1;
+        assert!(rsls_from_bytes(&flipped).unwrap_err().contains("checksum"));
+        assert!(rsls_from_bytes(&b[..b.len() - 3]).unwrap_err().contains("truncated"));
+        let mut foreign = b.clone();
+        foreign[0] = b'X';
+        assert!(rsls_from_bytes(&foreign).unwrap_err().contains("magic"));
+        let mut future = b;
+        future[8] = 9;
+        assert!(rsls_from_bytes(&future).unwrap_err().contains("version"));
+    }
+
+    #[test]
+    fn keys_see_every_part() {
+        let a = KeyHasher::default().str("ab").str("c").finish();
+        let b = KeyHasher::default().str("a").str("bc").finish();
+        assert_ne!(a, b);
+        assert_ne!(KeyHasher::default().f32s(&[0.0]).finish(), KeyHasher::default().f32s(&[-0.0]).finish());
+    }
+}
