@@ -1,0 +1,354 @@
+//! End-to-end tests of the engine: scene → prepared data → shaded vertices.
+
+use glam::{Quat, Vec3};
+use rsl::engine::{Engine, EngineOptions};
+use rsl::scene::{Material, Scene};
+use rsl_shade::Terms;
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A scene written inline as if it were a file in data/scenes (so `../hdri/…` resolves).
+fn scene(text: &str) -> Scene {
+    Scene::from_toml_str(text, &root().join("data/scenes/inline-test.toml")).expect("valid test scene")
+}
+
+fn memory_only() -> EngineOptions {
+    EngineOptions::default()
+}
+
+/// A cache folder of this test run, shared by the tests that want one.
+fn cache_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rsl-engine-test-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| f64::from((*x - *y).length_squared())).sum();
+    let den: f64 = b.iter().map(|y| f64::from(y.length_squared())).sum();
+    (num / den).sqrt()
+}
+
+#[test]
+fn lambert_sphere_under_constant_light_reflects_albedo_times_radiance() {
+    // One RSL per texel of a 6×8×8 grid: the squares are small, so the sum over them is a
+    // fine quadrature of the cosine; what remains is table precision.
+    let s = scene(
+        r#"
+        [quality]
+        preset = "draft"
+        env_grid = 8
+        table_resolution = 32
+        [environment]
+        constant = [2.0, 1.0, 0.5]
+        rsl_count = 384
+        [camera]
+        eye = [0.0, 0.0, 5.0]
+        target = [0.0, 0.0, 0.0]
+        [[objects]]
+        name = "ball"
+        primitive = { kind = "sphere", radius = 1.0, resolution = 16 }
+        material = { model = "lambert", albedo = [0.5, 0.25, 0.8] }
+        "#,
+    );
+    let engine = Engine::new(&s, memory_only()).unwrap();
+    assert_eq!(engine.rsls().len(), 384);
+    let frame = engine.shade(&s, 0.0).unwrap();
+    let expected = Vec3::new(2.0 * 0.5, 1.0 * 0.25, 0.5 * 0.8);
+    let mut worst = 0.0f32;
+    let mut lit = 0;
+    for (v, c) in frame.radiance[0].iter().enumerate() {
+        // Only vertices facing the eye reflect anything toward it.
+        if frame.normals[0][v].dot((s.camera.eye - frame.positions[0][v]).normalize()) > 1e-3 {
+            worst = worst.max(((*c - expected) / expected).abs().max_element());
+            lit += 1;
+        } else {
+            assert_eq!(*c, Vec3::ZERO);
+        }
+    }
+    assert!(lit > 100);
+    eprintln!("lambert sphere: worst relative error {worst} over {lit} vertices");
+    assert!(worst < 0.01, "worst relative error {worst}");
+}
+
+#[test]
+fn rotating_an_object_with_the_environment_and_eye_changes_nothing() {
+    // Suzanne is not convex: its self-visibility field is used.
+    let text = |deg: f32, eye: Vec3| {
+        format!(
+            r#"
+            quality = "draft"
+            [environment]
+            map = "../hdri/studio.exr"
+            rotation = {{ axis = [0.3, 1.0, 0.2], degrees = {deg} }}
+            [camera]
+            eye = [{}, {}, {}]
+            target = [0.0, 0.0, 0.0]
+            [[objects]]
+            name = "suzanne"
+            mesh = "../models/suzanne.glb"
+            rotation = {{ axis = [0.3, 1.0, 0.2], degrees = {deg} }}
+            material = {{ model = "ggx", alpha = 0.3, diffuse = [0.3, 0.3, 0.3] }}
+            "#,
+            eye.x, eye.y, eye.z
+        )
+    };
+    let eye = Vec3::new(0.4, 0.8, 3.0);
+    let a = scene(&text(0.0, eye));
+    let q = Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 70f32.to_radians());
+    let b = scene(&text(70.0, q * eye));
+    let engine = Engine::new(&a, memory_only()).unwrap();
+    let fa = engine.shade(&a, 0.0).unwrap();
+    let mut engine = engine;
+    engine.sync(&b).unwrap();
+    let fb = engine.shade(&b, 0.0).unwrap();
+    let err = relative_l2(&fb.radiance[0], &fa.radiance[0]);
+    eprintln!("rotation: relative L2 {err}");
+    assert!(err < 1e-4, "relative L2 {err}");
+    // The self-visibility term did something: without it the result differs.
+    let state = a.at(0.0);
+    engine.sync(&a).unwrap();
+    let open = rsl_shade::shade(&engine.setup(&a, &state, a.camera.eye, Terms { self_visibility: false, occluders: true }).unwrap()).0;
+    assert!(relative_l2(&open[0], &fa.radiance[0]) > 0.02);
+}
+
+const SUN_SCENE: &str = r#"
+    [quality]
+    preset = "draft"
+    table_resolution = 32
+    ovdf_directions = 16
+    [environment]
+    map = "../hdri/sky.exr"
+    rsl_count = 40
+    [camera]
+    eye = [0.0, 4.0, 4.0]
+    target = [0.0, 0.0, 0.0]
+    [[objects]]
+    name = "ground"
+    primitive = { kind = "plane", size = 4.0, resolution = 40 }
+    material = { model = "lambert", albedo = [0.7, 0.7, 0.7] }
+    [[objects]]
+    name = "ball"
+    primitive = { kind = "sphere", radius = 0.4, resolution = 24 }
+    translation = [0.0, 20.0, 0.0]
+    material = { model = "lambert", albedo = [0.7, 0.7, 0.7] }
+"#;
+
+#[test]
+fn a_far_occluder_casts_no_shadow_at_all() {
+    let mut s = scene(SUN_SCENE);
+    let engine = Engine::new(&s, memory_only()).unwrap();
+    let far = engine.shade(&s, 0.0).unwrap();
+    // The same plane with the ball casting nothing.
+    s.objects[1].casts_shadows = false;
+    let mut engine = engine;
+    engine.sync(&s).unwrap();
+    let none = engine.shade(&s, 0.0).unwrap();
+    assert_eq!(far.radiance[0], none.radiance[0]);
+    // And the ball is not shadowing the plane because it is far, not because it cannot: a
+    // sanity check that the same ball nearby does cast a shadow is the next test.
+}
+
+#[test]
+fn an_occluder_shadows_the_plane_where_it_blocks_the_sun_and_nowhere_else() {
+    let mut s = scene(SUN_SCENE);
+    let engine = Engine::new(&s, memory_only()).unwrap();
+    let state = s.at(0.0);
+    // The sun: the light of highest radiance.
+    let lights = engine.lights(&state);
+    let sun = lights.iter().max_by(|a, b| a.radiance.length().total_cmp(&b.radiance.length())).unwrap();
+    assert!(sun.dir.y > 0.2, "sun elevation too low for this test: {}", sun.dir);
+    let unoccluded = {
+        let mut t = s.clone();
+        t.objects[1].casts_shadows = false;
+        let mut e = Engine::new(&t, memory_only()).unwrap();
+        e.sync(&t).unwrap();
+        e.shade(&t, 0.0).unwrap().radiance[0].clone()
+    };
+    // Put the ball 1.2 above the plane's centre along the sun direction.
+    let centre = sun.dir * 1.2;
+    s.objects[1].transform.translation = centre;
+    let frame = engine.shade(&s, 0.0).unwrap();
+    let radius = 0.4;
+    let (mut inside, mut outside) = (Vec::new(), Vec::new());
+    for (v, &x) in frame.positions[0].iter().enumerate() {
+        // Distance from the ball's centre to the ray from x toward the sun.
+        let to_c = centre - x;
+        let miss = (to_c - sun.dir * to_c.dot(sun.dir)).length();
+        let ratio = frame.radiance[0][v].x / unoccluded[v].x;
+        if miss < 0.6 * radius {
+            inside.push(ratio);
+        } else if miss > 2.0 * radius {
+            outside.push(ratio);
+        }
+    }
+    let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len() as f32;
+    let worst_outside = outside.iter().cloned().fold(f32::INFINITY, f32::min);
+    eprintln!(
+        "sun {:?}: {} vertices in the umbra, mean ratio {:.3} (max {:.3}); {} outside, mean {:.4}, min {:.4}",
+        sun.dir,
+        inside.len(),
+        mean(&inside),
+        inside.iter().cloned().fold(0.0, f32::max),
+        outside.len(),
+        mean(&outside),
+        worst_outside
+    );
+    assert!(inside.len() > 10);
+    // sky.exr's sun gives most of the light on a plane facing it: the umbra loses most of it.
+    assert!(mean(&inside) < 0.4, "umbra mean ratio {}", mean(&inside));
+    // Elsewhere only the patch of sky the ball hides is lost, a few percent at most.
+    assert!(worst_outside > 0.9, "outside the shadow the plane lost up to {}", 1.0 - worst_outside);
+    assert!(mean(&outside) > 0.98);
+}
+
+#[test]
+fn swapping_a_material_changes_only_that_object_and_builds_one_table() {
+    let path = root().join("data/scenes/default.toml");
+    let mut s = Scene::load(&path).unwrap();
+    let mut engine = Engine::new(&s, EngineOptions { cache_dir: Some(cache_dir("swap")), ..memory_only() }).unwrap();
+    let before = engine.shade(&s, 1.5).unwrap();
+    let misses = engine.cache_stats().misses;
+    s.objects[1].material = Material::CookTorrance { alpha: 0.3, specular: [0.9, 0.6, 0.5], diffuse: [0.0; 3] };
+    engine.sync(&s).unwrap();
+    assert_eq!(engine.cache_stats().misses, misses + 1, "one new table, nothing else");
+    let after = engine.shade(&s, 1.5).unwrap();
+    for i in 0..s.objects.len() {
+        if i == 1 {
+            assert!(relative_l2(&after.radiance[i], &before.radiance[i]) > 0.05);
+        } else {
+            assert_eq!(after.radiance[i], before.radiance[i], "object {i} changed");
+        }
+    }
+    // Swapping back finds the old table in memory.
+    s.objects[1].material = Scene::load(&path).unwrap().objects[1].material.clone();
+    engine.sync(&s).unwrap();
+    assert_eq!(engine.cache_stats().misses, misses + 1);
+    assert_eq!(engine.shade(&s, 1.5).unwrap().radiance, before.radiance);
+}
+
+#[test]
+fn moving_objects_never_miss_the_cache_and_the_disk_cache_is_reused() {
+    let dir = cache_dir("reuse");
+    let path = root().join("data/scenes/default.toml");
+    let s = Scene::load(&path).unwrap();
+    let options = EngineOptions { cache_dir: Some(dir.clone()), ..memory_only() };
+    let mut engine = Engine::new(&s, options.clone()).unwrap();
+    let first = engine.cache_stats();
+    assert!(first.misses > 0);
+    assert_eq!(first.disk_hits, 0);
+    for k in 0..5 {
+        let t = 0.7 * k as f32;
+        engine.sync(&s).unwrap();
+        engine.shade(&s, t).unwrap();
+    }
+    let later = engine.cache_stats();
+    assert_eq!(later.misses, first.misses, "moving objects caused a miss");
+    assert!(later.memory_hits > first.memory_hits, "re-syncing counts hits");
+
+    // A second engine reads every field and the light set from disk; only the BRDF tables
+    // (held in memory only) are built again.
+    let again = Engine::new(&s, options.clone()).unwrap().cache_stats();
+    let tables = 4; // four distinct materials in the default scene
+    assert_eq!(again.misses, tables);
+    assert!(again.disk_hits >= 1 + 2 + 4, "light set, two non-convex fields, four occluder fields: {again:?}");
+
+    // A damaged file is reported, recomputed and replaced.
+    let victim = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .find(|p| p.file_name().unwrap().to_string_lossy().starts_with("ovdf-"))
+        .unwrap();
+    let mut bytes = std::fs::read(&victim).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x40;
+    std::fs::write(&victim, &bytes).unwrap();
+    let repaired = Engine::new(&s, options).unwrap().cache_stats();
+    assert_eq!(repaired.rejected, 1);
+    assert_eq!(repaired.misses, tables + 1);
+    assert!(rsl_vis::store::load_ovdf(&victim).is_ok(), "the rejected file was rewritten");
+}
+
+#[test]
+fn the_fast_path_agrees_with_the_reference_loop() {
+    let path = root().join("data/scenes/default.toml");
+    let s = Scene::load(&path).unwrap();
+    let engine = Engine::new(&s, EngineOptions { cache_dir: Some(cache_dir("agree")), ..memory_only() }).unwrap();
+    for t in [0.0, 1.3, 2.9] {
+        let state = s.at(t);
+        let setup = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap();
+        let (fast, stats) = rsl_shade::shade(&setup);
+        let reference = rsl_shade::shade_reference(&setup);
+        assert!(stats.occluder_lookups > 0 && stats.occluders_culled > 0, "{stats:?}");
+        for (i, (f, r)) in fast.iter().zip(&reference).enumerate() {
+            for (v, (a, b)) in f.iter().zip(r).enumerate() {
+                let tol = 1e-5 * b.abs().max_element().max(1.0);
+                assert!((*a - *b).abs().max_element() <= tol, "t = {t}, object {i}, vertex {v}: {a} vs {b}");
+            }
+        }
+    }
+}
+
+fn run(args: &[&str]) -> anyhow::Result<()> {
+    use clap::Parser;
+    rsl::cli::run(rsl::cli::Cli::try_parse_from(std::iter::once("rsl").chain(args.iter().copied()))?)
+}
+
+#[test]
+fn render_writes_images_vertices_and_animations() {
+    let dir = cache_dir("render");
+    let scene = root().join("data/scenes/default.toml");
+    let scene = scene.to_str().unwrap();
+    let cache = dir.join("cache");
+    let cache = cache.to_str().unwrap();
+    let out = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    run(&["render", scene, "--time", "1.0", "--out", &out("a.png"), "--vertex-out", &out("a.ply"), "--cache", cache])
+        .unwrap();
+    let img = image::open(dir.join("a.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (640, 480));
+    let ply = rsl::ply::read(&std::fs::read(dir.join("a.ply")).unwrap()).unwrap();
+    let s = Scene::load(Path::new(scene)).unwrap();
+    let (vertices, triangles) = s.counts();
+    assert_eq!((ply.vertices.len(), ply.faces.len()), (vertices, triangles));
+    assert_eq!(*ply.objects.last().unwrap() as usize, s.objects.len() - 1);
+    // The PLY's radiance is the engine's, in world space toward the eye.
+    let engine = Engine::new(&s, EngineOptions { cache_dir: Some(cache.into()), ..memory_only() }).unwrap();
+    let frame = engine.shade(&s, 1.0).unwrap();
+    let flat: Vec<Vec3> = frame.radiance.concat();
+    for (v, row) in ply.vertices.iter().enumerate() {
+        assert_eq!(Vec3::new(row[6], row[7], row[8]), flat[v]);
+    }
+
+    run(&["render", scene, "--time", "0.5", "--out", &out("b.exr"), "--cache", cache]).unwrap();
+    let exr = image::open(dir.join("b.exr")).unwrap().into_rgb32f();
+    assert!(exr.pixels().all(|p| p.0.iter().all(|c| c.is_finite() && *c >= 0.0)));
+
+    run(&["render", scene, "--frames", "2..5", "--fps", "10", "--out", &out("anim.png"), "--cache", cache]).unwrap();
+    for k in 2..5 {
+        assert!(dir.join(format!("anim_{k:04}.png")).exists());
+    }
+    assert!(!dir.join("anim_0005.png").exists());
+    let gif = std::fs::read(dir.join("anim.gif")).unwrap();
+    assert!(gif.starts_with(b"GIF89a"));
+}
+
+#[test]
+fn bad_render_arguments_are_clear_errors_and_write_nothing() {
+    let dir = cache_dir("bad");
+    let scene = root().join("data/scenes/default.toml");
+    let scene = scene.to_str().unwrap();
+    let msg = |args: &[&str]| format!("{:#}", run(args).unwrap_err());
+    let jpg = dir.join("x.jpg");
+    assert!(msg(&["render", scene, "--out", jpg.to_str().unwrap()]).contains(".png or .exr"));
+    let missing = dir.join("no/such/folder/x.png");
+    assert!(msg(&["render", scene, "--out", missing.to_str().unwrap()]).contains("does not exist"));
+    let png = dir.join("x.png");
+    assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--frames", "5..5"]).contains("holds no frame"));
+    assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--quality", "ultra"]).contains("draft, paper, high"));
+    assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--rsl", "0", "--no-cache"]).contains("at least 1"));
+    assert!(msg(&["render", "no-such-scene.toml", "--out", png.to_str().unwrap()]).contains("no-such-scene.toml"));
+    assert!(std::fs::read_dir(&dir).unwrap().next().is_none(), "something was written");
+}
