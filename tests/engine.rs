@@ -111,7 +111,10 @@ fn rotating_an_object_with_the_environment_and_eye_changes_nothing() {
     // The self-visibility term did something: without it the result differs.
     let state = a.at(0.0);
     engine.sync(&a).unwrap();
-    let open = rsl_shade::shade(&engine.setup(&a, &state, a.camera.eye, Terms { self_visibility: false, occluders: true }).unwrap()).0;
+    let open = rsl_shade::shade(
+        &engine.setup(&a, &state, a.camera.eye, Terms { self_visibility: false, occluders: true }).unwrap(),
+    )
+    .0;
     assert!(relative_l2(&open[0], &fa.radiance[0]) > 0.02);
 }
 
@@ -347,7 +350,9 @@ fn bad_render_arguments_are_clear_errors_and_write_nothing() {
     assert!(msg(&["render", scene, "--out", missing.to_str().unwrap()]).contains("does not exist"));
     let png = dir.join("x.png");
     assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--frames", "5..5"]).contains("holds no frame"));
-    assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--quality", "ultra"]).contains("draft, paper, high"));
+    assert!(
+        msg(&["render", scene, "--out", png.to_str().unwrap(), "--quality", "ultra"]).contains("draft, paper, high")
+    );
     assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--rsl", "0", "--no-cache"]).contains("at least 1"));
     assert!(msg(&["render", "no-such-scene.toml", "--out", png.to_str().unwrap()]).contains("no-such-scene.toml"));
     assert!(std::fs::read_dir(&dir).unwrap().next().is_none(), "something was written");

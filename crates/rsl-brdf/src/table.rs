@@ -275,7 +275,7 @@ impl BrdfTable {
                 // Rotate by −φ_v about z.
                 let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
                 let p = hemi_from_dir(l);
-                self.box_integral(k, p, s) * (1.0 - f) + self.box_integral(k + 1, p, s) * f
+                self.box_blend(&[(k, 1.0 - f), (k + 1, f)], p, s)
             }
             ViewLookup::Anisotropic { node: [i, j], weight: [fx, fy] } => {
                 let Views::Anisotropic(v) = self.views else { return zero };
@@ -300,40 +300,58 @@ impl BrdfTable {
 
     /// `∫` over the box `[p − s, p + s]²` (plane coordinates) of slice `k`.
     fn box_integral(&self, k: usize, p: Vec2, s: f32) -> Vec3 {
-        let (x0, x1) = (f64::from(p.x - s), f64::from(p.x + s));
-        let (y0, y1) = (f64::from(p.y - s), f64::from(p.y + s));
-        let f = |x: f64, y: f64| self.prefix(k, x, y);
-        let [a, b, c, d] = [f(x1, y1), f(x0, y1), f(x1, y0), f(x0, y0)];
-        Vec3::new(
-            (a[0] - b[0] - c[0] + d[0]) as f32,
-            (a[1] - b[1] - c[1] + d[1]) as f32,
-            (a[2] - b[2] - c[2] + d[2]) as f32,
-        )
+        self.box_blend(&[(k, 1.0)], p, s)
     }
 
-    /// The prefix function `F(x, y) = ∫_{[−1,x]×[−1,y]}`, interpolated between grid corners
-    /// by Catmull–Rom splines in x and y (exact at corners; outside `[−1, 1]²` `F` is
-    /// constant, which replicated edge indices reproduce).
-    fn prefix(&self, k: usize, x: f64, y: f64) -> [f64; 3] {
+    /// `Σ w·∫` over the box `[p − s, p + s]²` of the slices `(k, w)`: the box's corners are
+    /// located once and their spline taps shared by every slice and channel.
+    ///
+    /// Each corner's `F(x, y)` is the prefix function interpolated between grid corners by
+    /// Catmull–Rom splines in x and y (exact at corners; outside `[−1, 1]²` `F` is constant,
+    /// which replicated edge indices reproduce); the box is `F(x1, y1) − F(x0, y1) −
+    /// F(x1, y0) + F(x0, y0)`, summed in f64.
+    fn box_blend(&self, slices: &[(usize, f32)], p: Vec2, s: f32) -> Vec3 {
         let n = self.grid.n();
-        let to_grid = |c: f64| ((c + 1.0) * 0.5 * n as f64).clamp(0.0, n as f64);
-        let (gx, gy) = (to_grid(x), to_grid(y));
-        let (i, j) = ((gx.floor() as usize).min(n - 1), (gy.floor() as usize).min(n - 1));
-        let (wx, wy) = (catmull_rom(gx - i as f64), catmull_rom(gy - j as f64));
-        let sat = &self.sat[k];
-        let idx = |a: usize, d: usize| (a + d).saturating_sub(1).min(n);
+        // Taps of one coordinate: 4 replicated-edge indices and their spline weights.
+        let taps = |c: f32| {
+            let g = ((f64::from(c) + 1.0) * 0.5 * n as f64).clamp(0.0, n as f64);
+            // g ≥ 0, so truncation is the floor.
+            let i = (g as usize).min(n - 1);
+            let w = catmull_rom(g - i as f64);
+            ([0, 1, 2, 3].map(|d| (i + d).saturating_sub(1).min(n)), w)
+        };
+        let (x0, x1) = (taps(p.x - s), taps(p.x + s));
+        let (y0, y1) = (taps(p.y - s), taps(p.y + s));
+        // Signed column and row weights of the four corners.
+        let mut cols = [(0usize, 0.0f64); 8];
+        let mut rows = [(0usize, 0.0f64); 8];
+        for d in 0..4 {
+            cols[d] = (x1.0[d], x1.1[d]);
+            cols[d + 4] = (x0.0[d], -x0.1[d]);
+            rows[d] = (y1.0[d] * (n + 1), y1.1[d]);
+            rows[d + 4] = (y0.0[d] * (n + 1), -y0.1[d]);
+        }
         let mut out = [0.0f64; 3];
-        for (dy, &wyv) in wy.iter().enumerate() {
-            let row = idx(j, dy) * (n + 1);
-            for (dx, &wxv) in wx.iter().enumerate() {
-                let w = wxv * wyv;
-                let v = sat[row + idx(i, dx)];
+        for &(k, w) in slices {
+            let sat = &self.sat[k];
+            let mut acc = [0.0f64; 3];
+            for &(row, wy) in &rows {
+                let mut line = [0.0f64; 3];
+                for &(col, wx) in &cols {
+                    let v = sat[row + col];
+                    line[0] += wx * v[0];
+                    line[1] += wx * v[1];
+                    line[2] += wx * v[2];
+                }
                 for c in 0..3 {
-                    out[c] += w * v[c];
+                    acc[c] += wy * line[c];
                 }
             }
+            for c in 0..3 {
+                out[c] += f64::from(w) * acc[c];
+            }
         }
-        out
+        Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32)
     }
 }
 

@@ -34,7 +34,7 @@ use rsl_sphere::Frame;
 use rsl_sphere::hemi::hemi_from_dir;
 use rsl_sphere::mesh::TriMesh;
 use rsl_vis::ovdf::OUTER;
-use rsl_vis::{Ovdf, Svdf};
+use rsl_vis::{Ovdf, OvdfPoint, Svdf};
 
 /// A rotatable square light in world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -224,18 +224,28 @@ struct Near {
     x_object: Vec3,
     /// Unit direction from the vertex to the bounding-sphere centre (world).
     to_centre: Vec3,
-    /// Angular radius of the bounding sphere seen from the vertex; `None` when the vertex is
-    /// inside the sphere (nothing can be culled).
-    angular_radius: Option<f32>,
+    /// Angular radius `β` of the bounding sphere seen from the vertex, with its cosine and
+    /// sine; `None` when the vertex is inside the sphere (nothing can be culled).
+    angular_radius: Option<(f32, f32, f32)>,
 }
 
-/// Whether the cone of half-angle `cone` around `dir` misses the sphere of `near`.
-fn culled(near: &Near, dir: Vec3, cone: f32) -> bool {
+/// A light's cone for culling: half-angle `α`, `cos α`, `sin α`.
+#[derive(Clone, Copy)]
+struct Cone(f32, f32, f32);
+
+impl Cone {
+    fn new(alpha: f32) -> Self {
+        Self(alpha, alpha.cos(), alpha.sin())
+    }
+}
+
+/// Whether the cone around `dir` misses the sphere of `near`: the angle γ between `dir` and
+/// the sphere's centre exceeds `α + β`, i.e. `cos γ < cos(α + β)` while `α + β < π`.
+fn culled(near: &Near, dir: Vec3, cone: Cone) -> bool {
     match near.angular_radius {
         None => false,
-        Some(beta) => {
-            let gamma = dir.dot(near.to_centre).clamp(-1.0, 1.0).acos();
-            gamma > cone + beta
+        Some((beta, cb, sb)) => {
+            cone.0 + beta < std::f32::consts::PI && dir.dot(near.to_centre) < cone.1 * cb - cone.2 * sb
         }
     }
 }
@@ -250,7 +260,10 @@ fn near(placed: &Placed<'_>, j: usize, x: Vec3) -> Option<Near> {
     }
     let offset = b.centre_world - x;
     let dist = offset.length();
-    let angular_radius = (dist > b.radius_world).then(|| (b.radius_world / dist).clamp(0.0, 1.0).asin());
+    let angular_radius = (dist > b.radius_world).then(|| {
+        let beta = (b.radius_world / dist).clamp(0.0, 1.0).asin();
+        (beta, beta.cos(), beta.sin())
+    });
     let to_centre = if dist > 0.0 { offset / dist } else { Vec3::Y };
     Some(Near { j, x_object, to_centre, angular_radius })
 }
@@ -259,7 +272,7 @@ fn near(placed: &Placed<'_>, j: usize, x: Vec3) -> Option<Near> {
 pub struct FrameSetup<'a> {
     placed: Vec<Placed<'a>>,
     lights: Vec<Light>,
-    cones: Vec<f32>,
+    cones: Vec<Cone>,
     eye: Vec3,
     terms: Terms,
 }
@@ -270,7 +283,7 @@ impl<'a> FrameSetup<'a> {
         Self {
             placed: objects.iter().map(|&o| Placed::new(o, lights)).collect(),
             lights: lights.to_vec(),
-            cones: lights.iter().map(Light::cone_half_angle).collect(),
+            cones: lights.iter().map(|l| Cone::new(l.cone_half_angle())).collect(),
             eye,
             terms,
         }
@@ -289,7 +302,7 @@ impl<'a> FrameSetup<'a> {
 
     /// Radiance of vertex `v` of object `i` toward the eye, and its lookups (the fast path's
     /// inner loop).
-    fn vertex(&self, i: usize, v: usize, nears: &mut Vec<Near>, stats: &mut FrameStats) -> Vec3 {
+    fn vertex(&self, i: usize, v: usize, nears: &mut Vec<(Near, OvdfPoint)>, stats: &mut FrameStats) -> Vec3 {
         let p = &self.placed[i];
         let o = &p.object;
         stats.vertices += 1;
@@ -303,7 +316,10 @@ impl<'a> FrameSetup<'a> {
         }
         nears.clear();
         if self.terms.occluders {
-            nears.extend((0..self.placed.len()).filter(|&j| j != i).filter_map(|j| near(&self.placed[j], j, x)));
+            nears.extend((0..self.placed.len()).filter(|&j| j != i).filter_map(|j| {
+                let n = near(&self.placed[j], j, x)?;
+                Some((n, self.placed[j].object.ovdf?.locate(n.x_object)?))
+            }));
         }
         let vis_frame = &o.frames.visibility[v];
         let mut sum = Vec3::ZERO;
@@ -319,7 +335,7 @@ impl<'a> FrameSetup<'a> {
                 stats.self_lookups += 1;
                 cover = o.svdf.coverage(v, hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
             }
-            for n in nears.iter() {
+            for (n, at) in nears.iter() {
                 if cover <= 0.0 {
                     break;
                 }
@@ -329,8 +345,9 @@ impl<'a> FrameSetup<'a> {
                 }
                 stats.occluder_lookups += 1;
                 let q = &self.placed[n.j];
-                let field = q.object.ovdf.expect("a near occluder has a field");
-                cover *= field.coverage(n.x_object, q.light_dirs[l], r);
+                if let Some(field) = q.object.ovdf {
+                    cover *= field.coverage_at(at, q.light_dirs[l], r);
+                }
             }
             sum += light.radiance * brdf * cover;
         }

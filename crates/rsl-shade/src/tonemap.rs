@@ -62,7 +62,9 @@ mod tests {
         // The sRGB curve's pieces meet at 0.0031308 and it maps 1 to 1.
         assert!((srgb_encode(0.003_130_8) - 0.040_45).abs() < 1e-4);
         assert!((srgb_encode(1.0) - 1.0).abs() < 1e-6);
-        assert_eq!(encode(Vec3::new(f32::NAN, 0.0, 1e9), 1.0), [0, 0, 255]);
+        // A non-finite pixel shows black; a huge one saturates.
+        assert_eq!(encode(Vec3::new(f32::NAN, 0.0, 1.0), 1.0), [0, 0, 0]);
+        assert_eq!(encode(Vec3::new(0.0, 0.0, 1e9), 1.0), [0, 0, 255]);
     }
 
     #[test]

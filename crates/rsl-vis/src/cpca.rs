@@ -31,6 +31,10 @@ pub struct Cpca {
     pub coeffs: Vec<f32>,
     /// Whether the coefficients are half-precision values (stored as f16).
     pub f16: bool,
+    /// Per cluster and component `j`, the mean then the `k` basis values of that component,
+    /// contiguous (`(c·d + j)·(k + 1)`): what a single-component lookup reads. Derived from
+    /// `means` and `bases` by [`Cpca::with_lookup`].
+    pub(crate) lookup: Vec<f32>,
 }
 
 /// `Σ (x − m)·b` with eight independent partial sums (vectorisable, fixed order).
@@ -104,8 +108,16 @@ impl Cpca {
         // A small global PCA basis: seeding and candidate shortlists work in its space.
         let reduced = Reduced::new(data, d, REDUCED_DIMS.min(d), seed);
         let mut assignment = seed_clusters(&reduced.coords, reduced.dims, clusters);
-        let mut model =
-            Self { d, k, means: Vec::new(), bases: Vec::new(), assignment: Vec::new(), coeffs: Vec::new(), f16: false };
+        let mut model = Self {
+            d,
+            k,
+            means: Vec::new(),
+            bases: Vec::new(),
+            assignment: Vec::new(),
+            coeffs: Vec::new(),
+            f16: false,
+            lookup: Vec::new(),
+        };
         for it in 0..=iterations {
             // Refit every cluster.
             let members: Vec<Vec<usize>> = {
@@ -172,7 +184,20 @@ impl Cpca {
         model.coeffs =
             (0..n).into_par_iter().flat_map_iter(|i| model.project(row(i), assignment[i] as usize)).collect();
         model.assignment = assignment;
-        model
+        model.with_lookup()
+    }
+
+    /// Builds the component-major copy of the means and bases that [`Cpca::value`] reads.
+    pub(crate) fn with_lookup(mut self) -> Self {
+        let (d, k) = (self.d, self.k);
+        self.lookup = Vec::with_capacity(self.clusters() * d * (k + 1));
+        for (mean, basis) in self.means.iter().zip(&self.bases) {
+            for j in 0..d {
+                self.lookup.push(mean[j]);
+                self.lookup.extend((0..k).map(|t| basis[t * d + j]));
+            }
+        }
+        self
     }
 
     /// Number of clusters.
@@ -215,10 +240,27 @@ impl Cpca {
 
     /// Component `j` of vector `i`, reconstructed from its cluster.
     pub fn value(&self, i: usize, j: usize) -> f32 {
+        let (k, c) = (self.k, self.assignment[i] as usize);
+        let co = &self.coeffs[i * k..(i + 1) * k];
+        let at = (c * self.d + j) * (k + 1);
+        let row = &self.lookup[at..at + k + 1];
+        row[0] + co.iter().zip(&row[1..]).map(|(a, b)| a * b).sum::<f32>()
+    }
+
+    /// Vector `i` read as an `n×n` table (`d = n²`) and interpolated bilinearly at plane
+    /// point `p` between cell centres: the same as `map::bilinear_cells` over
+    /// [`Cpca::value`], reconstructing only the four cells it needs with the coefficients
+    /// fetched once.
+    pub fn bilinear(&self, i: usize, n: usize, p: glam::Vec2) -> f32 {
+        let k = self.k;
         let c = self.assignment[i] as usize;
-        let co = &self.coeffs[i * self.k..(i + 1) * self.k];
-        let basis = &self.bases[c];
-        self.means[c][j] + co.iter().enumerate().map(|(t, a)| a * basis[t * self.d + j]).sum::<f32>()
+        let co = &self.coeffs[i * k..(i + 1) * k];
+        let value = |j: usize| {
+            let at = (c * self.d + j) * (k + 1);
+            let row = &self.lookup[at..at + k + 1];
+            row[0] + co.iter().zip(&row[1..]).map(|(a, b)| a * b).sum::<f32>()
+        };
+        crate::map::bilinear_cells(n, p, value)
     }
 
     /// Vector `i`, reconstructed.

@@ -16,6 +16,6 @@ pub mod svdf;
 
 pub use coverage::coverage;
 pub use map::{Vdt, VisibilityMap};
-pub use ovdf::{Ovdf, OvdfParams};
+pub use ovdf::{Ovdf, OvdfParams, OvdfPoint};
 pub use rays::{Occluder, VisError};
 pub use svdf::{CompressionReport, Svdf, SvdfParams};

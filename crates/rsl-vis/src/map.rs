@@ -185,6 +185,7 @@ impl Vdt {
 
 /// Bilinear interpolation at plane point `p` between the centres of an `n×n` grid's cells
 /// (clamped at the edges), reading only the four cells it needs through `at(flat index)`.
+#[inline(always)]
 pub(crate) fn bilinear_cells(n: usize, p: Vec2, at: impl Fn(usize) -> f32) -> f32 {
     if n == 1 {
         return at(0);

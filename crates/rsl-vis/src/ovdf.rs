@@ -26,6 +26,21 @@ use rsl_sphere::cube::CubeGrid;
 use rsl_sphere::hemi::hemi_from_dir;
 use rsl_sphere::mesh::TriMesh;
 
+/// A point located among an occluder field's samples ([`Ovdf::locate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OvdfPoint {
+    /// Inner of the two shells.
+    shell: usize,
+    /// Weight of the outer shell.
+    shell_weight: f32,
+    /// The four cube texels around the point's direction.
+    texels: [usize; 4],
+    /// Per texel: its segment within a shell (face·4 + quadrant) and its index there.
+    places: [(u32, u32); 4],
+    /// Bilinear weights of the texels.
+    weights: [f32; 4],
+}
+
 /// Resolutions of an occluder field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OvdfParams {
@@ -222,50 +237,84 @@ impl Ovdf {
         (self.centre, self.radius)
     }
 
-    /// The distance of sample texel `t` on shell `s` at direction `dir` (object space).
-    fn sample(&self, grid: &CubeGrid, s: usize, t: usize, dir: Vec3) -> f32 {
+    /// Where `x` (object space) lies among the samples, or `None` beyond the outer shell
+    /// (where nothing is occluded): computed once per point and reused for every direction.
+    pub fn locate(&self, x: Vec3) -> Option<OvdfPoint> {
+        let v = x - self.centre;
+        let r = v.length() / self.radius;
+        if r >= OUTER {
+            return None;
+        }
+        let shells = self.params.shells;
+        let t = if r > INNER { (r / INNER).ln() / (OUTER / INNER).ln() * (shells - 1) as f32 } else { 0.0 };
+        let s0 = (t.floor() as usize).min(shells - 2);
+        let fs = (t - s0 as f32).clamp(0.0, 1.0);
         let m = self.params.m;
+        let grid = CubeGrid::new(m);
+        let u = if v.length_squared() > 0.0 { v.normalize() } else { Vec3::Y };
+        let (face, fu, fv) = rsl_sphere::cube::face_uv_from_dir(u.as_dvec3());
+        let (x, y) = ((fu + 1.0) * 0.5 * m as f64 - 0.5, (fv + 1.0) * 0.5 * m as f64 - 0.5);
+        let (i0, j0) = (x.floor() as i64, y.floor() as i64);
+        let (fx, fy) = ((x - i0 as f64) as f32, (y - j0 as f64) as f32);
+        // The texel at (i, j) of this face, stepping across a seam for i or j just outside.
+        let texel = |i: i64, j: i64| {
+            let last = m as i64 - 1;
+            let (ci, cj) = (i.clamp(0, last), j.clamp(0, last));
+            let t = grid.index(face, ci as usize, cj as usize);
+            if (ci, cj) == (i, j) { t } else { grid.neighbour(t, (i - ci) as i32, (j - cj) as i32) }
+        };
+        let texels = [texel(i0, j0), texel(i0 + 1, j0), texel(i0, j0 + 1), texel(i0 + 1, j0 + 1)];
         let half = m / 2;
-        let (face, i, j) = grid.coords(t);
-        let seg = &self.segments[(s * 6 + face) * 4 + (j / half) * 2 + i / half];
-        let local_index = (j % half) * half + i % half;
-        let p = hemi_from_dir(self.frames[t].to_local(dir));
-        bilinear_cells(self.params.n, p, |k| seg.value(local_index, k))
+        let places = texels.map(|t| {
+            let (face, i, j) = grid.coords(t);
+            ((face * 4 + (j / half) * 2 + i / half) as u32, ((j % half) * half + i % half) as u32)
+        });
+        Some(OvdfPoint {
+            shell: s0,
+            shell_weight: fs,
+            texels,
+            places,
+            weights: [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy],
+        })
+    }
+
+    /// The signed distance at a located point for light from `dir` (object space):
+    /// trilinear over its 8 samples.
+    pub fn distance_at(&self, at: &OvdfPoint, dir: Vec3) -> f32 {
+        let n = self.params.n;
+        // Each texel's plane point is the same on both shells.
+        let points = at.texels.map(|t| hemi_from_dir(self.frames[t].to_local(dir)));
+        let shell = |s: usize| {
+            let mut sum = 0.0;
+            for k in 0..4 {
+                let (segment, index) = at.places[k];
+                let seg = &self.segments[s * 24 + segment as usize];
+                sum += at.weights[k] * seg.bilinear(index as usize, n, points[k]);
+            }
+            sum
+        };
+        let near = shell(at.shell);
+        if at.shell_weight <= 0.0 {
+            near
+        } else {
+            near * (1.0 - at.shell_weight) + shell(at.shell + 1) * at.shell_weight
+        }
     }
 
     /// The signed distance (visible > 0) to this object's shadow boundary for light from
     /// direction `dir` at point `x`, both in the object's space: trilinear over the 8
     /// nearest samples. Beyond the outer shell: far (nothing occluded).
     pub fn distance(&self, x: Vec3, dir: Vec3) -> f32 {
-        let v = x - self.centre;
-        let r = v.length() / self.radius;
-        if r >= OUTER {
-            return FAR;
+        match self.locate(x) {
+            Some(at) => self.distance_at(&at, dir),
+            None => FAR,
         }
-        let shells = self.params.shells;
-        let t = if r > INNER { (r / INNER).ln() / (OUTER / INNER).ln() * (shells - 1) as f32 } else { 0.0 };
-        let s0 = (t.floor() as usize).min(shells - 2);
-        let fs = (t - s0 as f32).clamp(0.0, 1.0);
-        let grid = CubeGrid::new(self.params.m);
-        let u = if v.length_squared() > 0.0 { v.normalize() } else { Vec3::Y };
-        let (face, fu, fv) = rsl_sphere::cube::face_uv_from_dir(u.as_dvec3());
-        let m = self.params.m as f64;
-        let (x, y) = ((fu + 1.0) * 0.5 * m - 0.5, (fv + 1.0) * 0.5 * m - 0.5);
-        let (i0, j0) = (x.floor() as i64, y.floor() as i64);
-        let (fx, fy) = ((x - i0 as f64) as f32, (y - j0 as f64) as f32);
-        // The texel at (i, j) of this face, stepping across a seam for i or j just outside.
-        let texel = |i: i64, j: i64| {
-            let last = self.params.m as i64 - 1;
-            let (ci, cj) = (i.clamp(0, last), j.clamp(0, last));
-            let t = grid.index(face, ci as usize, cj as usize);
-            if (ci, cj) == (i, j) { t } else { grid.neighbour(t, (i - ci) as i32, (j - cj) as i32) }
-        };
-        let corners = [texel(i0, j0), texel(i0 + 1, j0), texel(i0, j0 + 1), texel(i0 + 1, j0 + 1)];
-        let weights = [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy];
-        let shell =
-            |s: usize| corners.iter().zip(weights).map(|(&t, w)| w * self.sample(&grid, s, t, dir)).sum::<f32>();
-        let near = shell(s0);
-        if fs <= 0.0 { near } else { near * (1.0 - fs) + shell(s0 + 1) * fs }
+    }
+
+    /// The visible fraction of the square of half-diagonal `r` around `dir` at a located
+    /// point.
+    pub fn coverage_at(&self, at: &OvdfPoint, dir: Vec3, r: f32) -> f32 {
+        coverage(self.distance_at(at, dir), r)
     }
 
     /// The visible fraction of the rotatable square of half-diagonal `r` around light

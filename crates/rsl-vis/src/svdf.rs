@@ -151,7 +151,7 @@ impl Svdf {
     pub fn distance(&self, vertex: usize, p: Vec2) -> f32 {
         match self {
             Svdf::Convex { .. } => 1.0 - p.length(),
-            Svdf::Field { n, cpca, .. } => bilinear_cells(*n, p, |k| cpca.value(vertex, k)),
+            Svdf::Field { n, cpca, .. } => cpca.bilinear(vertex, *n, p),
         }
     }
 
