@@ -73,7 +73,8 @@ pub struct RenderArgs {
     /// Also write the shaded vertices as PLY.
     #[arg(long)]
     pub vertex_out: Option<PathBuf>,
-    /// Exposure multiplier for PNG output (default: automatic, from the first frame).
+    /// Exposure multiplier for PNG output (default: automatic, from the objects in the first
+    /// frame, then held for the whole animation).
     #[arg(long)]
     pub exposure: Option<f32>,
     /// Precomputation options.
@@ -120,6 +121,13 @@ fn numbered(path: &Path, k: u32) -> PathBuf {
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let ext = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
     path.with_file_name(format!("{stem}_{k:04}{ext}"))
+}
+
+/// The automatic exposure of an image: keyed on the pixels objects cover (the background
+/// alone when none do).
+pub fn exposure_for(image: &Image) -> f32 {
+    let objects: Vec<_> = image.pixels.iter().zip(&image.covered).filter(|p| *p.1).map(|p| *p.0).collect();
+    tonemap::auto_exposure(if objects.is_empty() { &image.pixels } else { &objects })
 }
 
 /// Rasterises a shaded frame with the environment behind it.
@@ -224,7 +232,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         let image = rasterise(&engine, &scene, &frame);
         raster_ms += start.elapsed().as_secs_f64() * 1e3;
         let out = k.map_or_else(|| args.out.clone(), |k| numbered(&args.out, k));
-        let e = *exposure.get_or_insert_with(|| tonemap::auto_exposure(&image.pixels));
+        let e = *exposure.get_or_insert_with(|| exposure_for(&image));
         let rgb = tonemap::encode_all(&image.pixels, e);
         match format {
             Format::Png => output::write_png(&out, image.width, image.height, rgb.clone())?,
@@ -326,7 +334,7 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
         let image = rasterise(&engine, &scene, &frame);
         raster += s.elapsed().as_secs_f64() * 1e3;
         let s = Instant::now();
-        let e = *exposure.get_or_insert_with(|| tonemap::auto_exposure(&image.pixels));
+        let e = *exposure.get_or_insert_with(|| exposure_for(&image));
         let rgb = tonemap::encode_all(&image.pixels, e);
         output::write_png(&args.out.join(format!("frame_{k:04}.png")), image.width, image.height, rgb.clone())?;
         encode += s.elapsed().as_secs_f64() * 1e3;

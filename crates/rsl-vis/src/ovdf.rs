@@ -286,10 +286,8 @@ impl Ovdf {
         let points = at.texels.map(|t| hemi_from_dir(self.frames[t].to_local(dir)));
         let shell = |s: usize| {
             let mut sum = 0.0;
-            for k in 0..4 {
-                let (segment, index) = at.places[k];
-                let seg = &self.segments[s * 24 + segment as usize];
-                sum += at.weights[k] * seg.bilinear(index as usize, n, points[k]);
+            for ((&(segment, index), &w), &p) in at.places.iter().zip(&at.weights).zip(&points) {
+                sum += w * self.segments[s * 24 + segment as usize].bilinear(index as usize, n, p);
             }
             sum
         };
