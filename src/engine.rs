@@ -19,9 +19,10 @@ use rsl_scene::{EnvironmentSource, Material, Preset, QualitySettings, Scene, Sce
 use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, VertexFrames};
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
+use rsl_vis::store::FieldFileError;
 use rsl_vis::{Ovdf, OvdfParams, Svdf, SvdfParams};
 use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -315,8 +316,8 @@ impl Engine {
                     self.rsl_sets.insert(key, s.clone());
                     return Ok(s);
                 }
-                Ok(_) => self.reject(f, "holds the wrong number of lights"),
-                Err(e) => self.reject(f, &e),
+                Ok(_) => reject(&mut self.stats, f, "holds the wrong number of lights"),
+                Err(e) => reject(&mut self.stats, f, &e),
             }
         }
         self.stats.misses += 1;
@@ -355,12 +356,6 @@ impl Engine {
         self.rsl_count = n;
         self.env.rsls = self.rsl_set(n)?;
         Ok(())
-    }
-
-    fn reject(&mut self, file: &std::path::Path, why: &str) {
-        self.stats.rejected += 1;
-        tracing::warn!("cache file {} rejected ({why}); recomputing", file.display());
-        let _ = std::fs::remove_file(file);
     }
 
     fn mesh_key(&mut self, mesh: &Arc<TriMesh>) -> u64 {
@@ -422,101 +417,52 @@ impl Engine {
 
     fn svdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<Arc<Svdf>> {
         let p = svdf_params(self.preset, &self.settings);
-        let key = KeyHasher::default()
-            .str("svdf")
-            .u64(mesh_key)
-            .u64(CACHE_VERSION)
-            .u64(rsl_vis::store::VERSION.into())
-            .str(&format!("{p:?}"))
-            .finish();
-        if let Some(f) = self.svdfs.get(&key) {
-            self.stats.memory_hits += 1;
-            return Ok(f.clone());
-        }
-        let file = self.options.cache_dir.as_ref().map(|d| d.join(format!("svdf-{key:016x}.bin")));
-        if let Some(path) = &file
-            && path.exists()
-        {
-            match rsl_vis::store::load_svdf(path) {
-                Ok(f) if field_vertices(&f) == mesh.vertex_count() => {
-                    self.stats.disk_hits += 1;
-                    let f = Arc::new(f);
-                    self.svdfs.insert(key, f.clone());
-                    return Ok(f);
-                }
-                Ok(_) => self.reject(path, "vertex count differs from the mesh"),
-                Err(e) => self.reject(path, &e.to_string()),
-            }
-        }
-        self.stats.misses += 1;
-        let start = Instant::now();
-        let bar = spinner(
+        let key = field_key("svdf", mesh_key, &format!("{p:?}"));
+        let vertices = mesh.vertex_count();
+        let io = FieldIo {
+            prefix: "svdf",
+            load: rsl_vis::store::load_svdf,
+            save: rsl_vis::store::save_svdf,
+            check: &|f: &Svdf| {
+                (field_vertices(f) == vertices).then_some(()).ok_or("vertex count differs from the mesh")
+            },
+            build: &|| Svdf::build(mesh, &p).with_context(|| format!("object {name}: self-visibility field")),
+            message: format!("self-visibility of {name} ({vertices} vertices, {}×{} per vertex)", p.n, p.n),
+        };
+        let dir = self.options.cache_dir.clone();
+        cached(
+            &mut self.svdfs,
+            &mut self.stats,
+            &mut self.timings.svdf_ms,
+            dir.as_deref(),
+            key,
+            io,
             self.options.progress,
-            format!("self-visibility of {name} ({} vertices, {}×{} per vertex)", mesh.vertex_count(), p.n, p.n),
-        );
-        let f = Svdf::build(mesh, &p).with_context(|| format!("object {name}: self-visibility field"))?;
-        bar.finish_and_clear();
-        self.timings.svdf_ms += start.elapsed().as_secs_f64() * 1e3;
-        if let Some(path) = &file
-            && let Err(e) = std::fs::create_dir_all(path.parent().unwrap_or(path))
-                .map_err(|e| e.to_string())
-                .and_then(|()| rsl_vis::store::save_svdf(&f, path).map_err(|e| e.to_string()))
-        {
-            tracing::warn!("cannot cache the self-visibility field of {name}: {e}");
-        }
-        let f = Arc::new(f);
-        self.svdfs.insert(key, f.clone());
-        Ok(f)
+        )
     }
 
     fn ovdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<Arc<Ovdf>> {
         let p = ovdf_params(&self.settings);
         p.check().map_err(anyhow::Error::msg).context("quality settings")?;
-        let key = KeyHasher::default()
-            .str("ovdf")
-            .u64(mesh_key)
-            .u64(CACHE_VERSION)
-            .u64(rsl_vis::store::VERSION.into())
-            .str(&format!("{p:?}"))
-            .finish();
-        if let Some(f) = self.ovdfs.get(&key) {
-            self.stats.memory_hits += 1;
-            return Ok(f.clone());
-        }
-        let file = self.options.cache_dir.as_ref().map(|d| d.join(format!("ovdf-{key:016x}.bin")));
-        if let Some(path) = &file
-            && path.exists()
-        {
-            match rsl_vis::store::load_ovdf(path) {
-                Ok(f) if f.params() == &p => {
-                    self.stats.disk_hits += 1;
-                    let f = Arc::new(f);
-                    self.ovdfs.insert(key, f.clone());
-                    return Ok(f);
-                }
-                Ok(_) => self.reject(path, "resolution differs"),
-                Err(e) => self.reject(path, &e.to_string()),
-            }
-        }
-        self.stats.misses += 1;
-        let start = Instant::now();
-        let bar = spinner(
+        let key = field_key("ovdf", mesh_key, &format!("{p:?}"));
+        let io = FieldIo {
+            prefix: "ovdf",
+            load: rsl_vis::store::load_ovdf,
+            save: rsl_vis::store::save_ovdf,
+            check: &|f: &Ovdf| (f.params() == &p).then_some(()).ok_or("resolution differs"),
+            build: &|| Ovdf::build(mesh, &p).with_context(|| format!("object {name}: occluder field")),
+            message: format!("occluder field of {name} ({} shells × 6×{}×{} samples)", p.shells, p.m, p.m),
+        };
+        let dir = self.options.cache_dir.clone();
+        cached(
+            &mut self.ovdfs,
+            &mut self.stats,
+            &mut self.timings.ovdf_ms,
+            dir.as_deref(),
+            key,
+            io,
             self.options.progress,
-            format!("occluder field of {name} ({} shells × 6×{}×{} samples)", p.shells, p.m, p.m),
-        );
-        let f = Ovdf::build(mesh, &p).with_context(|| format!("object {name}: occluder field"))?;
-        bar.finish_and_clear();
-        self.timings.ovdf_ms += start.elapsed().as_secs_f64() * 1e3;
-        if let Some(path) = &file
-            && let Err(e) = std::fs::create_dir_all(path.parent().unwrap_or(path))
-                .map_err(|e| e.to_string())
-                .and_then(|()| rsl_vis::store::save_ovdf(&f, path).map_err(|e| e.to_string()))
-        {
-            tracing::warn!("cannot cache the occluder field of {name}: {e}");
-        }
-        let f = Arc::new(f);
-        self.ovdfs.insert(key, f.clone());
-        Ok(f)
+        )
     }
 
     /// The RSLs at `state`, in world space, with the environment's intensity.
@@ -577,6 +523,85 @@ impl Engine {
             (0..self.objects.len()).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
         Ok(ShadedFrame { state, positions, normals, radiance, stats, shade_ms })
     }
+}
+
+/// Counts a rejected cache file, says why, and removes it.
+fn reject(stats: &mut CacheStats, file: &Path, why: &str) {
+    stats.rejected += 1;
+    tracing::warn!("cache file {} rejected ({why}); recomputing", file.display());
+    let _ = std::fs::remove_file(file);
+}
+
+/// The key of a visibility field of a mesh at some parameters.
+fn field_key(kind: &str, mesh_key: u64, params: &str) -> u64 {
+    KeyHasher::default()
+        .str(kind)
+        .u64(mesh_key)
+        .u64(CACHE_VERSION)
+        .u64(rsl_vis::store::VERSION.into())
+        .str(params)
+        .finish()
+}
+
+/// How to read, check, build and write one kind of visibility field.
+struct FieldIo<'a, T> {
+    /// File name prefix (`<prefix>-<key>.bin`).
+    prefix: &'static str,
+    load: fn(&Path) -> Result<T, FieldFileError>,
+    save: fn(&T, &Path) -> Result<(), FieldFileError>,
+    /// Whether a loaded field fits what is asked for (and why not).
+    check: &'a dyn Fn(&T) -> Result<(), &'static str>,
+    build: &'a dyn Fn() -> Result<T>,
+    /// What the progress display says while building.
+    message: String,
+}
+
+/// A field from memory, else from disk (checked; a bad file is rejected), else built (and
+/// written to disk). `ms` accumulates the build time.
+fn cached<T>(
+    memory: &mut HashMap<u64, Arc<T>>,
+    stats: &mut CacheStats,
+    ms: &mut f64,
+    dir: Option<&Path>,
+    key: u64,
+    io: FieldIo<'_, T>,
+    progress: bool,
+) -> Result<Arc<T>> {
+    if let Some(f) = memory.get(&key) {
+        stats.memory_hits += 1;
+        return Ok(f.clone());
+    }
+    let file = dir.map(|d| d.join(format!("{}-{key:016x}.bin", io.prefix)));
+    if let Some(path) = &file
+        && path.exists()
+    {
+        match (io.load)(path).map_err(|e| e.to_string()).and_then(|f| (io.check)(&f).map(|()| f).map_err(String::from))
+        {
+            Ok(f) => {
+                stats.disk_hits += 1;
+                let f = Arc::new(f);
+                memory.insert(key, f.clone());
+                return Ok(f);
+            }
+            Err(why) => reject(stats, path, &why),
+        }
+    }
+    stats.misses += 1;
+    let start = Instant::now();
+    let bar = spinner(progress, io.message.clone());
+    let f = (io.build)()?;
+    bar.finish_and_clear();
+    *ms += start.elapsed().as_secs_f64() * 1e3;
+    if let Some(path) = &file
+        && let Err(e) = std::fs::create_dir_all(path.parent().unwrap_or(path))
+            .map_err(|e| e.to_string())
+            .and_then(|()| (io.save)(&f, path).map_err(|e| e.to_string()))
+    {
+        tracing::warn!("cannot cache {}: {e}", io.message);
+    }
+    let f = Arc::new(f);
+    memory.insert(key, f.clone());
+    Ok(f)
 }
 
 fn field_vertices(f: &Svdf) -> usize {
