@@ -86,7 +86,8 @@ pub struct BrdfTable {
     views: Views,
     /// Per view slice, `(N+1)²` prefix sums (RGB, f64), row-major, `sat[j][i]` = Σ of cells
     /// with index < i in x and < j in y.
-    sat: Vec<Vec<[f64; 3]>>,
+    /// The fourth lane is zero padding, so that a tap is one 4-wide vector operation.
+    sat: Vec<Vec<[f64; 4]>>,
     /// Largest cell density (integral / cell solid angle), per channel, over all slices.
     max_density: Vec3,
 }
@@ -331,28 +332,42 @@ impl BrdfTable {
             rows[d] = (y1.0[d] * (n + 1), y1.1[d]);
             rows[d + 4] = (y0.0[d] * (n + 1), -y0.1[d]);
         }
-        let mut out = [0.0f64; 3];
-        for &(k, w) in slices {
-            let sat = &self.sat[k];
-            let mut acc = [0.0f64; 3];
-            for &(row, wy) in &rows {
-                let mut line = [0.0f64; 3];
-                for &(col, wx) in &cols {
-                    let v = sat[row + col];
-                    line[0] += wx * v[0];
-                    line[1] += wx * v[1];
-                    line[2] += wx * v[2];
-                }
-                for c in 0..3 {
-                    acc[c] += wy * line[c];
-                }
-            }
-            for c in 0..3 {
-                out[c] += f64::from(w) * acc[c];
-            }
-        }
+        let out = blend_taps(&self.sat, slices, &rows, &cols);
         Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32)
     }
+}
+
+/// `Σ_slices w · Σ_rows wy · Σ_cols wx · sat[row + col]` over RGB(+pad) lanes, compiled for
+/// AVX2 and SSE4.1 with run-time dispatch (the 4-lane loops become vector code).
+#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx2", "x86_64+sse4.1"))]
+fn blend_taps(
+    sat: &[Vec<[f64; 4]>],
+    slices: &[(usize, f32)],
+    rows: &[(usize, f64); 8],
+    cols: &[(usize, f64); 8],
+) -> [f64; 4] {
+    let mut out = [0.0f64; 4];
+    for &(k, w) in slices {
+        let sat = &sat[k];
+        let mut acc = [0.0f64; 4];
+        for &(row, wy) in rows {
+            let mut line = [0.0f64; 4];
+            for &(col, wx) in cols {
+                let v = sat[row + col];
+                for c in 0..4 {
+                    line[c] += wx * v[c];
+                }
+            }
+            for c in 0..4 {
+                acc[c] += wy * line[c];
+            }
+        }
+        let w = f64::from(w);
+        for c in 0..4 {
+            out[c] += w * acc[c];
+        }
+    }
+    out
 }
 
 /// Catmull–Rom weights of the points at offsets −1, 0, 1, 2 for a parameter `t ∈ [0, 1]`.
@@ -470,8 +485,8 @@ fn slice(brdf: &Brdf, grid: &HemiGrid, points: &QuadraturePoints, wo: Vec3, mirr
 }
 
 /// Summed-area table of `N×N` cells: `(N+1)²` prefix sums.
-fn summed_area(cells: &[[f64; 3]], n: usize) -> Vec<[f64; 3]> {
-    let mut sat = vec![[0.0f64; 3]; (n + 1) * (n + 1)];
+fn summed_area(cells: &[[f64; 3]], n: usize) -> Vec<[f64; 4]> {
+    let mut sat = vec![[0.0f64; 4]; (n + 1) * (n + 1)];
     for j in 0..n {
         let mut row = [0.0f64; 3];
         for i in 0..n {

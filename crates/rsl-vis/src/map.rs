@@ -198,6 +198,23 @@ pub(crate) fn bilinear_cells(n: usize, p: Vec2, at: impl Fn(usize) -> f32) -> f3
     (v(i, j) * (1.0 - fx) + v(i + 1, j) * fx) * (1.0 - fy) + (v(i, j + 1) * (1.0 - fx) + v(i + 1, j + 1) * fx) * fy
 }
 
+/// The four cells and weights of [`bilinear_cells`] at `p` (an `n = 1` grid gives its one
+/// cell with weight 1).
+#[inline]
+pub(crate) fn bilinear_taps(n: usize, p: Vec2) -> ([usize; 4], [f32; 4]) {
+    if n == 1 {
+        return ([0; 4], [1.0, 0.0, 0.0, 0.0]);
+    }
+    let g = |c: f32| ((c + 1.0) * 0.5 * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+    let (x, y) = (g(p.x), g(p.y));
+    let (i, j) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
+    let (fx, fy) = (x - i as f32, y - j as f32);
+    (
+        [j * n + i, j * n + i + 1, (j + 1) * n + i, (j + 1) * n + i + 1],
+        [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy],
+    )
+}
+
 /// Summed-area table of a visibility map: the exact average over any axis-aligned box (cells
 /// taken as uniform), four lookups.
 #[derive(Clone, Debug, PartialEq)]
