@@ -60,9 +60,9 @@ fn blend_dot(rows: [&[f32]; 4], w: [f32; 4], co: &[f32]) -> f32 {
     let mut acc = [0.0f32; 8];
     let full = k - k % 8;
     for t0 in (0..full).step_by(8) {
-        for l in 0..8 {
+        for (l, a) in acc.iter_mut().enumerate() {
             let t = t0 + l;
-            acc[l] += co[t] * (w[0] * r0[t] + w[1] * r1[t] + w[2] * r2[t] + w[3] * r3[t]);
+            *a += co[t] * (w[0] * r0[t] + w[1] * r1[t] + w[2] * r2[t] + w[3] * r3[t]);
         }
     }
     for t in full..k {
