@@ -193,6 +193,21 @@ fn spinner(show: bool, message: String) -> ProgressBar {
     bar
 }
 
+/// A progress bar with a percentage and time estimate on standard error (hidden when not
+/// shown or when standard error is not a terminal).
+fn progress_bar(show: bool, message: String) -> ProgressBar {
+    if !show {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(0).with_message(message);
+    bar.set_style(
+        ProgressStyle::with_template("{msg} {wide_bar} {percent:>3}% [{elapsed} / ~{duration}]")
+            .expect("valid template"),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    bar
+}
+
 impl Engine {
     /// Prepares `scene`: from the caches where possible, computing the rest.
     pub fn new(scene: &Scene, options: EngineOptions) -> Result<Self> {
@@ -426,7 +441,10 @@ impl Engine {
             check: &|f: &Svdf| {
                 (field_vertices(f) == vertices).then_some(()).ok_or("vertex count differs from the mesh")
             },
-            build: &|| Svdf::build(mesh, &p).with_context(|| format!("object {name}: self-visibility field")),
+            build: &|report| {
+                Svdf::build_with_progress(mesh, &p, report)
+                    .with_context(|| format!("object {name}: self-visibility field"))
+            },
             message: format!("self-visibility of {name} ({vertices} vertices, {}×{} per vertex)", p.n, p.n),
         };
         let dir = self.options.cache_dir.clone();
@@ -450,7 +468,9 @@ impl Engine {
             load: rsl_vis::store::load_ovdf,
             save: rsl_vis::store::save_ovdf,
             check: &|f: &Ovdf| (f.params() == &p).then_some(()).ok_or("resolution differs"),
-            build: &|| Ovdf::build(mesh, &p).with_context(|| format!("object {name}: occluder field")),
+            build: &|report| {
+                Ovdf::build_with_progress(mesh, &p, report).with_context(|| format!("object {name}: occluder field"))
+            },
             message: format!("occluder field of {name} ({} shells × 6×{}×{} samples)", p.shells, p.m, p.m),
         };
         let dir = self.options.cache_dir.clone();
@@ -551,7 +571,8 @@ struct FieldIo<'a, T> {
     save: fn(&T, &Path) -> Result<(), FieldFileError>,
     /// Whether a loaded field fits what is asked for (and why not).
     check: &'a dyn Fn(&T) -> Result<(), &'static str>,
-    build: &'a dyn Fn() -> Result<T>,
+    /// Builds the field, reporting `(done, total)`.
+    build: &'a dyn Fn(&(dyn Fn(usize, usize) + Sync)) -> Result<T>,
     /// What the progress display says while building.
     message: String,
 }
@@ -588,8 +609,11 @@ fn cached<T>(
     }
     stats.misses += 1;
     let start = Instant::now();
-    let bar = spinner(progress, io.message.clone());
-    let f = (io.build)()?;
+    let bar = progress_bar(progress, io.message.clone());
+    let f = (io.build)(&|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })?;
     bar.finish_and_clear();
     *ms += start.elapsed().as_secs_f64() * 1e3;
     if let Some(path) = &file

@@ -106,6 +106,16 @@ pub struct Ovdf {
 impl Ovdf {
     /// Builds the field of `mesh` (object space).
     pub fn build(mesh: &TriMesh, params: &OvdfParams) -> Result<Self, VisError> {
+        Self::build_with_progress(mesh, params, &|_, _| {})
+    }
+
+    /// [`Ovdf::build`], calling `progress(done, total)` after each of the `shells × 24`
+    /// segments.
+    pub fn build_with_progress(
+        mesh: &TriMesh,
+        params: &OvdfParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self, VisError> {
         mesh.validate().map_err(|e| VisError::Mesh(e.to_string()))?;
         params.check().map_err(VisError::Mesh)?;
         let occluder = Occluder::new(mesh)?;
@@ -141,6 +151,7 @@ impl Ovdf {
                         })
                         .collect();
                     let raw: Vec<f32> = samples.concat();
+                    progress(s * 24 + face * 4 + qy * 2 + qx + 1, params.shells * 24);
                     let pca = Cpca::fit(&raw, d, 1, params.vectors, 0, (s * 24 + face * 4 + qy * 2 + qx) as u64);
                     let mut rec = vec![0.0f32; d];
                     for v in 0..half * half {

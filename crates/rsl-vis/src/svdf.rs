@@ -104,6 +104,16 @@ fn convex(mesh: &TriMesh, tolerance: f32, budget: usize) -> Option<bool> {
 impl Svdf {
     /// Traces and compresses the self-visibility of every vertex of `mesh` (object space).
     pub fn build(mesh: &TriMesh, params: &SvdfParams) -> Result<Self, VisError> {
+        Self::build_with_progress(mesh, params, &|_, _| {})
+    }
+
+    /// [`Svdf::build`], calling `progress(done, total)` as vertices are traced (every 256
+    /// vertices, in any order).
+    pub fn build_with_progress(
+        mesh: &TriMesh,
+        params: &SvdfParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self, VisError> {
         mesh.validate().map_err(|e| VisError::Mesh(e.to_string()))?;
         let occluder = Occluder::new(mesh)?;
         let (_, radius) = mesh.bounding_sphere().unwrap_or_default();
@@ -114,9 +124,14 @@ impl Svdf {
         // Rays start just off the surface and need not go past the object.
         let (offset, tmax) = (1e-4 * radius.max(1e-6), 4.0 * radius.max(1e-6));
         let n = params.n;
+        let traced = std::sync::atomic::AtomicUsize::new(0);
         let maps: Vec<(Vec<f32>, bool)> = (0..nv)
             .into_par_iter()
             .map(|v| {
+                let done = traced.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                if done % 256 == 0 || done == nv {
+                    progress(done, nv);
+                }
                 let frame = Frame::from_normal(mesh.normals[v]);
                 let map =
                     VisibilityMap::trace(&occluder, mesh.positions[v], &frame, offset, tmax, n, params.supersample);
