@@ -6,6 +6,7 @@
 //! a square's integral is returned with its average over the square and its solid angle.
 
 pub mod model;
+pub mod sample;
 pub mod table;
 
 pub use model::{Brdf, ParamError};

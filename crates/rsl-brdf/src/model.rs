@@ -266,7 +266,7 @@ fn half_vector(wi: Vec3, wo: Vec3) -> Option<Vec3> {
 }
 
 /// GGX normal distribution (Walter et al. 2007, eq. 33) of the half vector `m` (any length).
-fn ggx_d(m: Vec3, alpha: f32) -> f32 {
+pub(crate) fn ggx_d(m: Vec3, alpha: f32) -> f32 {
     let a2 = alpha * alpha;
     // α²/(π cos⁴θ (α² + tan²θ)²) = α²/(π (α² cos²θ + sin²θ)²) = α²|m|⁴/(π (α² m_z² + m_x² + m_y²)²),
     // with sin²θ from the tangent components: no cancellation near the peak, even for tiny
@@ -291,7 +291,7 @@ fn ggx_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
 
 /// Beckmann normal distribution (Walter et al. 2007, eq. 25) of the half vector `m` (any
 /// length): `cos²θ = m_z²/|m|²`, `tan²θ = (m_x² + m_y²)/m_z²`.
-fn beckmann_d(m: Vec3, alpha: f32) -> f32 {
+pub(crate) fn beckmann_d(m: Vec3, alpha: f32) -> f32 {
     if m.z <= 0.0 {
         return 0.0;
     }
