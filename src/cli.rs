@@ -43,6 +43,10 @@ pub enum Command {
     /// Render the bundled default scene as an animation (objects moving, the environment
     /// turning, a material swapped halfway) into a folder, and print timings.
     Demo(crate::render::DemoArgs),
+    /// Error metrics (relative L2, RMSE, max, PSNR) of A against the reference B: two PLY
+    /// files (per vertex) or two EXR files (over the pixels objects cover), with an optional
+    /// false-colour heatmap.
+    Compare(crate::compare::CompareArgs),
 }
 
 /// Arguments of `rsl decompose`.
@@ -74,6 +78,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Precompute { scene, prepare } => crate::render::precompute(&scene, &prepare),
         Command::Render(args) => crate::render::render(&args),
         Command::Demo(args) => crate::render::demo(&args),
+        Command::Compare(args) => crate::compare::run(&args),
     }
 }
 

@@ -6,11 +6,13 @@
 
 pub mod cache;
 pub mod cli;
+pub mod compare;
 pub mod decompose;
 pub mod engine;
 pub mod output;
 pub mod ply;
 pub mod render;
+pub mod truth;
 
 pub use engine::{Engine, EngineOptions, ShadedFrame};
 pub use rsl_env as env;

@@ -24,10 +24,13 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgb: Vec<u8>) -> Result<(
     write_atomic(path, bytes.get_ref())
 }
 
-/// Writes linear RGB pixels as an OpenEXR file (32-bit float channels), atomically.
-pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[glam::Vec3]) -> Result<()> {
-    let data: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
-    let img = image::Rgb32FImage::from_raw(width, height, data).context("image buffer does not match its size")?;
+/// Writes linear RGB pixels as an OpenEXR file (32-bit float RGBA), atomically; alpha is 1
+/// where `covered` (an object covers the pixel) and 0 on the background, so comparisons can
+/// keep to the objects.
+pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[glam::Vec3], covered: &[bool]) -> Result<()> {
+    let data: Vec<f32> =
+        pixels.iter().zip(covered).flat_map(|(p, &c)| [p.x, p.y, p.z, if c { 1.0 } else { 0.0 }]).collect();
+    let img = image::Rgba32FImage::from_raw(width, height, data).context("image buffer does not match its size")?;
     let mut bytes = std::io::Cursor::new(Vec::new());
     img.write_to(&mut bytes, image::ImageFormat::OpenExr).context("OpenEXR encoding failed")?;
     write_atomic(path, bytes.get_ref())
@@ -49,6 +52,22 @@ pub fn write_gif(path: &Path, width: u32, height: u32, frames: &[Vec<u8>], fps: 
         }
     }
     write_atomic(path, &bytes)
+}
+
+/// Reads an OpenEXR image: linear RGB and, where it has one, the alpha channel as a mask.
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<glam::Vec3>, Option<Vec<bool>>)> {
+    let img = image::ImageReader::open(path)
+        .with_context(|| format!("cannot open {}", path.display()))?
+        .with_guessed_format()
+        .with_context(|| format!("cannot read {}", path.display()))?
+        .decode()
+        .with_context(|| format!("{}: not a readable image", path.display()))?;
+    let has_alpha = img.color().has_alpha();
+    let rgba = img.into_rgba32f();
+    let (w, h) = rgba.dimensions();
+    let pixels = rgba.pixels().map(|p| glam::Vec3::new(p.0[0], p.0[1], p.0[2])).collect();
+    let mask = has_alpha.then(|| rgba.pixels().map(|p| p.0[3] > 0.5).collect());
+    Ok((w, h, pixels, mask))
 }
 
 #[cfg(test)]

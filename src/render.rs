@@ -3,6 +3,7 @@
 use crate::engine::{Engine, EngineOptions, ShadedFrame};
 use crate::{output, ply};
 use anyhow::{Context, Result, bail};
+use glam::Vec3;
 use rsl_scene::{Material, Preset, Scene};
 use rsl_shade::{Image, RasterMesh, tonemap};
 use std::path::{Path, PathBuf};
@@ -67,6 +68,17 @@ pub struct RenderArgs {
     /// Where shading runs.
     #[arg(long, value_enum, default_value_t = Device::Cpu)]
     pub device: Device,
+    /// How radiance is computed: `rsl` (the renderer) or `truth` (Monte Carlo reference:
+    /// per pixel through the camera, and per vertex for --vertex-out).
+    #[arg(long, value_enum, default_value_t = Method::Rsl)]
+    pub method: Method,
+    /// Samples per pixel and per vertex of `--method truth` (each sample traces up to two
+    /// shadow rays: one toward the environment, one along the BRDF).
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Seed of `--method truth` (the result is deterministic for a seed).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
     /// Output image: .png (tonemapped) or .exr (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -145,19 +157,35 @@ pub fn rasterise(engine: &Engine, scene: &Scene, frame: &ShadedFrame) -> Image {
     rsl_shade::rasterise(&scene.camera, &meshes, |d| engine.background(&frame.state, d))
 }
 
-fn write_vertices(path: &Path, scene: &Scene, frame: &ShadedFrame) -> Result<()> {
+/// Per object, per vertex: world positions, world normals, radiance toward the eye.
+struct Vertices {
+    positions: Vec<Vec<Vec3>>,
+    normals: Vec<Vec<Vec3>>,
+    radiance: Vec<Vec<Vec3>>,
+}
+
+fn write_vertices(path: &Path, scene: &Scene, v: &Vertices) -> Result<()> {
     let objects: Vec<ply::PlyObject<'_>> = scene
         .objects
         .iter()
         .enumerate()
         .map(|(i, o)| ply::PlyObject {
-            positions: &frame.positions[i],
-            normals: &frame.normals[i],
-            radiance: &frame.radiance[i],
+            positions: &v.positions[i],
+            normals: &v.normals[i],
+            radiance: &v.radiance[i],
             indices: &o.mesh.indices,
         })
         .collect();
     ply::write(path, &objects)
+}
+
+/// How a frame is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Rotatable square lights and the multiple product approximation.
+    Rsl,
+    /// The Monte Carlo ground truth (multiple importance sampling, shadow rays).
+    Truth,
 }
 
 fn print_preparation(engine: &Engine) {
@@ -209,9 +237,13 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         bail!("--exposure must be a positive number, got {e}");
     }
     let Device::Cpu = args.device;
+    if args.method == Method::Truth && args.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
     let scene = Scene::load(&args.scene)?;
-    let engine = Engine::new(&scene, args.prepare.options())?;
-    print_preparation(&engine);
+    if args.method == Method::Truth && scene.objects.is_empty() {
+        bail!("{}: the scene has no objects; there is nothing to estimate", args.scene.display());
+    }
     let times: Vec<(Option<u32>, f32)> = match (args.frames, args.time) {
         (Some((a, b)), _) => (a..b).map(|k| (Some(k), k as f32 / args.fps)).collect(),
         (None, t) => {
@@ -222,29 +254,77 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             vec![(None, t)]
         }
     };
+    let engine = match args.method {
+        Method::Rsl => {
+            let e = Engine::new(&scene, args.prepare.options())?;
+            print_preparation(&e);
+            Some(e)
+        }
+        Method::Truth => None,
+    };
+    let truth = match args.method {
+        Method::Truth => Some((crate::truth::env_light(&scene)?, crate::truth::vertex_frames(&scene))),
+        Method::Rsl => None,
+    };
     let mut exposure = args.exposure;
     let mut gif_frames = Vec::new();
     let (mut shade_ms, mut raster_ms) = (0.0, 0.0);
     for &(k, t) in &times {
-        let frame = engine.shade(&scene, t)?;
-        shade_ms += frame.shade_ms;
         let start = Instant::now();
-        let image = rasterise(&engine, &scene, &frame);
-        raster_ms += start.elapsed().as_secs_f64() * 1e3;
+        let (image, vertices) = if let Some(engine) = &engine {
+            let frame = engine.shade(&scene, t)?;
+            shade_ms += frame.shade_ms;
+            let start = Instant::now();
+            let image = rasterise(engine, &scene, &frame);
+            raster_ms += start.elapsed().as_secs_f64() * 1e3;
+            let ShadedFrame { positions, normals, radiance, .. } = frame;
+            (image, Vertices { positions, normals, radiance })
+        } else {
+            let (env, frames) = truth.as_ref().expect("truth inputs for --method truth");
+            let ts = crate::truth::truth_scene(&scene, frames, env.clone(), t)?;
+            let (px, covered, stats) = ts.pixels(&scene.camera, args.spp, args.seed)?;
+            let image = Image {
+                width: scene.camera.width,
+                height: scene.camera.height,
+                pixels: px.iter().map(|e| e.mean).collect(),
+                covered,
+            };
+            let mut rays = stats.shadow_rays;
+            let vertices = if args.vertex_out.is_some() {
+                let (est, vstats) = ts.vertices(scene.camera.eye, args.spp, args.seed)?;
+                rays += vstats.shadow_rays;
+                let n = scene.objects.len();
+                Vertices {
+                    positions: (0..n).map(|i| ts.positions(i).to_vec()).collect(),
+                    normals: (0..n).map(|i| (0..est[i].len()).map(|v| ts.frame(i, v).n).collect()).collect(),
+                    radiance: est.iter().map(|o| o.iter().map(|e| e.mean).collect()).collect(),
+                }
+            } else {
+                Vertices { positions: Vec::new(), normals: Vec::new(), radiance: Vec::new() }
+            };
+            let secs = start.elapsed().as_secs_f64();
+            shade_ms += secs * 1e3;
+            eprintln!(
+                "truth: {} spp, {rays} shadow rays in {secs:.1} s ({:.2} M rays/s)",
+                args.spp,
+                rays as f64 / secs / 1e6
+            );
+            (image, vertices)
+        };
         let out = k.map_or_else(|| args.out.clone(), |k| numbered(&args.out, k));
         let e = *exposure.get_or_insert_with(|| exposure_for(&image));
         let rgb = tonemap::encode_all(&image.pixels, e);
         match format {
             Format::Png => output::write_png(&out, image.width, image.height, rgb.clone())?,
-            Format::Exr => output::write_exr(&out, image.width, image.height, &image.pixels)?,
+            Format::Exr => output::write_exr(&out, image.width, image.height, &image.pixels, &image.covered)?,
         }
         if let Some(p) = &args.vertex_out {
-            write_vertices(&k.map_or_else(|| p.clone(), |k| numbered(p, k)), &scene, &frame)?;
+            write_vertices(&k.map_or_else(|| p.clone(), |k| numbered(p, k)), &scene, &vertices)?;
         }
         if k.is_some() {
             gif_frames.push(rgb);
         }
-        eprintln!("wrote {} (t = {t:.3} s, shading {:.1} ms)", out.display(), frame.shade_ms);
+        eprintln!("wrote {} (t = {t:.3} s, {:.1} ms)", out.display(), start.elapsed().as_secs_f64() * 1e3);
     }
     if !gif_frames.is_empty() {
         let gif = args.out.with_extension("gif");
@@ -253,7 +333,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     }
     let n = times.len() as f64;
     eprintln!(
-        "{} frame(s): shading {:.1} ms/frame, rasterising {:.1} ms/frame",
+        "{} frame(s): shading (or estimating) {:.1} ms/frame, rasterising {:.1} ms/frame",
         times.len(),
         shade_ms / n,
         raster_ms / n

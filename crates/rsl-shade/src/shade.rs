@@ -156,16 +156,59 @@ impl FrameStats {
     }
 }
 
-/// The per-frame form of an object: its transform as matrices, and every light's direction
-/// in its object space.
+/// An object's transform in the forms shading needs. Every path that evaluates a vertex
+/// (this crate's, the GPU's, the Monte Carlo truth's) places it with these.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Translation.
+    pub translation: Vec3,
+    /// `S⁻¹·R⁻¹`: world directions (and offsets) into object space.
+    pub to_object: Mat3,
+    /// `R·S⁻¹`: object normals to world.
+    pub normal_to_world: Mat3,
+    /// `R·S`: object tangents (and offsets) to world.
+    pub linear_to_world: Mat3,
+}
+
+impl Pose {
+    /// The pose of a transform `T·R·S`.
+    pub fn new(t: &Transform) -> Self {
+        let r = Mat3::from_quat(t.rotation);
+        Self {
+            translation: t.translation,
+            to_object: Mat3::from_diagonal(t.scale.recip()) * r.transpose(),
+            normal_to_world: r * Mat3::from_diagonal(t.scale.recip()),
+            linear_to_world: r * Mat3::from_diagonal(t.scale),
+        }
+    }
+
+    /// World position of an object-space point.
+    pub fn position(&self, p: Vec3) -> Vec3 {
+        self.translation + self.linear_to_world * p
+    }
+
+    /// Object-space position of a world point.
+    pub fn point_to_object(&self, x: Vec3) -> Vec3 {
+        self.to_object * (x - self.translation)
+    }
+
+    /// Unit world normal of an object-space normal.
+    pub fn normal(&self, n: Vec3) -> Vec3 {
+        (self.normal_to_world * n).normalize_or_zero()
+    }
+
+    /// The world-space shading frame of an object-space frame: its normal carried by
+    /// `R·S⁻¹`, its tangent by `R·S` (then made orthogonal).
+    pub fn frame(&self, f: &Frame) -> Frame {
+        Frame::from_normal_tangent(self.normal_to_world * f.n, self.linear_to_world * f.t)
+    }
+}
+
+/// The per-frame form of an object: its pose, and every light's direction in its object
+/// space.
 struct Placed<'a> {
     object: ShadeObject<'a>,
-    /// `S⁻¹·R⁻¹`: world directions (and offsets) into object space.
-    to_object: Mat3,
-    /// `R·S⁻¹`: object normals to world.
-    normal_to_world: Mat3,
-    /// `R·S`: object tangents (and offsets) to world.
-    linear_to_world: Mat3,
+    pose: Pose,
     /// Light directions in object space (unit).
     light_dirs: Vec<Vec3>,
     /// Bounding sphere of the occluder field in world space, and its object-space form.
@@ -184,35 +227,31 @@ struct Bound {
 impl<'a> Placed<'a> {
     fn new(object: ShadeObject<'a>, lights: &[Light]) -> Self {
         let t = object.transform;
-        let r = Mat3::from_quat(t.rotation);
-        let inv_scale = Mat3::from_diagonal(t.scale.recip());
-        let scale = Mat3::from_diagonal(t.scale);
-        let to_object = inv_scale * r.transpose();
-        let light_dirs = lights.iter().map(|l| (to_object * l.dir).normalize_or_zero()).collect();
+        let pose = Pose::new(&t);
+        let light_dirs = lights.iter().map(|l| (pose.to_object * l.dir).normalize_or_zero()).collect();
         let bound = object.ovdf.map(|f| {
             let (c, radius) = f.bounds();
             Bound {
-                centre_world: t.translation + r * (scale * c),
+                centre_world: pose.position(c),
                 radius_world: radius * t.scale.max_element(),
                 centre_object: c,
                 reach_object: OUTER * radius,
             }
         });
-        Self { object, to_object, normal_to_world: r * inv_scale, linear_to_world: r * scale, light_dirs, bound }
+        Self { object, pose, light_dirs, bound }
     }
 
     fn point_to_object(&self, x: Vec3) -> Vec3 {
-        self.to_object * (x - self.object.transform.translation)
+        self.pose.point_to_object(x)
     }
 
     fn position(&self, v: usize) -> Vec3 {
-        self.object.transform.translation + self.linear_to_world * self.object.mesh.positions[v]
+        self.pose.position(self.object.mesh.positions[v])
     }
 
     /// The world-space shading frame of vertex `v`.
     fn shading_frame(&self, v: usize) -> Frame {
-        let f = self.object.frames.shading(v);
-        Frame::from_normal_tangent(self.normal_to_world * f.n, self.linear_to_world * f.t)
+        self.pose.frame(self.object.frames.shading(v))
     }
 }
 
@@ -297,7 +336,7 @@ impl<'a> FrameSetup<'a> {
     /// World normal of vertex `v` of object `i`.
     pub fn normal(&self, i: usize, v: usize) -> Vec3 {
         let p = &self.placed[i];
-        (p.normal_to_world * p.object.mesh.normals[v]).normalize_or_zero()
+        p.pose.normal(p.object.mesh.normals[v])
     }
 
     /// Radiance of vertex `v` of object `i` toward the eye, and its lookups (the fast path's
@@ -404,7 +443,7 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                 let brdf = o.table.square(frame.to_local(light.dir), r, view).integral;
                 let mut cover = 1.0;
                 if setup.terms.self_visibility {
-                    let d = (p.to_object * light.dir).normalize_or_zero();
+                    let d = (p.pose.to_object * light.dir).normalize_or_zero();
                     let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
                     cover = o.svdf.coverage(v, q, r);
                 }
@@ -417,7 +456,7 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                         if culled(&n, light.dir, setup.cones[l]) {
                             continue;
                         }
-                        let d = (q.to_object * light.dir).normalize_or_zero();
+                        let d = (q.pose.to_object * light.dir).normalize_or_zero();
                         cover *= q.object.ovdf.expect("near() needs a field").coverage(n.x_object, d, r);
                     }
                 }

@@ -1,0 +1,433 @@
+//! The Monte Carlo estimator of direct environment lighting with shadows:
+//!
+//! `L_o(x, v) = ∫ L(ω) ρ(ω, v) cos θ V(x, ω) dω`
+//!
+//! — exactly what the RSL path approximates: the environment (bilinear lat-long lookups,
+//! as Mitsuba 3's `envmap`, or a constant) seen from `x` past every object at its current
+//! transform, no interreflection. Each sample pairs one direction drawn from the
+//! environment (luminance × texel solid angle, rsl-sphere) with one drawn from the BRDF
+//! (rsl-brdf), weighted by the power heuristic (β = 2). Samples are stratified (Latin
+//! hypercube per strategy), deterministic for a seed, and the estimate comes with its
+//! standard error (the sample standard deviation of the per-sample sums over √spp, per
+//! channel; stratification only makes it conservative).
+//!
+//! Shadow rays start `1e-4` scene radii off the surface along the shading normal. An object
+//! with `casts_shadows = false` still shadows itself, not others, as in the RSL path.
+
+use glam::{Quat, Vec2, Vec3, Vec3A};
+use obvhs::{
+    BvhBuildParams, cwbvh::CwBvh, cwbvh::builder::build_cwbvh_from_tris, ray::Ray, ray::RayHit, triangle::Triangle,
+};
+use rayon::prelude::*;
+use rsl_brdf::Brdf;
+use rsl_scene::{Camera, Transform};
+use rsl_shade::{Pose, VertexFrames};
+use rsl_sphere::Frame;
+use rsl_sphere::latlong::LatLongMap;
+use rsl_sphere::mesh::TriMesh;
+use rsl_sphere::sampling::{EnvironmentSampler, Pcg32, uniform_sphere};
+use std::sync::Arc;
+
+/// The environment as a light source.
+#[derive(Clone, Debug)]
+pub enum EnvLight {
+    /// A lat-long map (bilinear lookups) with its importance sampler, times `intensity`.
+    Map {
+        /// The radiance.
+        map: Arc<LatLongMap>,
+        /// Its sampler.
+        sampler: Arc<EnvironmentSampler>,
+        /// Scale.
+        intensity: f32,
+    },
+    /// The same radiance everywhere.
+    Constant(Vec3),
+}
+
+impl EnvLight {
+    /// A map light. Its sampler follows each texel's largest 3×3-neighbour luminance, so
+    /// that every direction where the bilinear lookup is non-zero can be sampled (a bright
+    /// texel's light spreads into its neighbours' areas).
+    pub fn map(map: Arc<LatLongMap>, intensity: f32) -> Self {
+        let (w, h) = (map.width(), map.height());
+        let lum = |c: Vec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+        let mut dilated = Vec::with_capacity(w * h);
+        for j in 0..h {
+            for i in 0..w {
+                let mut best = map.texel(i, j);
+                for dj in [-1i64, 0, 1] {
+                    let jj = j as i64 + dj;
+                    if jj < 0 || jj >= h as i64 {
+                        continue;
+                    }
+                    for di in [-1i64, 0, 1] {
+                        let c = map.texel((i as i64 + di).rem_euclid(w as i64) as usize, jj as usize);
+                        if lum(c) > lum(best) {
+                            best = c;
+                        }
+                    }
+                }
+                dilated.push(best);
+            }
+        }
+        let weights = LatLongMap::new(w, h, dilated).expect("same size as the map");
+        let sampler = Arc::new(EnvironmentSampler::new(&weights));
+        EnvLight::Map { map, sampler, intensity }
+    }
+
+    /// Radiance toward environment-space direction `d`.
+    pub fn radiance(&self, d: Vec3) -> Vec3 {
+        match self {
+            EnvLight::Map { map, intensity, .. } => map.lookup(d) * *intensity,
+            EnvLight::Constant(c) => *c,
+        }
+    }
+
+    fn sample(&self, u: Vec2) -> (Vec3, f32) {
+        match self {
+            EnvLight::Map { sampler, .. } => sampler.sample(u),
+            EnvLight::Constant(_) => (uniform_sphere(u), 1.0 / (4.0 * std::f32::consts::PI)),
+        }
+    }
+
+    fn pdf(&self, d: Vec3) -> f32 {
+        match self {
+            EnvLight::Map { sampler, .. } => sampler.pdf(d),
+            EnvLight::Constant(_) => 1.0 / (4.0 * std::f32::consts::PI),
+        }
+    }
+}
+
+/// One object as the estimator sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct TruthObject<'a> {
+    /// The mesh in object space.
+    pub mesh: &'a TriMesh,
+    /// Its vertex frames (the same the RSL path uses).
+    pub frames: &'a VertexFrames,
+    /// The material.
+    pub brdf: Brdf,
+    /// The current transform.
+    pub transform: Transform,
+    /// Whether it shadows other objects.
+    pub casts_shadows: bool,
+}
+
+/// An estimate and its standard error, per channel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Estimate {
+    /// The mean.
+    pub mean: Vec3,
+    /// Its standard error.
+    pub std_error: Vec3,
+}
+
+/// Counts of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TruthStats {
+    /// Points estimated.
+    pub points: u64,
+    /// Shadow rays traced.
+    pub shadow_rays: u64,
+}
+
+/// The scene at one time, in world space, with one BVH over every triangle.
+pub struct TruthScene {
+    positions: Vec<Vec<Vec3>>,
+    frames: Vec<Vec<Frame>>,
+    indices: Vec<Vec<u32>>,
+    brdfs: Vec<Brdf>,
+    casts: Vec<bool>,
+    bvh: CwBvh,
+    tris: Vec<Triangle>,
+    /// Per BVH triangle: object and triangle number.
+    owners: Vec<(u32, u32)>,
+    env: EnvLight,
+    env_from_world: Quat,
+    world_from_env: Quat,
+    offset: f32,
+}
+
+/// `n` points stratified in each coordinate (a Latin hypercube: one per row and column
+/// stratum, in random pairings).
+fn latin_hypercube(n: usize, rng: &mut Pcg32) -> Vec<Vec2> {
+    let mut px: Vec<usize> = (0..n).collect();
+    let mut py: Vec<usize> = (0..n).collect();
+    for k in (1..n).rev() {
+        px.swap(k, rng.next_u32() as usize % (k + 1));
+        py.swap(k, rng.next_u32() as usize % (k + 1));
+    }
+    let cell = |s: usize, rng: &mut Pcg32| ((s as f32 + rng.next_f32()) / n as f32).min(1.0 - f32::EPSILON);
+    (0..n).map(|k| Vec2::new(cell(px[k], rng), cell(py[k], rng))).collect()
+}
+
+/// Why a truth scene cannot be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum TruthError {
+    /// Nothing to estimate.
+    #[error("the scene has no objects: there is nothing to estimate")]
+    NoObjects,
+    /// No sample per point.
+    #[error("spp must be at least 1")]
+    NoSamples,
+    /// Every triangle is degenerate.
+    #[error("the scene has no triangle of non-zero area")]
+    NoTriangles,
+}
+
+impl TruthScene {
+    /// Places every object and builds the BVH. `world_from_env` rotates the environment.
+    pub fn new(objects: &[TruthObject<'_>], env: EnvLight, world_from_env: Quat) -> Result<Self, TruthError> {
+        if objects.is_empty() {
+            return Err(TruthError::NoObjects);
+        }
+        let mut positions = Vec::new();
+        let mut frames = Vec::new();
+        let (mut tris, mut owners) = (Vec::new(), Vec::new());
+        for (i, o) in objects.iter().enumerate() {
+            let pose = Pose::new(&o.transform);
+            let p: Vec<Vec3> = o.mesh.positions.iter().map(|&p| pose.position(p)).collect();
+            frames.push((0..o.mesh.vertex_count()).map(|v| pose.frame(o.frames.shading(v))).collect());
+            for (t, tri) in o.mesh.indices.chunks_exact(3).enumerate() {
+                let [a, b, c] = [0, 1, 2].map(|k| p[tri[k] as usize]);
+                if (b - a).cross(c - a).length_squared() > 0.0 && a.is_finite() && b.is_finite() && c.is_finite() {
+                    tris.push(Triangle { v0: a.into(), v1: b.into(), v2: c.into() });
+                    owners.push((i as u32, t as u32));
+                }
+            }
+            positions.push(p);
+        }
+        if tris.is_empty() {
+            return Err(TruthError::NoTriangles);
+        }
+        let (lo, hi) =
+            positions.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| (l.min(p), h.max(p)));
+        let radius = 0.5 * (hi - lo).length();
+        let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
+        Ok(Self {
+            positions,
+            frames,
+            indices: objects.iter().map(|o| o.mesh.indices.clone()).collect(),
+            brdfs: objects.iter().map(|o| o.brdf).collect(),
+            casts: objects.iter().map(|o| o.casts_shadows).collect(),
+            bvh,
+            tris,
+            owners,
+            env,
+            env_from_world: world_from_env.inverse(),
+            world_from_env,
+            offset: 1e-4 * radius.max(1e-6),
+        })
+    }
+
+    /// World positions of object `i`'s vertices.
+    pub fn positions(&self, i: usize) -> &[Vec3] {
+        &self.positions[i]
+    }
+
+    /// The world shading frame of vertex `v` of object `i`.
+    pub fn frame(&self, i: usize, v: usize) -> &Frame {
+        &self.frames[i][v]
+    }
+
+    /// Radiance of the environment toward world direction `d`.
+    pub fn background(&self, d: Vec3) -> Vec3 {
+        self.env.radiance(self.env_from_world * d)
+    }
+
+    /// Whether light from world direction `dir` reaches `x` on object `receiver`.
+    fn visible(&self, receiver: usize, x: Vec3, dir: Vec3) -> bool {
+        let ray = Ray::new(Vec3A::from(x), Vec3A::from(dir), 0.0, f32::INFINITY);
+        self.bvh.ray_traverse_miss(ray, |ray, id| {
+            let k = self.bvh.primitive_indices[id] as usize;
+            let owner = self.owners[k].0 as usize;
+            if owner == receiver || self.casts[owner] { self.tris[k].intersect(ray) } else { f32::INFINITY }
+        })
+    }
+
+    /// The estimate at `x` on object `receiver` with shading frame `frame`, seen from
+    /// direction `view` (world, unit, toward the eye), with `spp` samples from `rng`.
+    pub fn estimate(
+        &self,
+        receiver: usize,
+        x: Vec3,
+        frame: &Frame,
+        view: Vec3,
+        spp: u32,
+        rng: &mut Pcg32,
+    ) -> (Estimate, u64) {
+        let wo = frame.to_local(view);
+        if wo.z <= 0.0 || spp == 0 {
+            return (Estimate::default(), 0);
+        }
+        let origin = x + frame.n * self.offset;
+        let n = spp as usize;
+        // Independent replicates, each stratified on its own: the spread of their means is an
+        // honest standard error for the stratified estimate.
+        let replicates = [16, 8, 4, 2].into_iter().find(|&b| n >= b && n % b == 0).unwrap_or(1);
+        let per = n / replicates;
+        let mut means = Vec::with_capacity(replicates);
+        let (mut sum_all, mut sum2_all) = (Vec3::ZERO, Vec3::ZERO);
+        let mut rays = 0u64;
+        for _ in 0..replicates {
+            let (ul, ub) = (latin_hypercube(per, rng), latin_hypercube(per, rng));
+            let mut sum = Vec3::ZERO;
+            for k in 0..per {
+                let (y, r) = self.sample(receiver, origin, frame, wo, ul[k], ub[k], rng.next_f32());
+                rays += r;
+                sum += y;
+                sum_all += y;
+                sum2_all += y * y;
+            }
+            means.push(sum / per as f32);
+        }
+        let mean = sum_all / n as f32;
+        let std_error = if replicates > 1 {
+            let b = replicates as f32;
+            let var = means.iter().map(|m| (*m - mean) * (*m - mean)).sum::<Vec3>() / (b - 1.0);
+            (var / b).sqrt()
+        } else {
+            // One replicate: the per-sample spread (conservative under stratification).
+            let var = (sum2_all / n as f32 - mean * mean).max(Vec3::ZERO) * (n as f32 / (n as f32 - 1.0).max(1.0));
+            (var / n as f32).sqrt()
+        };
+        (Estimate { mean, std_error }, rays)
+    }
+
+    /// One sample of each strategy, MIS-weighted (power heuristic): the sum, and the shadow
+    /// rays traced.
+    #[allow(clippy::too_many_arguments)]
+    fn sample(
+        &self,
+        receiver: usize,
+        origin: Vec3,
+        frame: &Frame,
+        wo: Vec3,
+        ul: Vec2,
+        ub: Vec2,
+        lobe: f32,
+    ) -> (Vec3, u64) {
+        let brdf = &self.brdfs[receiver];
+        let mut y = Vec3::ZERO;
+        let mut rays = 0;
+        // Environment sample.
+        let (d_env, pdf_l) = self.env.sample(ul);
+        if pdf_l > 0.0 {
+            let w = (self.world_from_env * d_env).normalize();
+            let wi = frame.to_local(w);
+            let f = brdf.eval_cos(wi, wo);
+            if f != Vec3::ZERO {
+                rays += 1;
+                if self.visible(receiver, origin, w) {
+                    let pdf_b = brdf.pdf(wo, wi);
+                    let weight = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
+                    y += self.env.radiance(d_env) * f * (weight / pdf_l);
+                }
+            }
+        }
+        // BRDF sample.
+        if let Some(wi) = brdf.sample(wo, ub, lobe)
+            && wi.z > 0.0
+        {
+            let pdf_b = brdf.pdf(wo, wi);
+            let f = brdf.eval_cos(wi, wo);
+            if pdf_b > 0.0 && f != Vec3::ZERO {
+                let w = frame.to_world(wi).normalize();
+                rays += 1;
+                if self.visible(receiver, origin, w) {
+                    let d_env = self.env_from_world * w;
+                    let pdf_l = self.env.pdf(d_env);
+                    let weight = pdf_b * pdf_b / (pdf_l * pdf_l + pdf_b * pdf_b);
+                    y += self.env.radiance(d_env) * f * (weight / pdf_b);
+                }
+            }
+        }
+        (y, rays)
+    }
+
+    /// Per object, per vertex: the estimate toward `eye` (whether or not the vertex is visible
+    /// from it), deterministic for `seed`.
+    pub fn vertices(&self, eye: Vec3, spp: u32, seed: u64) -> Result<(Vec<Vec<Estimate>>, TruthStats), TruthError> {
+        if spp == 0 {
+            return Err(TruthError::NoSamples);
+        }
+        let mut stats = TruthStats::default();
+        let mut out = Vec::with_capacity(self.positions.len());
+        for i in 0..self.positions.len() {
+            let est: Vec<(Estimate, u64)> = (0..self.positions[i].len())
+                .into_par_iter()
+                .map(|v| {
+                    let mut rng =
+                        Pcg32::new(seed ^ ((i as u64) << 40) ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                    let x = self.positions[i][v];
+                    let view = (eye - x).normalize_or_zero();
+                    self.estimate(i, x, &self.frames[i][v], view, spp, &mut rng)
+                })
+                .collect();
+            stats.points += est.len() as u64;
+            stats.shadow_rays += est.iter().map(|e| e.1).sum::<u64>();
+            out.push(est.into_iter().map(|e| e.0).collect());
+        }
+        Ok((out, stats))
+    }
+
+    /// The closest surface along a ray: object, world position and interpolated shading
+    /// frame.
+    fn hit(&self, origin: Vec3, dir: Vec3) -> Option<(usize, Vec3, Frame)> {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
+        let mut hit = RayHit::none();
+        if !self
+            .bvh
+            .ray_traverse(ray, &mut hit, |ray, id| self.tris[self.bvh.primitive_indices[id] as usize].intersect(ray))
+        {
+            return None;
+        }
+        let k = self.bvh.primitive_indices[hit.primitive_id as usize] as usize;
+        let (i, t) = (self.owners[k].0 as usize, self.owners[k].1 as usize);
+        let idx = &self.indices[i][3 * t..3 * t + 3];
+        let p = origin + dir * hit.t;
+        let [a, b, c] = [0, 1, 2].map(|m| self.positions[i][idx[m] as usize]);
+        // Barycentric weights from sub-triangle areas.
+        let n = (b - a).cross(c - a);
+        let area = n.length_squared();
+        let wb = (p - a).cross(c - a).dot(n) / area;
+        let wc = (b - a).cross(p - a).dot(n) / area;
+        let wa = 1.0 - wb - wc;
+        let [fa, fb, fc] = [0, 1, 2].map(|m| self.frames[i][idx[m] as usize]);
+        let normal = fa.n * wa + fb.n * wb + fc.n * wc;
+        let tangent = fa.t * wa + fb.t * wb + fc.t * wc;
+        Some((i, p, Frame::from_normal_tangent(normal, tangent)))
+    }
+
+    /// Per pixel (row-major, row 0 at the top): the estimate along the primary ray through
+    /// the pixel's centre, the environment where it meets nothing, and whether it met an
+    /// object.
+    pub fn pixels(
+        &self,
+        camera: &Camera,
+        spp: u32,
+        seed: u64,
+    ) -> Result<(Vec<Estimate>, Vec<bool>, TruthStats), TruthError> {
+        if spp == 0 {
+            return Err(TruthError::NoSamples);
+        }
+        let (w, h) = (camera.width, camera.height);
+        let px: Vec<(Estimate, bool, u64)> = (0..w * h)
+            .into_par_iter()
+            .map(|k| {
+                let dir = rsl_shade::raster::pixel_ray(camera, k % w, k / w);
+                match self.hit(camera.eye, dir) {
+                    None => (Estimate { mean: self.background(dir), std_error: Vec3::ZERO }, false, 0),
+                    Some((i, p, frame)) => {
+                        let mut rng = Pcg32::new(seed ^ u64::from(k).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                        let (e, rays) = self.estimate(i, p, &frame, -dir, spp, &mut rng);
+                        (e, true, rays)
+                    }
+                }
+            })
+            .collect();
+        let stats =
+            TruthStats { points: px.iter().filter(|p| p.1).count() as u64, shadow_rays: px.iter().map(|p| p.2).sum() };
+        Ok((px.iter().map(|p| p.0).collect(), px.iter().map(|p| p.1).collect(), stats))
+    }
+}

@@ -1,0 +1,195 @@
+//! The estimator against analytic answers: white furnace, the unoccluded fraction under a
+//! sphere, a small bright patch, convergence and honest standard errors.
+
+use glam::{Quat, Vec3};
+use rsl_brdf::Brdf;
+use rsl_scene::{Primitive, Transform};
+use rsl_shade::VertexFrames;
+use rsl_sphere::Frame;
+use rsl_sphere::latlong::{LatLongMap, dir_from_uv};
+use rsl_sphere::mesh::TriMesh;
+use rsl_sphere::sampling::Pcg32;
+use rsl_truth::{EnvLight, TruthObject, TruthScene};
+use std::sync::Arc;
+
+fn sphere(radius: f32) -> TriMesh {
+    Primitive::Sphere { radius, resolution: 16 }.mesh()
+}
+
+fn plane(size: f32) -> TriMesh {
+    Primitive::Plane { size, resolution: 4 }.mesh()
+}
+
+fn object<'a>(mesh: &'a TriMesh, frames: &'a VertexFrames, brdf: Brdf, at: Vec3) -> TruthObject<'a> {
+    TruthObject {
+        mesh,
+        frames,
+        brdf,
+        transform: Transform { translation: at, ..Default::default() },
+        casts_shadows: true,
+    }
+}
+
+#[test]
+fn white_furnace_gives_the_albedo_everywhere() {
+    let mesh = sphere(1.0);
+    let frames = VertexFrames::new(&mesh, false);
+    let a = Vec3::new(0.5, 0.7, 0.9);
+    let lambert = Brdf::Lambert { albedo: a };
+    // A constant light, and the same light as a map (through the map's importance sampler).
+    let flat = Arc::new(LatLongMap::new(32, 16, vec![Vec3::ONE; 32 * 16]).unwrap());
+    for env in [EnvLight::Constant(Vec3::ONE), EnvLight::map(flat, 1.0)] {
+        let scene = TruthScene::new(&[object(&mesh, &frames, lambert, Vec3::ZERO)], env, Quat::IDENTITY).unwrap();
+        let (est, stats) = scene.vertices(Vec3::new(0.0, 0.0, 10.0), 64, 7).unwrap();
+        assert!(stats.shadow_rays > 0);
+        let (mut lit, mut bias, mut var) = (0, Vec3::ZERO, Vec3::ZERO);
+        for (v, e) in est[0].iter().enumerate() {
+            if scene.frame(0, v).n.z > 0.1 {
+                lit += 1;
+                // Each vertex within 5 of its (16-replicate, so itself uncertain) standard
+                // errors of the albedo, and those errors small.
+                let tol = 5.0 * e.std_error + Vec3::splat(1e-5);
+                assert!((e.mean - a).abs().cmple(tol).all(), "vertex {v}: {} ± {}", e.mean, e.std_error);
+                assert!(e.std_error.max_element() < 0.05);
+                bias += e.mean - a;
+                var += e.std_error * e.std_error;
+            }
+        }
+        assert!(lit > 50);
+        // No bias: the average error over the vertices is within 3 of its standard errors.
+        let (bias, se) = (bias / lit as f32, var.sqrt() / lit as f32);
+        assert!(bias.abs().cmple(3.0 * se).all(), "average error {bias} ± {se}");
+    }
+}
+
+#[test]
+fn a_sphere_above_a_plane_removes_its_cosine_weighted_cap() {
+    // A point at the plane's centre, a sphere of radius R centred h above it: the occluded
+    // cap has half-angle θc = asin(R/h), and its cosine-weighted share of the hemisphere is
+    // sin²θc, so a lambert albedo a under unit light reflects a·(1 − sin²θc).
+    let (r, h, a) = (0.5f32, 1.25f32, 0.8f32);
+    let (pm, sm) = (plane(4.0), sphere(r));
+    let (pf, sf) = (VertexFrames::new(&pm, false), VertexFrames::new(&sm, false));
+    let lambert = Brdf::Lambert { albedo: Vec3::splat(a) };
+    let scene = TruthScene::new(
+        &[object(&pm, &pf, lambert, Vec3::ZERO), object(&sm, &sf, lambert, Vec3::new(0.0, h, 0.0))],
+        EnvLight::Constant(Vec3::ONE),
+        Quat::IDENTITY,
+    )
+    .unwrap();
+    let mut rng = Pcg32::new(3);
+    let frame = Frame::from_normal(Vec3::Y);
+    let view = Vec3::new(0.3, 1.0, 0.2).normalize();
+    let (e, _) = scene.estimate(0, Vec3::ZERO, &frame, view, 16_384, &mut rng);
+    let sin2 = (r / h).powi(2);
+    let exact = a * (1.0 - sin2);
+    // The sphere is a mesh of 16 segments: its silhouette is inside the true sphere by at
+    // most 1 − cos(π/16) ≈ 2% of R, which moves the answer by well under 1%.
+    eprintln!("under the sphere: {} ± {} (analytic {exact})", e.mean.x, e.std_error.x);
+    assert!((e.mean.x - exact).abs() < 4.0 * e.std_error.x + 0.01 * exact, "{} vs {exact}", e.mean.x);
+}
+
+#[test]
+fn a_small_bright_patch_acts_like_a_point_light() {
+    // One bright texel near the horizon's height on an otherwise black map: a lambert plane
+    // facing +Y receives ≈ a/π · cos θ · Φ, Φ the patch's radiance × solid angle.
+    let (w, h) = (256, 128);
+    let (i, j) = (40, 40);
+    let mut texels = vec![Vec3::ZERO; w * h];
+    let lp = 5000.0;
+    texels[j * w + i] = Vec3::splat(lp);
+    let map = Arc::new(LatLongMap::new(w, h, texels).unwrap());
+    // Bilinear lookups spread the texel over the 2×2-texel neighbourhood around its centre;
+    // in (u, v) that keeps its area, and over so small a patch sin θ barely changes, so the
+    // power is the texel's radiance times its solid angle.
+    let omega = rsl_sphere::latlong::texel_solid_angle(w, h, j) as f32;
+    let centre = dir_from_uv(glam::Vec2::new((i as f32 + 0.5) / w as f32, (j as f32 + 0.5) / h as f32));
+    let pm = plane(2.0);
+    let pf = VertexFrames::new(&pm, false);
+    let a = 0.6;
+    let scene = TruthScene::new(
+        &[object(&pm, &pf, Brdf::Lambert { albedo: Vec3::splat(a) }, Vec3::ZERO)],
+        EnvLight::map(map, 1.0),
+        Quat::IDENTITY,
+    )
+    .unwrap();
+    let mut rng = Pcg32::new(11);
+    let (e, _) = scene.estimate(0, Vec3::ZERO, &Frame::from_normal(Vec3::Y), Vec3::Y, 4096, &mut rng);
+    let exact = a / std::f32::consts::PI * centre.y * lp * omega;
+    eprintln!("patch: {} ± {} (point-light answer {exact})", e.mean.x, e.std_error.x);
+    assert!(centre.y > 0.3);
+    assert!((e.mean.x - exact).abs() < 4.0 * e.std_error.x + 0.01 * exact, "{} vs {exact}", e.mean.x);
+}
+
+#[test]
+fn estimates_converge_at_least_as_one_over_root_spp_and_errors_are_honest() {
+    // A glossy sphere with an occluder beside it under a non-uniform light.
+    let (w, h) = (64, 32);
+    let texels: Vec<Vec3> = (0..w * h)
+        .map(|k| {
+            let d = dir_from_uv(glam::Vec2::new(((k % w) as f32 + 0.5) / w as f32, ((k / w) as f32 + 0.5) / h as f32));
+            Vec3::new(0.3, 0.4, 0.5)
+                + Vec3::new(8.0, 7.0, 5.0) * d.dot(Vec3::new(0.4, 0.8, 0.3).normalize()).max(0.0).powi(8)
+        })
+        .collect();
+    let env = EnvLight::map(Arc::new(LatLongMap::new(w, h, texels).unwrap()), 1.0);
+    let (am, bm) = (sphere(1.0), sphere(0.6));
+    let (af, bf) = (VertexFrames::new(&am, false), VertexFrames::new(&bm, false));
+    let ggx = Brdf::Ggx { alpha: 0.3, specular: Vec3::splat(0.9), diffuse: Vec3::splat(0.2) };
+    let scene = TruthScene::new(
+        &[object(&am, &af, ggx, Vec3::ZERO), object(&bm, &bf, ggx, Vec3::new(1.5, 0.8, 0.0))],
+        env,
+        Quat::IDENTITY,
+    )
+    .unwrap();
+    let eye = Vec3::new(0.5, 1.0, 4.0);
+    let (reference, _) = scene.vertices(eye, 8192, 99).unwrap();
+    let rms = |spp: u32, seed: u64| {
+        let (est, _) = scene.vertices(eye, spp, seed).unwrap();
+        let (mut sq, mut n, mut covered, mut se2) = (0.0f64, 0usize, 0usize, 0.0f64);
+        for (e, r) in est[0].iter().zip(&reference[0]) {
+            if r.mean == Vec3::ZERO {
+                continue;
+            }
+            let d = (e.mean - r.mean).x;
+            sq += f64::from(d * d);
+            se2 += f64::from(e.std_error.x * e.std_error.x);
+            n += 1;
+            // The reference's own error adds to the spread.
+            let spread = (e.std_error.x.powi(2) + r.std_error.x.powi(2)).sqrt();
+            if d.abs() <= 2.0 * spread {
+                covered += 1;
+            }
+        }
+        ((sq / n as f64).sqrt(), (se2 / n as f64).sqrt(), covered as f64 / n as f64)
+    };
+    let (e16, s16, c16) = rms(16, 1);
+    let (e256, s256, c256) = rms(256, 2);
+    eprintln!("16 spp: RMS error {e16:.4}, RMS std error {s16:.4}, within 2σ {c16:.3}");
+    eprintln!("256 spp: RMS error {e256:.4}, RMS std error {s256:.4}, within 2σ {c256:.3}");
+    // 16× the samples: errors fall at least by √16 = 4 (faster once each replicate has
+    // enough samples for its stratification to pay), and the reported standard errors fall
+    // with them.
+    let ratio = e16 / e256;
+    assert!(ratio > 3.2, "error ratio {ratio}");
+    // The reported standard error matches the actual error at both counts, and 2σ covers
+    // about 95% of the vertices.
+    assert!((0.7..1.4).contains(&(e16 / s16)), "16 spp: error {e16} vs standard error {s16}");
+    assert!((0.7..1.4).contains(&(e256 / s256)), "256 spp: error {e256} vs standard error {s256}");
+    assert!(c16 > 0.85 && c256 > 0.85, "2σ coverage {c16}, {c256}");
+}
+
+#[test]
+fn bad_input_is_a_clear_error() {
+    let e = TruthScene::new(&[], EnvLight::Constant(Vec3::ONE), Quat::IDENTITY).err().unwrap();
+    assert!(e.to_string().contains("no objects"));
+    let mesh = sphere(1.0);
+    let frames = VertexFrames::new(&mesh, false);
+    let scene = TruthScene::new(
+        &[object(&mesh, &frames, Brdf::Lambert { albedo: Vec3::ONE }, Vec3::ZERO)],
+        EnvLight::Constant(Vec3::ONE),
+        Quat::IDENTITY,
+    )
+    .unwrap();
+    assert!(scene.vertices(Vec3::Z, 0, 1).unwrap_err().to_string().contains("spp"));
+}

@@ -1,0 +1,45 @@
+//! The Monte Carlo truth of a scene at a time: rsl-truth's estimator on the same vertices,
+//! shading frames and views as the RSL path.
+
+use crate::engine::brdf_of;
+use anyhow::{Context, Result};
+use rsl_scene::{EnvironmentSource, Scene};
+use rsl_shade::VertexFrames;
+use rsl_truth::{EnvLight, TruthObject, TruthScene};
+use std::sync::Arc;
+
+/// Loads the scene's environment as a light.
+pub fn env_light(scene: &Scene) -> Result<EnvLight> {
+    let env = &scene.environment;
+    Ok(match &env.source {
+        EnvironmentSource::Map { written, path } => {
+            let loaded = rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?;
+            EnvLight::map(Arc::new(loaded.map), env.intensity)
+        }
+        EnvironmentSource::Constant(c) => EnvLight::Constant(*c * env.intensity),
+    })
+}
+
+/// The vertex frames of every object (as the engine builds them).
+pub fn vertex_frames(scene: &Scene) -> Vec<VertexFrames> {
+    scene.objects.iter().map(|o| VertexFrames::new(&o.mesh, brdf_of(&o.material).is_anisotropic())).collect()
+}
+
+/// The truth scene at time `t`.
+pub fn truth_scene(scene: &Scene, frames: &[VertexFrames], env: EnvLight, t: f32) -> Result<TruthScene> {
+    let state = scene.at(t);
+    let objects: Vec<TruthObject<'_>> = scene
+        .objects
+        .iter()
+        .zip(frames)
+        .zip(&state.objects)
+        .map(|((o, f), &transform)| TruthObject {
+            mesh: &o.mesh,
+            frames: f,
+            brdf: brdf_of(&o.material),
+            transform,
+            casts_shadows: o.casts_shadows,
+        })
+        .collect();
+    Ok(TruthScene::new(&objects, env, state.world_from_env)?)
+}
