@@ -563,6 +563,9 @@ fn field_key(kind: &str, mesh_key: u64, params: &str) -> u64 {
         .finish()
 }
 
+/// A progress callback: `(done, total)`.
+type Progress<'p> = dyn Fn(usize, usize) + Sync + 'p;
+
 /// How to read, check, build and write one kind of visibility field.
 struct FieldIo<'a, T> {
     /// File name prefix (`<prefix>-<key>.bin`).
@@ -572,7 +575,7 @@ struct FieldIo<'a, T> {
     /// Whether a loaded field fits what is asked for (and why not).
     check: &'a dyn Fn(&T) -> Result<(), &'static str>,
     /// Builds the field, reporting `(done, total)`.
-    build: &'a dyn Fn(&(dyn Fn(usize, usize) + Sync)) -> Result<T>,
+    build: &'a dyn Fn(&Progress<'_>) -> Result<T>,
     /// What the progress display says while building.
     message: String,
 }

@@ -54,8 +54,12 @@ pub fn write_gif(path: &Path, width: u32, height: u32, frames: &[Vec<u8>], fps: 
     write_atomic(path, &bytes)
 }
 
+/// An image read back: width, height, linear RGB pixels and, where the file has alpha, the
+/// mask of pixels with alpha above ½.
+pub type ExrImage = (u32, u32, Vec<glam::Vec3>, Option<Vec<bool>>);
+
 /// Reads an OpenEXR image: linear RGB and, where it has one, the alpha channel as a mask.
-pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<glam::Vec3>, Option<Vec<bool>>)> {
+pub fn read_exr(path: &Path) -> Result<ExrImage> {
     let img = image::ImageReader::open(path)
         .with_context(|| format!("cannot open {}", path.display()))?
         .with_guessed_format()

@@ -357,3 +357,134 @@ fn bad_render_arguments_are_clear_errors_and_write_nothing() {
     assert!(msg(&["render", "no-such-scene.toml", "--out", png.to_str().unwrap()]).contains("no-such-scene.toml"));
     assert!(std::fs::read_dir(&dir).unwrap().next().is_none(), "something was written");
 }
+
+/// A smooth lat-long environment written to an EXR file in `dir`.
+fn smooth_map(dir: &Path) -> PathBuf {
+    let (w, h) = (128u32, 64u32);
+    let sun = Vec3::new(0.3, 0.8, 0.5).normalize();
+    let mut data = Vec::with_capacity((w * h * 3) as usize);
+    for j in 0..h {
+        for i in 0..w {
+            let d = rsl::sphere::latlong::dir_from_uv(glam::Vec2::new(
+                (i as f32 + 0.5) / w as f32,
+                (j as f32 + 0.5) / h as f32,
+            ));
+            let l = Vec3::new(0.4, 0.5, 0.6) + Vec3::new(3.0, 2.5, 2.0) * d.dot(sun).max(0.0).powi(3);
+            data.extend_from_slice(&l.to_array());
+        }
+    }
+    let path = dir.join("smooth.exr");
+    image::Rgb32FImage::from_raw(w, h, data).unwrap().save(&path).unwrap();
+    path
+}
+
+#[test]
+fn the_rsl_path_converges_to_the_truth_as_lights_shrink() {
+    let dir = cache_dir("converge");
+    let map = smooth_map(&dir);
+    let text = format!(
+        r#"
+        [quality]
+        preset = "draft"
+        env_grid = 16
+        table_resolution = 32
+        view_samples = 32
+        [environment]
+        map = "{}"
+        [camera]
+        eye = [0.0, 0.5, 4.0]
+        target = [0.0, 0.0, 0.0]
+        [[objects]]
+        name = "ball"
+        primitive = {{ kind = "sphere", radius = 1.0, resolution = 16 }}
+        material = {{ model = "ggx", alpha = 0.3, specular = [0.9, 0.9, 0.9], diffuse = [0.2, 0.2, 0.2] }}
+        "#,
+        map.display()
+    );
+    let s = Scene::from_toml_str(&text, &dir.join("scene.toml")).unwrap();
+    let frames = rsl::truth::vertex_frames(&s);
+    let truth = rsl::truth::truth_scene(&s, &frames, rsl::truth::env_light(&s).unwrap(), 0.0).unwrap();
+    let (est, _) = truth.vertices(s.camera.eye, 8192, 5).unwrap();
+    let reference: Vec<Vec3> = est[0].iter().map(|e| e.mean).collect();
+    let noise: f64 = {
+        let se2: f64 = est[0].iter().map(|e| f64::from(e.std_error.length_squared())).sum();
+        let r2: f64 = reference.iter().map(|r| f64::from(r.length_squared())).sum();
+        (se2 / r2).sqrt()
+    };
+    let mut engine = Engine::new(&s, memory_only()).unwrap();
+    let mut errors = Vec::new();
+    for n in [6, 24, 96, 384, 1536] {
+        engine.set_rsl_count(n).unwrap();
+        let f = engine.shade(&s, 0.0).unwrap();
+        errors.push((n, rsl_truth::compare(&f.radiance[0], &reference, None).unwrap().relative_l2));
+    }
+    eprintln!("truth noise (relative) {noise:.4}; RSL count → relative L2 against truth: {errors:?}");
+    // One RSL per texel of the 6×16×16 grid: what is left is table resolution (and the
+    // truth's own noise, far smaller).
+    let last = errors.last().unwrap().1;
+    assert!(noise < 0.005);
+    assert!(last < 0.01, "{errors:?}");
+    assert!(last < 0.5 * errors[0].1, "{errors:?}");
+}
+
+#[test]
+fn truth_renders_and_compares_like_the_rsl_path() {
+    let dir = cache_dir("truth-cli");
+    let scene = root().join("data/scenes/default.toml");
+    let scene = scene.to_str().unwrap();
+    let cache = dir.join("cache");
+    let cache = cache.to_str().unwrap();
+    let out = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    run(&["render", scene, "--time", "1", "--out", &out("rsl.exr"), "--vertex-out", &out("rsl.ply"), "--cache", cache])
+        .unwrap();
+    run(&[
+        "render",
+        scene,
+        "--time",
+        "1",
+        "--method",
+        "truth",
+        "--spp",
+        "4",
+        "--out",
+        &out("truth.exr"),
+        "--vertex-out",
+        &out("truth.ply"),
+    ])
+    .unwrap();
+    // Same vertices in both PLY files.
+    let (a, b) = (
+        rsl::ply::read(&std::fs::read(dir.join("rsl.ply")).unwrap()).unwrap(),
+        rsl::ply::read(&std::fs::read(dir.join("truth.ply")).unwrap()).unwrap(),
+    );
+    assert_eq!(a.faces, b.faces);
+    for (x, y) in a.vertices.iter().zip(&b.vertices) {
+        assert!((0..6).all(|k| (x[k] - y[k]).abs() < 1e-5), "{x:?} vs {y:?}");
+    }
+    // The EXR alpha marks the pixels objects cover.
+    let (_, _, _, mask) = rsl::output::read_exr(&dir.join("truth.exr")).unwrap();
+    let mask = mask.unwrap();
+    assert!(mask.iter().any(|&m| m) && mask.iter().any(|&m| !m));
+    run(&["compare", &out("rsl.ply"), &out("truth.ply"), "--heatmap", &out("heat.png"), "--scene", scene]).unwrap();
+    run(&["compare", &out("rsl.exr"), &out("truth.exr"), "--heatmap", &out("heatpx.png")]).unwrap();
+    let heat = image::open(dir.join("heat.png")).unwrap();
+    assert_eq!((heat.width(), heat.height()), (640, 480 + 40));
+    // Bad inputs.
+    let msg = |args: &[&str]| format!("{:#}", run(args).unwrap_err());
+    assert!(msg(&["render", scene, "--method", "truth", "--spp", "0", "--out", &out("x.png")]).contains("--spp"));
+    assert!(msg(&["compare", &out("rsl.ply"), &out("truth.exr")]).contains("two .ply or two .exr"));
+    assert!(msg(&["compare", &out("missing.ply"), &out("truth.ply")]).contains("missing.ply"));
+    let empty = dir.join("empty.toml");
+    std::fs::write(
+        &empty,
+        "[environment]\nconstant = [1.0, 1.0, 1.0]\n[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    assert!(
+        msg(&["render", empty.to_str().unwrap(), "--method", "truth", "--out", &out("e.png")]).contains("no objects")
+    );
+    assert!(
+        msg(&["render", scene, "--method", "truth", "--out", dir.join("nowhere/x.exr").to_str().unwrap()])
+            .contains("does not exist")
+    );
+}

@@ -264,7 +264,7 @@ impl TruthScene {
         let n = spp as usize;
         // Independent replicates, each stratified on its own: the spread of their means is an
         // honest standard error for the stratified estimate.
-        let replicates = [16, 8, 4, 2].into_iter().find(|&b| n >= b && n % b == 0).unwrap_or(1);
+        let replicates = [16, 8, 4, 2].into_iter().find(|&b| n >= b && n.is_multiple_of(b)).unwrap_or(1);
         let per = n / replicates;
         let mut means = Vec::with_capacity(replicates);
         let (mut sum_all, mut sum2_all) = (Vec3::ZERO, Vec3::ZERO);

@@ -125,8 +125,16 @@ fn glyph(c: char) -> [u8; 5] {
     }
 }
 
-/// Draws `text` at `(x, y)` into an RGB8 image, each glyph pixel `scale`² pixels.
-pub fn draw_text(rgb: &mut [u8], width: u32, height: u32, x: u32, y: u32, text: &str, scale: u32, colour: [u8; 3]) {
+/// Draws `text` with its top left at `(x, y)` into an RGB8 image of `(width, height)`, each
+/// glyph pixel `scale`² pixels.
+pub fn draw_text(
+    rgb: &mut [u8],
+    (width, height): (u32, u32),
+    (x, y): (u32, u32),
+    text: &str,
+    scale: u32,
+    colour: [u8; 3],
+) {
     for (k, c) in text.chars().enumerate() {
         let g = glyph(c);
         for (row, bits) in g.iter().enumerate() {
@@ -166,10 +174,10 @@ pub fn with_legend(rgb: &[u8], width: u32, height: u32, max: f32) -> (Vec<u8>, u
         }
     }
     let white = [235, 235, 235];
-    draw_text(&mut out, width, h, x0, height + 24, "0", 2, white);
+    draw_text(&mut out, (width, h), (x0, height + 24), "0", 2, white);
     let label = format!("{max:.2e}");
     let lw = label.chars().count() as u32 * 8;
-    draw_text(&mut out, width, h, x1.saturating_sub(lw), height + 24, &label, 2, white);
+    draw_text(&mut out, (width, h), (x1.saturating_sub(lw), height + 24), &label, 2, white);
     (out, h)
 }
 

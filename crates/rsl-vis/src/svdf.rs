@@ -129,7 +129,7 @@ impl Svdf {
             .into_par_iter()
             .map(|v| {
                 let done = traced.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                if done % 256 == 0 || done == nv {
+                if done.is_multiple_of(256) || done == nv {
                     progress(done, nv);
                 }
                 let frame = Frame::from_normal(mesh.normals[v]);
