@@ -195,7 +195,7 @@ fn spinner(show: bool, message: String) -> ProgressBar {
 
 /// A progress bar with a percentage and time estimate on standard error (hidden when not
 /// shown or when standard error is not a terminal).
-fn progress_bar(show: bool, message: String) -> ProgressBar {
+pub fn progress_bar(show: bool, message: String) -> ProgressBar {
     if !show {
         return ProgressBar::hidden();
     }

@@ -179,6 +179,17 @@ fn write_vertices(path: &Path, scene: &Scene, v: &Vertices) -> Result<()> {
     ply::write(path, &objects)
 }
 
+/// `‖standard error‖₂ / ‖mean‖₂` over the kept estimates: the relative L2 error the
+/// truth itself carries.
+fn relative_error(est: &[rsl_truth::Estimate], keep: &[bool]) -> f64 {
+    let (mut se, mut m) = (0.0f64, 0.0f64);
+    for (e, _) in est.iter().zip(keep).filter(|(_, k)| **k) {
+        se += f64::from(e.std_error.length_squared());
+        m += f64::from(e.mean.length_squared());
+    }
+    if m > 0.0 { (se / m).sqrt() } else { 0.0 }
+}
+
 /// How a frame is computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Method {
@@ -282,7 +293,14 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         } else {
             let (env, frames) = truth.as_ref().expect("truth inputs for --method truth");
             let ts = crate::truth::truth_scene(&scene, frames, env.clone(), t)?;
-            let (px, covered, stats) = ts.pixels(&scene.camera, args.spp, args.seed)?;
+            let bar = crate::engine::progress_bar(true, format!("truth, {} spp, pixels", args.spp));
+            let report = |d: usize, t: usize| {
+                bar.set_length(t as u64);
+                bar.set_position(d as u64);
+            };
+            let (px, covered, stats) = ts.pixels_with_progress(&scene.camera, args.spp, args.seed, &report)?;
+            bar.finish_and_clear();
+            let rel_se = relative_error(&px, &covered);
             let image = Image {
                 width: scene.camera.width,
                 height: scene.camera.height,
@@ -291,7 +309,18 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             };
             let mut rays = stats.shadow_rays;
             let vertices = if args.vertex_out.is_some() {
-                let (est, vstats) = ts.vertices(scene.camera.eye, args.spp, args.seed)?;
+                let bar = crate::engine::progress_bar(true, format!("truth, {} spp, vertices", args.spp));
+                let report = |d: usize, t: usize| {
+                    bar.set_length(t as u64);
+                    bar.set_position(d as u64);
+                };
+                let (est, vstats) = ts.vertices_with_progress(scene.camera.eye, args.spp, args.seed, &report)?;
+                bar.finish_and_clear();
+                let flat: Vec<_> = est.concat();
+                eprintln!(
+                    "truth: per-vertex standard error {:.3}% of the radiance (relative L2)",
+                    100.0 * relative_error(&flat, &vec![true; flat.len()])
+                );
                 rays += vstats.shadow_rays;
                 let n = scene.objects.len();
                 Vertices {
@@ -305,9 +334,11 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             let secs = start.elapsed().as_secs_f64();
             shade_ms += secs * 1e3;
             eprintln!(
-                "truth: {} spp, {rays} shadow rays in {secs:.1} s ({:.2} M rays/s)",
+                "truth: {} spp, {rays} shadow rays in {secs:.1} s ({:.2} M rays/s); per-pixel standard error \
+                 {:.3}% of the covered pixels' radiance (relative L2)",
                 args.spp,
-                rays as f64 / secs / 1e6
+                rays as f64 / secs / 1e6,
+                100.0 * rel_se
             );
             (image, vertices)
         };

@@ -348,6 +348,19 @@ impl TruthScene {
     /// Per object, per vertex: the estimate toward `eye` (whether or not the vertex is visible
     /// from it), deterministic for `seed`.
     pub fn vertices(&self, eye: Vec3, spp: u32, seed: u64) -> Result<(Vec<Vec<Estimate>>, TruthStats), TruthError> {
+        self.vertices_with_progress(eye, spp, seed, &|_, _| {})
+    }
+
+    /// [`TruthScene::vertices`], calling `progress(done, total)` as vertices finish.
+    pub fn vertices_with_progress(
+        &self,
+        eye: Vec3,
+        spp: u32,
+        seed: u64,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<(Vec<Vec<Estimate>>, TruthStats), TruthError> {
+        let total: usize = self.positions.iter().map(Vec::len).sum();
+        let done = std::sync::atomic::AtomicUsize::new(0);
         if spp == 0 {
             return Err(TruthError::NoSamples);
         }
@@ -361,7 +374,12 @@ impl TruthScene {
                         Pcg32::new(seed ^ ((i as u64) << 40) ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
                     let x = self.positions[i][v];
                     let view = (eye - x).normalize_or_zero();
-                    self.estimate(i, x, &self.frames[i][v], view, spp, &mut rng)
+                    let e = self.estimate(i, x, &self.frames[i][v], view, spp, &mut rng);
+                    let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                    if d.is_multiple_of(256) || d == total {
+                        progress(d, total);
+                    }
+                    e
                 })
                 .collect();
             stats.points += est.len() as u64;
@@ -408,6 +426,19 @@ impl TruthScene {
         spp: u32,
         seed: u64,
     ) -> Result<(Vec<Estimate>, Vec<bool>, TruthStats), TruthError> {
+        self.pixels_with_progress(camera, spp, seed, &|_, _| {})
+    }
+
+    /// [`TruthScene::pixels`], calling `progress(done, total)` as pixels finish.
+    pub fn pixels_with_progress(
+        &self,
+        camera: &Camera,
+        spp: u32,
+        seed: u64,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<(Vec<Estimate>, Vec<bool>, TruthStats), TruthError> {
+        let total = (camera.width * camera.height) as usize;
+        let done = std::sync::atomic::AtomicUsize::new(0);
         if spp == 0 {
             return Err(TruthError::NoSamples);
         }
@@ -415,6 +446,10 @@ impl TruthScene {
         let px: Vec<(Estimate, bool, u64)> = (0..w * h)
             .into_par_iter()
             .map(|k| {
+                let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                if d.is_multiple_of(4096) || d == total {
+                    progress(d, total);
+                }
                 let dir = rsl_shade::raster::pixel_ray(camera, k % w, k / w);
                 match self.hit(camera.eye, dir) {
                     None => (Estimate { mean: self.background(dir), std_error: Vec3::ZERO }, false, 0),
