@@ -48,10 +48,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         bail!("compare needs two .ply or two .exr files, got {} and {}", args.a.display(), args.b.display());
     };
     if let Some(h) = &args.heatmap {
-        let dir = h.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        if !dir.is_dir() {
-            bail!("--heatmap {}: folder {} does not exist", h.display(), dir.display());
-        }
+        crate::render::check_writable(h, "--heatmap")?;
     }
     if k == "ply" {
         let (a, b) = (read_ply(&args.a)?, read_ply(&args.b)?);

@@ -103,7 +103,7 @@ pub fn table_resolution(q: &QualitySettings) -> Resolution {
 
 /// The environment's radiance, for backgrounds.
 #[derive(Clone, Debug)]
-pub enum Radiance {
+enum Radiance {
     /// A lat-long map (before `intensity`).
     Map(Arc<LatLongMap>),
     /// A constant (before `intensity`).
@@ -208,6 +208,14 @@ pub fn progress_bar(show: bool, message: String) -> ProgressBar {
     bar
 }
 
+/// A `(done, total)` callback that moves `bar`.
+pub fn report_to(bar: &ProgressBar) -> impl Fn(usize, usize) + Sync + '_ {
+    |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    }
+}
+
 impl Engine {
     /// Prepares `scene`: from the caches where possible, computing the rest.
     pub fn new(scene: &Scene, options: EngineOptions) -> Result<Self> {
@@ -266,11 +274,6 @@ impl Engine {
         &self.env.rsls
     }
 
-    /// The environment's radiance and intensity.
-    pub fn environment(&self) -> (&Radiance, f32) {
-        (&self.env.radiance, self.env.intensity)
-    }
-
     /// The environment's radiance (with intensity) toward world direction `d` at `state`.
     pub fn background(&self, state: &SceneState, d: Vec3) -> Vec3 {
         let e = state.world_from_env.inverse() * d;
@@ -287,9 +290,7 @@ impl Engine {
         let grid = self.settings.env_grid as usize;
         let (radiance, key) = match &env.source {
             EnvironmentSource::Map { written, path } => {
-                let bytes =
-                    std::fs::read(path).with_context(|| format!("environment map {written} ({})", path.display()))?;
-                let loaded = rsl_env::load_latlong(path)?;
+                let loaded = rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?;
                 if loaded.clamped_negative > 0 {
                     tracing::warn!(
                         "{}: {} negative values clamped to 0 (most negative {})",
@@ -298,7 +299,15 @@ impl Engine {
                         loaded.most_negative
                     );
                 }
-                let key = KeyHasher::default().str("map").bytes(&bytes).finish();
+                // Keyed by the decoded radiance (the file is read once).
+                let m = &loaded.map;
+                let key = m
+                    .texels()
+                    .iter()
+                    .fold(KeyHasher::default().str("map").u64(m.width() as u64).u64(m.height() as u64), |h, t| {
+                        h.f32s(&t.to_array())
+                    })
+                    .finish();
                 (Radiance::Map(Arc::new(loaded.map)), key)
             }
             EnvironmentSource::Constant(c) => {
@@ -613,10 +622,7 @@ fn cached<T>(
     stats.misses += 1;
     let start = Instant::now();
     let bar = progress_bar(progress, io.message.clone());
-    let f = (io.build)(&|done, total| {
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-    })?;
+    let f = (io.build)(&report_to(&bar))?;
     bar.finish_and_clear();
     *ms += start.elapsed().as_secs_f64() * 1e3;
     if let Some(path) = &file

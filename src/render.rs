@@ -120,7 +120,7 @@ fn format_of(path: &Path) -> Result<Format> {
 }
 
 /// Checks that an output's folder exists, before any work is done.
-fn check_writable(path: &Path, what: &str) -> Result<()> {
+pub(crate) fn check_writable(path: &Path, what: &str) -> Result<()> {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     if !dir.is_dir() {
         bail!("{what} {}: folder {} does not exist", path.display(), dir.display());
@@ -179,11 +179,11 @@ fn write_vertices(path: &Path, scene: &Scene, v: &Vertices) -> Result<()> {
     ply::write(path, &objects)
 }
 
-/// `‖standard error‖₂ / ‖mean‖₂` over the kept estimates: the relative L2 error the
-/// truth itself carries.
-fn relative_error(est: &[rsl_truth::Estimate], keep: &[bool]) -> f64 {
+/// `‖standard error‖₂ / ‖mean‖₂` over the estimates: the relative L2 error the truth
+/// itself carries.
+fn relative_error<'a>(est: impl Iterator<Item = &'a rsl_truth::Estimate>) -> f64 {
     let (mut se, mut m) = (0.0f64, 0.0f64);
-    for (e, _) in est.iter().zip(keep).filter(|(_, k)| **k) {
+    for e in est {
         se += f64::from(e.std_error.length_squared());
         m += f64::from(e.mean.length_squared());
     }
@@ -294,13 +294,10 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             let (env, frames) = truth.as_ref().expect("truth inputs for --method truth");
             let ts = crate::truth::truth_scene(&scene, frames, env.clone(), t)?;
             let bar = crate::engine::progress_bar(true, format!("truth, {} spp, pixels", args.spp));
-            let report = |d: usize, t: usize| {
-                bar.set_length(t as u64);
-                bar.set_position(d as u64);
-            };
+            let report = crate::engine::report_to(&bar);
             let (px, covered, stats) = ts.pixels_with_progress(&scene.camera, args.spp, args.seed, &report)?;
             bar.finish_and_clear();
-            let rel_se = relative_error(&px, &covered);
+            let rel_se = relative_error(px.iter().zip(&covered).filter(|(_, c)| **c).map(|(e, _)| e));
             let image = Image {
                 width: scene.camera.width,
                 height: scene.camera.height,
@@ -310,16 +307,12 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             let mut rays = stats.shadow_rays;
             let vertices = if args.vertex_out.is_some() {
                 let bar = crate::engine::progress_bar(true, format!("truth, {} spp, vertices", args.spp));
-                let report = |d: usize, t: usize| {
-                    bar.set_length(t as u64);
-                    bar.set_position(d as u64);
-                };
+                let report = crate::engine::report_to(&bar);
                 let (est, vstats) = ts.vertices_with_progress(scene.camera.eye, args.spp, args.seed, &report)?;
                 bar.finish_and_clear();
-                let flat: Vec<_> = est.concat();
                 eprintln!(
                     "truth: per-vertex standard error {:.3}% of the radiance (relative L2)",
-                    100.0 * relative_error(&flat, &vec![true; flat.len()])
+                    100.0 * relative_error(est.iter().flatten())
                 );
                 rays += vstats.shadow_rays;
                 let n = scene.objects.len();

@@ -4,6 +4,7 @@
 //! `f(x) = x(2.51x + 0.03) / (x(2.43x + 0.59) + 0.14)`, clamped to `[0, 1]`.
 
 use glam::Vec3;
+use rsl_sphere::sampling::luminance;
 
 /// The filmic curve (ACES fit): 0 → 0, monotone, saturates toward 1.
 pub fn filmic(x: f32) -> f32 {
@@ -34,8 +35,7 @@ pub fn encode_all(pixels: &[Vec3], exposure: f32) -> Vec<u8> {
 pub fn auto_exposure(pixels: &[Vec3]) -> f32 {
     let (mut sum, mut n) = (0.0f64, 0usize);
     for c in pixels.iter().filter(|c| c.is_finite()) {
-        let y = 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
-        sum += f64::from(y.max(0.0) + 1e-4).ln();
+        sum += f64::from(luminance(*c).max(0.0) + 1e-4).ln();
         n += 1;
     }
     if n == 0 {

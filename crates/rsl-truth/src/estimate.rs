@@ -25,7 +25,7 @@ use rsl_shade::{Pose, VertexFrames};
 use rsl_sphere::Frame;
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
-use rsl_sphere::sampling::{EnvironmentSampler, Pcg32, uniform_sphere};
+use rsl_sphere::sampling::{EnvironmentSampler, Pcg32, luminance, uniform_sphere};
 use std::sync::Arc;
 
 /// The environment as a light source.
@@ -50,7 +50,6 @@ impl EnvLight {
     /// texel's light spreads into its neighbours' areas).
     pub fn map(map: Arc<LatLongMap>, intensity: f32) -> Self {
         let (w, h) = (map.width(), map.height());
-        let lum = |c: Vec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
         let mut dilated = Vec::with_capacity(w * h);
         for j in 0..h {
             for i in 0..w {
@@ -62,7 +61,7 @@ impl EnvLight {
                     }
                     for di in [-1i64, 0, 1] {
                         let c = map.texel((i as i64 + di).rem_euclid(w as i64) as usize, jj as usize);
-                        if lum(c) > lum(best) {
+                        if luminance(c) > luminance(best) {
                             best = c;
                         }
                     }

@@ -9,6 +9,7 @@
 //! And false-colour heatmaps of per-point error with a legend.
 
 use glam::Vec3;
+use rsl_sphere::sampling::luminance;
 
 /// The four measures and how many points they cover.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,8 +84,7 @@ pub fn compare(test: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> Resu
 
 /// Per point, the absolute error of the luminance.
 pub fn luminance_errors(test: &[Vec3], reference: &[Vec3]) -> Vec<f32> {
-    let lum = |c: &Vec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
-    test.iter().zip(reference).map(|(a, b)| (lum(a) - lum(b)).abs()).collect()
+    test.iter().zip(reference).map(|(a, b)| (luminance(*a) - luminance(*b)).abs()).collect()
 }
 
 /// A perceptually ordered false colour (viridis, piecewise linear through 5 of its stops)
@@ -205,10 +205,9 @@ mod tests {
 
     #[test]
     fn false_colour_runs_dark_to_bright_and_legends_draw() {
-        let lum = |c: Vec3| 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
         let mut last = -1.0;
         for k in 0..=100 {
-            let l = lum(false_colour(k as f32 / 100.0));
+            let l = luminance(false_colour(k as f32 / 100.0));
             assert!(l > last);
             last = l;
         }

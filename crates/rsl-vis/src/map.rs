@@ -183,6 +183,16 @@ impl Vdt {
     }
 }
 
+/// The cell `(i, j)` below and left of plane point `p` among the centres of an `n×n` grid
+/// (`n ≥ 2`, clamped at the edges), and `p`'s fractions `(fx, fy)` toward `(i + 1, j + 1)`.
+#[inline(always)]
+fn bilinear_corner(n: usize, p: Vec2) -> (usize, usize, f32, f32) {
+    let g = |c: f32| ((c + 1.0) * 0.5 * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
+    let (x, y) = (g(p.x), g(p.y));
+    let (i, j) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
+    (i, j, x - i as f32, y - j as f32)
+}
+
 /// Bilinear interpolation at plane point `p` between the centres of an `n×n` grid's cells
 /// (clamped at the edges), reading only the four cells it needs through `at(flat index)`.
 #[inline(always)]
@@ -190,10 +200,7 @@ pub(crate) fn bilinear_cells(n: usize, p: Vec2, at: impl Fn(usize) -> f32) -> f3
     if n == 1 {
         return at(0);
     }
-    let g = |c: f32| ((c + 1.0) * 0.5 * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
-    let (x, y) = (g(p.x), g(p.y));
-    let (i, j) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
-    let (fx, fy) = (x - i as f32, y - j as f32);
+    let (i, j, fx, fy) = bilinear_corner(n, p);
     let v = |a: usize, b: usize| at(b * n + a);
     (v(i, j) * (1.0 - fx) + v(i + 1, j) * fx) * (1.0 - fy) + (v(i, j + 1) * (1.0 - fx) + v(i + 1, j + 1) * fx) * fy
 }
@@ -205,10 +212,7 @@ pub(crate) fn bilinear_taps(n: usize, p: Vec2) -> ([usize; 4], [f32; 4]) {
     if n == 1 {
         return ([0; 4], [1.0, 0.0, 0.0, 0.0]);
     }
-    let g = |c: f32| ((c + 1.0) * 0.5 * n as f32 - 0.5).clamp(0.0, (n - 1) as f32);
-    let (x, y) = (g(p.x), g(p.y));
-    let (i, j) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
-    let (fx, fy) = (x - i as f32, y - j as f32);
+    let (i, j, fx, fy) = bilinear_corner(n, p);
     (
         [j * n + i, j * n + i + 1, (j + 1) * n + i, (j + 1) * n + i + 1],
         [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy],
