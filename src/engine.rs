@@ -178,7 +178,10 @@ pub struct Engine {
     decompositions: HashMap<u64, Arc<Decomposition>>,
     stats: CacheStats,
     timings: PrepareTimings,
+    id: u64,
 }
+
+static ENGINES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// Format version of everything this engine caches (bump when any computation changes).
 const CACHE_VERSION: u64 = 1;
@@ -248,6 +251,7 @@ impl Engine {
             decompositions: HashMap::new(),
             stats: CacheStats::default(),
             timings: PrepareTimings::default(),
+            id: ENGINES.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
         engine.prepare_environment(scene)?;
         engine.sync(scene)?;
@@ -520,10 +524,10 @@ impl Engine {
         Ok(())
     }
 
-    /// The shading inputs of `scene` at `state`, seen from `eye`.
-    pub fn setup(&self, scene: &Scene, state: &SceneState, eye: Vec3, terms: Terms) -> Result<FrameSetup<'_>> {
+    /// The prepared objects of `scene` at `state` (what any shading path evaluates).
+    pub fn objects(&self, scene: &Scene, state: &SceneState) -> Result<Vec<ShadeObject<'_>>> {
         self.check(scene)?;
-        let objects: Vec<ShadeObject<'_>> = self
+        Ok(self
             .objects
             .iter()
             .zip(&state.objects)
@@ -535,8 +539,19 @@ impl Engine {
                 ovdf: p.ovdf.as_deref(),
                 transform,
             })
-            .collect();
+            .collect())
+    }
+
+    /// The shading inputs of `scene` at `state`, seen from `eye`.
+    pub fn setup(&self, scene: &Scene, state: &SceneState, eye: Vec3, terms: Terms) -> Result<FrameSetup<'_>> {
+        let objects = self.objects(scene, state)?;
         Ok(FrameSetup::new(&objects, &self.lights(state), eye, terms))
+    }
+
+    /// A number no other engine of this process has: GPU resources loaded from one engine
+    /// are keyed by it.
+    pub fn id(&self) -> u64 {
+        self.id
     }
 
     /// Shades every vertex of `scene` at time `t` (the fast path), seen from the camera.

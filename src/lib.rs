@@ -9,12 +9,14 @@ pub mod cli;
 pub mod compare;
 pub mod decompose;
 pub mod engine;
+pub mod gpu;
 pub mod output;
 pub mod ply;
 pub mod render;
 pub mod truth;
 
 pub use engine::{Engine, EngineOptions, ShadedFrame};
+pub use gpu::GpuRenderer;
 pub use rsl_env as env;
 pub use rsl_scene as scene;
 pub use rsl_sphere as sphere;

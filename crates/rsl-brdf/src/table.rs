@@ -209,6 +209,12 @@ impl BrdfTable {
         self.max_density
     }
 
+    /// The summed-area table of view slice `k`: `(N+1)²` prefix sums, row-major, `[j·(N+1) + i]`
+    /// the sum of the cells with index `< i` in x and `< j` in y (RGB and a zero lane).
+    pub fn slice_sat(&self, k: usize) -> &[[f64; 4]] {
+        &self.sat[k]
+    }
+
     /// Directional albedo of view slice `k`: the sum of all its cells.
     pub fn slice_albedo(&self, k: usize) -> Vec3 {
         let n = self.grid.n();

@@ -4,11 +4,12 @@
 //! device request, a shader that does not compile, a lost device or a failed readback.
 
 pub mod hemi_map;
+pub mod shade;
 pub mod shaders;
 pub mod testing;
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// What went wrong on the GPU side.
 #[derive(Debug, thiserror::Error)]
@@ -40,6 +41,21 @@ pub enum GpuError {
     /// Reading results back failed.
     #[error("GPU readback failed: {0}")]
     Readback(String),
+    /// The scene does not fit the adapter's buffer limits.
+    #[error(
+        "{what} need {bytes} bytes; the GPU allows {limit} per buffer (lower the quality preset or use the CPU path)"
+    )]
+    TooLarge {
+        /// What was being uploaded.
+        what: String,
+        /// Its size.
+        bytes: u64,
+        /// The adapter's limit.
+        limit: u64,
+    },
+    /// The data given does not match what was loaded, or cannot be laid out.
+    #[error("GPU scene: {0}")]
+    Scene(String),
     /// An error reported by wgpu validation during an operation.
     #[error("GPU operation {operation} failed: {message}")]
     Operation {
@@ -61,6 +77,8 @@ pub struct GpuContext {
     /// Adapter description, for logs.
     pub info: wgpu::AdapterInfo,
     lost: Arc<AtomicBool>,
+    /// The first validation or out-of-memory error wgpu reported outside an error scope.
+    uncaptured: Arc<Mutex<Option<String>>>,
 }
 
 impl GpuContext {
@@ -80,10 +98,19 @@ impl GpuContext {
         }))
         .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
+        // The shading pass binds eight storage buffers, and visibility fields are large: ask
+        // for what the adapter offers there. Timestamps when available (--timings).
+        let available = adapter.limits();
+        let required_limits = wgpu::Limits {
+            max_storage_buffers_per_shader_stage: 8,
+            max_storage_buffer_binding_size: available.max_storage_buffer_binding_size,
+            max_buffer_size: available.max_buffer_size,
+            ..wgpu::Limits::downlevel_defaults().using_resolution(available)
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("rsl"),
-            required_features: wgpu::Features::empty(),
-            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+            required_limits,
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
@@ -93,7 +120,16 @@ impl GpuContext {
             flag.store(true, Ordering::SeqCst);
             tracing::error!("GPU device lost ({reason:?}): {msg}");
         });
-        Ok(Self { adapter, device, queue, info, lost })
+        // wgpu's default handler panics; keep the message and report it as an error instead.
+        let uncaptured = Arc::new(Mutex::new(None));
+        let slot = Arc::clone(&uncaptured);
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            tracing::error!("GPU error: {e}");
+            if let Ok(mut s) = slot.lock() {
+                s.get_or_insert_with(|| e.to_string());
+            }
+        }));
+        Ok(Self { adapter, device, queue, info, lost, uncaptured })
     }
 
     /// One line describing the adapter: name, type, backend, driver.
@@ -102,9 +138,16 @@ impl GpuContext {
         format!("{} ({:?}, {:?}, driver {} {})", i.name, i.device_type, i.backend, i.driver, i.driver_info)
     }
 
-    /// Errors if the device has been lost.
+    /// Errors if the device has been lost, or if wgpu reported an error outside an error
+    /// scope since the last check.
     pub fn check_alive(&self) -> Result<(), GpuError> {
-        if self.lost.load(Ordering::SeqCst) { Err(GpuError::DeviceLost) } else { Ok(()) }
+        if self.lost.load(Ordering::SeqCst) {
+            return Err(GpuError::DeviceLost);
+        }
+        if let Some(message) = self.uncaptured.lock().ok().and_then(|mut s| s.take()) {
+            return Err(GpuError::Operation { operation: "GPU command", message });
+        }
+        Ok(())
     }
 
     /// Builds a compute pipeline from a registered shader, reporting compile and validation
@@ -134,8 +177,13 @@ impl GpuContext {
         }
     }
 
-    /// Copies a GPU buffer into host memory (blocking).
+    /// Copies the first `size` bytes of a GPU buffer into host memory (blocking).
     pub fn read_buffer(&self, src: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
+        self.read_buffer_range(src, 0, size)
+    }
+
+    /// Copies `size` bytes from `offset` of a GPU buffer into host memory (blocking).
+    pub fn read_buffer_range(&self, src: &wgpu::Buffer, offset: u64, size: u64) -> Result<Vec<u8>, GpuError> {
         self.check_alive()?;
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
@@ -144,7 +192,7 @@ impl GpuContext {
             mapped_at_creation: false,
         });
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
-        enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
+        enc.copy_buffer_to_buffer(src, offset, &staging, 0, size);
         self.queue.submit([enc.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         staging.map_async(wgpu::MapMode::Read, .., move |r| {

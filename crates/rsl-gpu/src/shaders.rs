@@ -30,7 +30,12 @@ impl Shader {
     }
 }
 
+const MATH: (&str, &str) = ("common/math.wgsl", include_str!("../../../shaders/common/math.wgsl"));
 const HEMI: (&str, &str) = ("common/hemi.wgsl", include_str!("../../../shaders/common/hemi.wgsl"));
+const FRAME: (&str, &str) = ("common/frame.wgsl", include_str!("../../../shaders/common/frame.wgsl"));
+const COVERAGE: (&str, &str) = ("common/coverage.wgsl", include_str!("../../../shaders/common/coverage.wgsl"));
+const BRDF: (&str, &str) = ("common/brdf.wgsl", include_str!("../../../shaders/common/brdf.wgsl"));
+const VISIBILITY: (&str, &str) = ("common/visibility.wgsl", include_str!("../../../shaders/common/visibility.wgsl"));
 
 /// GPU smoke test: the hemisphere map and its inverse over an array of directions.
 pub const HEMI_MAP: Shader = Shader {
@@ -41,8 +46,17 @@ pub const HEMI_MAP: Shader = Shader {
     entry_point: "main",
 };
 
+/// Per-vertex shading over all RSLs and occluders (Xu et al. 2006, eq. 5).
+pub const SHADE_VERTICES: Shader = Shader {
+    name: "shade/vertices",
+    path: "shade/vertices.wgsl",
+    common: &[MATH, HEMI, FRAME, COVERAGE, BRDF, VISIBILITY],
+    text: include_str!("../../../shaders/shade/vertices.wgsl"),
+    entry_point: "shade_vertices",
+};
+
 /// Every registered shader.
-pub const ALL: &[Shader] = &[HEMI_MAP];
+pub const ALL: &[Shader] = &[HEMI_MAP, SHADE_VERTICES];
 
 /// Looks a shader up by name.
 pub fn by_name(name: &str) -> Option<&'static Shader> {

@@ -19,7 +19,7 @@
 use std::sync::OnceLock;
 
 /// Samples of the table over `t ∈ [−1, 1]`.
-const SAMPLES: usize = 1025;
+pub const SAMPLES: usize = 1025;
 
 /// A square of zero size: visible where `d > 0`, half at the boundary itself.
 fn step(d: f64) -> f64 {
@@ -108,7 +108,9 @@ fn gauss_legendre_64() -> &'static (Vec<f64>, Vec<f64>) {
     })
 }
 
-fn table() -> &'static [f32] {
+/// The tabulated `C(t)` at `t_k = −1 + 2k/(SAMPLES − 1)`, which [`coverage`] interpolates
+/// linearly (the GPU path uploads the same values).
+pub fn table() -> &'static [f32] {
     static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
     TABLE.get_or_init(|| {
         (0..SAMPLES).map(|k| coverage_exact(-1.0 + 2.0 * k as f64 / (SAMPLES - 1) as f64) as f32).collect()

@@ -220,6 +220,12 @@ impl Cpca {
         self
     }
 
+    /// The component-major rows [`Cpca::value`] reads: per cluster `c` and component `j`, at
+    /// `(c·d + j)·(k + 1)`, the mean then the `k` basis values of that component.
+    pub fn lookup_rows(&self) -> &[f32] {
+        &self.lookup
+    }
+
     /// Number of clusters.
     pub fn clusters(&self) -> usize {
         self.means.len()

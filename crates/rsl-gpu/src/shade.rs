@@ -1,0 +1,731 @@
+//! The compute pass of Xu et al. 2006, §5.2: every vertex shaded over all RSLs and occluders
+//! (`shaders/shade/vertices.wgsl`, one vertex per invocation), evaluating exactly the CPU
+//! fast path's formula (`rsl_shade::shade`), into a buffer of world positions and radiance
+//! that the draw pass reads as vertex data.
+//!
+//! What is uploaded when:
+//! - [`GpuShading::load_geometry`]: vertices, triangle indices, self-visibility and occluder
+//!   fields (compressed as on the CPU: CPCA/PCA rows in f32, coefficients in f16 where the
+//!   CPU holds them in f16), the coverage table. Once per set of meshes.
+//! - [`GpuShading::load_tables`]: BRDF tables, when a material changes. Summed-area tables
+//!   and cells in f32 (see `shaders/common/brdf.wgsl` for how small boxes keep their relative
+//!   precision).
+//! - [`GpuShading::shade`]: per frame, only the lights, the objects' poses and the lights'
+//!   directions in each object's space (a few kilobytes).
+//!
+//! [`Uploads`] counts the bytes of each kind, so callers and tests can check that nothing
+//! large moves per frame.
+
+use crate::{GpuContext, GpuError, shaders};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, Vec3};
+use rsl_brdf::{BrdfTable, Views};
+use rsl_shade::{Light, Pose, ShadeObject, Terms};
+use rsl_sphere::Frame;
+use rsl_sphere::cube::CubeGrid;
+use rsl_vis::cpca::Cpca;
+use rsl_vis::{Ovdf, Svdf};
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Threads per workgroup of the shading pass.
+pub const WORKGROUP_SIZE: u32 = 64;
+/// Most workgroups in one dispatch dimension (WebGPU's default limit).
+const MAX_GROUPS_X: u32 = 65_535;
+
+/// Mirrors WGSL `Params` in `shaders/shade/vertices.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Params {
+    /// xyz: the eye; w: θ_max of isotropic tables.
+    pub eye: [f32; 4],
+    /// Vertices of all objects.
+    pub vertex_count: u32,
+    /// Objects.
+    pub object_count: u32,
+    /// RSLs.
+    pub light_count: u32,
+    /// Bit 0: self visibility; bit 1: occluders.
+    pub terms: u32,
+    /// Invocations per row of the dispatch grid (workgroups in x × workgroup size).
+    pub row_stride: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
+}
+
+/// Mirrors WGSL `GpuObject`: an object's pose (per frame) and where its data lives (per load).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuObject {
+    /// Translation (xyz).
+    pub translation: [f32; 4],
+    /// `S⁻¹·R⁻¹`, columns.
+    pub to_object: [[f32; 4]; 3],
+    /// `R·S⁻¹`, columns.
+    pub normal_to_world: [[f32; 4]; 3],
+    /// `R·S`, columns.
+    pub linear_to_world: [[f32; 4]; 3],
+    /// Occluder bounding sphere, world: centre, radius.
+    pub bound_world: [f32; 4],
+    /// Occluder bounding sphere, object: centre, reach of the field.
+    pub bound_object: [f32; 4],
+    /// The table's largest cell density (rgb).
+    pub max_density: [f32; 4],
+    /// The occluder field's centre (xyz) and radius (w), object space.
+    pub ovdf_centre: [f32; 4],
+    /// First vertex (global).
+    pub vertex_offset: u32,
+    /// Vertices.
+    pub vertex_count: u32,
+    /// First object-space light direction in the frame buffer.
+    pub light_dirs: u32,
+    /// Bit 0: stored self-visibility field; bit 1: occluder field.
+    pub fields: u32,
+    /// 0 single, 1 isotropic, 2 anisotropic.
+    pub table_kind: u32,
+    /// `N` of the table.
+    pub table_n: u32,
+    /// View samples (`V`).
+    pub table_views: u32,
+    /// First entry of the table in the tables buffer (vec4 units).
+    pub table_offset: u32,
+    /// Self-visibility rows (word offset).
+    pub svdf_rows: u32,
+    /// Self-visibility coefficients (word offset).
+    pub svdf_coeffs: u32,
+    /// Whether they are f16.
+    pub svdf_half: u32,
+    /// Basis vectors per cluster.
+    pub svdf_k: u32,
+    /// `N` of the self-visibility tables.
+    pub svdf_n: u32,
+    /// Per-vertex cluster indices (word offset).
+    pub svdf_assignment: u32,
+    /// Occluder field shells.
+    pub ovdf_shells: u32,
+    /// Cube resolution `M`.
+    pub ovdf_m: u32,
+    /// `N` of its tables.
+    pub ovdf_n: u32,
+    /// Cube data (word offset).
+    pub ovdf_cube: u32,
+    /// First segment.
+    pub ovdf_segments: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// Mirrors WGSL `GpuVertex`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuVertex {
+    /// Object-space position.
+    pub position: [f32; 3],
+    /// Object index.
+    pub object: u32,
+    /// Object-space shading normal.
+    pub shade_n: [f32; 3],
+    /// Index within the object.
+    pub local: u32,
+    /// Object-space shading tangent.
+    pub shade_t: [f32; 4],
+    /// Visibility frame tangent.
+    pub vis_t: [f32; 4],
+    /// Visibility frame bitangent.
+    pub vis_b: [f32; 4],
+    /// Visibility frame normal.
+    pub vis_n: [f32; 4],
+}
+
+/// Mirrors WGSL `Compressed`: one PCA-compressed set of tables in the fields buffer.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq, Eq)]
+pub struct Compressed {
+    /// Component-major rows (word offset).
+    pub rows: u32,
+    /// Coefficients (word offset).
+    pub coeffs: u32,
+    /// 1 when the coefficients are f16.
+    pub half: u32,
+    /// Basis vectors.
+    pub k: u32,
+}
+
+/// Bytes uploaded to the GPU, by kind, and how many loads of each.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Uploads {
+    /// Vertices, indices and visibility fields.
+    pub geometry_bytes: u64,
+    /// Geometry loads.
+    pub geometry_loads: u32,
+    /// BRDF tables.
+    pub table_bytes: u64,
+    /// Table loads.
+    pub table_loads: u32,
+    /// Per-frame data (lights, poses).
+    pub frame_bytes: u64,
+    /// Frames shaded.
+    pub frames: u32,
+}
+
+/// What one pass cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassTime {
+    /// GPU time between the pass's timestamps (adapters with timestamp queries), ms.
+    pub gpu_ms: Option<f64>,
+    /// Wall time from submission to completion, ms.
+    pub wall_ms: f64,
+}
+
+/// Where an object's static data lives on the GPU.
+#[derive(Clone, Copy, Debug, Default)]
+struct Placement {
+    vertex_offset: u32,
+    vertex_count: u32,
+    fields: u32,
+    svdf: (Compressed, u32, u32),
+    ovdf: Option<(Vec3, f32, [u32; 5])>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct TablePlacement {
+    kind: u32,
+    n: u32,
+    views: u32,
+    offset: u32,
+    max_density: Vec3,
+}
+
+const HAS_SVDF: u32 = 1;
+const HAS_OVDF: u32 = 2;
+
+fn vec4(v: Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+fn columns(m: Mat3) -> [[f32; 4]; 3] {
+    [vec4(m.x_axis, 0.0), vec4(m.y_axis, 0.0), vec4(m.z_axis, 0.0)]
+}
+
+/// A storage buffer with its byte size, grown (recreated) when data outgrows it.
+struct Slot {
+    buffer: wgpu::Buffer,
+    size: u64,
+}
+
+/// The resources and pipeline of the shading pass.
+pub struct GpuShading {
+    ctx: Arc<GpuContext>,
+    pipeline: wgpu::ComputePipeline,
+    params: wgpu::Buffer,
+    frame: Slot,
+    objects: Slot,
+    vertices: Slot,
+    tables: Slot,
+    fields: Slot,
+    segments: Slot,
+    shaded: Slot,
+    indices: Slot,
+    index_count: u32,
+    bind: Option<wgpu::BindGroup>,
+    placements: Vec<Placement>,
+    table_placements: Vec<TablePlacement>,
+    vertex_count: u32,
+    timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+    uploads: Uploads,
+}
+
+impl GpuShading {
+    /// Builds the shading pipeline on `ctx` (a shader that fails to build is an error).
+    pub fn new(ctx: Arc<GpuContext>) -> Result<Self, GpuError> {
+        let pipeline = ctx.compute_pipeline(
+            &shaders::SHADE_VERTICES,
+            &[
+                ("WORKGROUP_SIZE", f64::from(WORKGROUP_SIZE)),
+                ("COVERAGE_SAMPLES", rsl_vis::coverage::SAMPLES as f64),
+                ("OVDF_INNER", f64::from(rsl_vis::ovdf::INNER)),
+                ("OVDF_OUTER", f64::from(rsl_vis::ovdf::OUTER)),
+            ],
+        )?;
+        let d = &ctx.device;
+        let params = d.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shade params"),
+            size: std::mem::size_of::<Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let slot = |label: &str, usage| Slot {
+            buffer: d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            }),
+            size: 16,
+        };
+        let timestamps = ctx.device.features().contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
+            let set = d.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("shade timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            });
+            let resolve = d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("shade timestamps"),
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (set, resolve)
+        });
+        Ok(Self {
+            pipeline,
+            params,
+            frame: slot("shade frame", storage),
+            objects: slot("shade objects", storage),
+            vertices: slot("shade vertices", storage),
+            tables: slot("shade tables", storage),
+            fields: slot("shade fields", storage),
+            segments: slot("shade segments", storage),
+            shaded: slot(
+                "shaded vertices",
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC,
+            ),
+            indices: slot("scene indices", wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
+            index_count: 0,
+            bind: None,
+            placements: Vec::new(),
+            table_placements: Vec::new(),
+            vertex_count: 0,
+            timestamps,
+            uploads: Uploads::default(),
+            ctx,
+        })
+    }
+
+    /// The context this pass runs on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Bytes uploaded so far, by kind.
+    pub fn uploads(&self) -> Uploads {
+        self.uploads
+    }
+
+    /// Vertices loaded (all objects).
+    pub fn vertex_count(&self) -> u32 {
+        self.vertex_count
+    }
+
+    /// Writes `bytes` into a slot, recreating it when too small (the bind group is then
+    /// rebuilt).
+    fn upload(&mut self, which: fn(&mut Self) -> &mut Slot, label: &str, bytes: &[u8]) -> Result<(), GpuError> {
+        self.reserve(which, label, bytes.len() as u64)?;
+        if !bytes.is_empty() {
+            let mut padded;
+            let data = if bytes.len().is_multiple_of(4) {
+                bytes
+            } else {
+                padded = bytes.to_vec();
+                padded.resize(bytes.len().next_multiple_of(4), 0);
+                &padded
+            };
+            let ctx = self.ctx.clone();
+            ctx.queue.write_buffer(&which(self).buffer, 0, data);
+        }
+        Ok(())
+    }
+
+    /// Makes a slot hold at least `bytes` (recreating it, and dropping the bind group, when
+    /// it is smaller); a size beyond the adapter's limits is an error.
+    fn reserve(&mut self, which: fn(&mut Self) -> &mut Slot, label: &str, bytes: u64) -> Result<(), GpuError> {
+        let limits = self.ctx.device.limits();
+        let size = bytes.max(16).next_multiple_of(4);
+        let storage = which(self).buffer.usage().contains(wgpu::BufferUsages::STORAGE);
+        let limit = if storage { limits.max_storage_buffer_binding_size } else { u64::MAX }.min(limits.max_buffer_size);
+        if size > limit {
+            return Err(GpuError::TooLarge { what: label.to_string(), bytes: size, limit });
+        }
+        let ctx = self.ctx.clone();
+        let device = &ctx.device;
+        let slot = which(self);
+        if slot.size < size {
+            slot.buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: slot.buffer.usage(),
+                mapped_at_creation: false,
+            });
+            slot.size = size;
+            self.bind = None;
+        }
+        Ok(())
+    }
+
+    /// Uploads the objects' vertices, triangles and visibility fields (each distinct field
+    /// once), replacing what was loaded. Call again only when meshes or fields change.
+    pub fn load_geometry(&mut self, objects: &[ShadeObject<'_>]) -> Result<(), GpuError> {
+        self.ctx.check_alive()?;
+        let mut vertices = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut fields: Vec<u32> = rsl_vis::coverage::table().iter().map(|v| v.to_bits()).collect();
+        let mut segments: Vec<Compressed> = Vec::new();
+        let mut svdfs: HashMap<*const Svdf, Option<(Compressed, u32, u32)>> = HashMap::new();
+        let mut ovdfs: HashMap<*const Ovdf, (Vec3, f32, [u32; 5])> = HashMap::new();
+        let mut cubes: HashMap<usize, u32> = HashMap::new();
+        let mut placements = Vec::with_capacity(objects.len());
+        for (i, o) in objects.iter().enumerate() {
+            let n = o.mesh.vertex_count();
+            let offset = u32::try_from(vertices.len()).map_err(|_| GpuError::Scene("more than 2³² vertices".into()))?;
+            for v in 0..n {
+                let s = o.frames.shading(v);
+                let f = &o.frames.visibility[v];
+                vertices.push(GpuVertex {
+                    position: o.mesh.positions[v].to_array(),
+                    object: i as u32,
+                    shade_n: s.n.to_array(),
+                    local: v as u32,
+                    shade_t: vec4(s.t, 0.0),
+                    vis_t: vec4(f.t, 0.0),
+                    vis_b: vec4(f.b, 0.0),
+                    vis_n: vec4(f.n, 0.0),
+                });
+            }
+            indices.extend(o.mesh.indices.iter().map(|&k| k + offset));
+            let svdf = *svdfs.entry(std::ptr::from_ref(o.svdf)).or_insert_with(|| match o.svdf {
+                Svdf::Convex { .. } => None,
+                Svdf::Field { n, cpca, .. } => {
+                    let c = push_compressed(&mut fields, cpca);
+                    let assignment = fields.len() as u32;
+                    fields.extend_from_slice(&cpca.assignment);
+                    Some((c, *n as u32, assignment))
+                }
+            });
+            if let Svdf::Field { cpca, .. } = o.svdf
+                && cpca.assignment.len() != n
+            {
+                return Err(GpuError::Scene(format!(
+                    "object {i}: self-visibility field has {} vertices, the mesh {n}",
+                    cpca.assignment.len()
+                )));
+            }
+            let ovdf = o.ovdf.map(|field| {
+                *ovdfs.entry(std::ptr::from_ref(field)).or_insert_with(|| {
+                    let p = field.params();
+                    let cube = *cubes.entry(p.m).or_insert_with(|| push_cube(&mut fields, p.m));
+                    let first = segments.len() as u32;
+                    for seg in field.segments() {
+                        let c = push_compressed(&mut fields, seg);
+                        segments.push(c);
+                    }
+                    let (centre, radius) = field.bounds();
+                    (centre, radius, [p.shells as u32, p.m as u32, p.n as u32, cube, first])
+                })
+            });
+            placements.push(Placement {
+                vertex_offset: offset,
+                vertex_count: n as u32,
+                fields: if svdf.is_some() { HAS_SVDF } else { 0 } | if ovdf.is_some() { HAS_OVDF } else { 0 },
+                svdf: svdf.unwrap_or_default(),
+                ovdf,
+            });
+        }
+        let vertex_count =
+            u32::try_from(vertices.len()).map_err(|_| GpuError::Scene("more than 2³² vertices".into()))?;
+        let bytes = [
+            std::mem::size_of_val(vertices.as_slice()),
+            indices.len() * 4,
+            fields.len() * 4,
+            std::mem::size_of_val(segments.as_slice()),
+        ];
+        self.upload(|s| &mut s.vertices, "shade vertices", bytemuck::cast_slice(&vertices))?;
+        self.upload(|s| &mut s.indices, "scene indices", bytemuck::cast_slice(&indices))?;
+        self.upload(|s| &mut s.fields, "visibility fields", bytemuck::cast_slice(&fields))?;
+        self.upload(|s| &mut s.segments, "occluder segments", bytemuck::cast_slice(&segments))?;
+        // Two vec4 per vertex: world position, radiance.
+        self.reserve(|s| &mut s.shaded, "shaded vertices", vertices.len() as u64 * 32)?;
+        self.uploads.geometry_bytes += bytes.iter().sum::<usize>() as u64;
+        self.uploads.geometry_loads += 1;
+        self.placements = placements;
+        self.vertex_count = vertex_count;
+        self.index_count = indices.len() as u32;
+        Ok(())
+    }
+
+    /// Uploads the objects' BRDF tables (each distinct table once), replacing what was
+    /// loaded. Call when a material changes.
+    pub fn load_tables(&mut self, objects: &[ShadeObject<'_>]) -> Result<(), GpuError> {
+        self.ctx.check_alive()?;
+        let mut data: Vec<[f32; 4]> = Vec::new();
+        let mut seen: HashMap<*const BrdfTable, TablePlacement> = HashMap::new();
+        let mut placements = Vec::with_capacity(objects.len());
+        for o in objects {
+            let p = *seen.entry(std::ptr::from_ref(o.table)).or_insert_with(|| push_table(&mut data, o.table));
+            placements.push(p);
+        }
+        let bytes = std::mem::size_of_val(data.as_slice()) as u64;
+        self.upload(|s| &mut s.tables, "BRDF tables", bytemuck::cast_slice(&data))?;
+        self.uploads.table_bytes += bytes;
+        self.uploads.table_loads += 1;
+        self.table_placements = placements;
+        Ok(())
+    }
+
+    fn bind_group(&mut self) -> wgpu::BindGroup {
+        if let Some(b) = &self.bind {
+            return b.clone();
+        }
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = [
+            &self.params,
+            &self.frame.buffer,
+            &self.objects.buffer,
+            &self.vertices.buffer,
+            &self.tables.buffer,
+            &self.fields.buffer,
+            &self.segments.buffer,
+            &self.shaded.buffer,
+        ]
+        .iter()
+        .enumerate()
+        .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+        .collect();
+        let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shade vertices"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        self.bind = Some(bind.clone());
+        bind
+    }
+
+    /// Shades every vertex of `objects` (the ones loaded, at their current transforms) under
+    /// `lights`, seen from `eye`, and waits for the result. Uploads only per-frame data.
+    pub fn shade(
+        &mut self,
+        objects: &[ShadeObject<'_>],
+        lights: &[Light],
+        eye: Vec3,
+        terms: Terms,
+    ) -> Result<PassTime, GpuError> {
+        self.ctx.check_alive()?;
+        if objects.len() != self.placements.len()
+            || objects.iter().zip(&self.placements).any(|(o, p)| o.mesh.vertex_count() != p.vertex_count as usize)
+        {
+            return Err(GpuError::Scene("the objects differ from the loaded geometry: call load_geometry".into()));
+        }
+        if objects.len() != self.table_placements.len() {
+            return Err(GpuError::Scene("the objects differ from the loaded tables: call load_tables".into()));
+        }
+        let nl = lights.len();
+        let mut frame: Vec<[f32; 4]> = Vec::with_capacity(3 * nl + objects.len() * nl);
+        for l in lights {
+            let alpha = l.cone_half_angle();
+            frame.push(vec4(l.dir, l.half_diagonal));
+            frame.push(vec4(l.radiance, 0.0));
+            frame.push([alpha, alpha.cos(), alpha.sin(), 0.0]);
+        }
+        let mut gpu_objects = Vec::with_capacity(objects.len());
+        for (i, o) in objects.iter().enumerate() {
+            let pose = Pose::new(&o.transform);
+            let light_dirs = frame.len() as u32;
+            frame.extend(lights.iter().map(|l| vec4((pose.to_object * l.dir).normalize_or_zero(), 0.0)));
+            let p = &self.placements[i];
+            let t = &self.table_placements[i];
+            let mut g = GpuObject {
+                translation: vec4(pose.translation, 0.0),
+                to_object: columns(pose.to_object),
+                normal_to_world: columns(pose.normal_to_world),
+                linear_to_world: columns(pose.linear_to_world),
+                max_density: vec4(t.max_density, 0.0),
+                vertex_offset: p.vertex_offset,
+                vertex_count: p.vertex_count,
+                light_dirs,
+                fields: p.fields,
+                table_kind: t.kind,
+                table_n: t.n,
+                table_views: t.views,
+                table_offset: t.offset,
+                svdf_rows: p.svdf.0.rows,
+                svdf_coeffs: p.svdf.0.coeffs,
+                svdf_half: p.svdf.0.half,
+                svdf_k: p.svdf.0.k,
+                svdf_n: p.svdf.1,
+                svdf_assignment: p.svdf.2,
+                ..Default::default()
+            };
+            if let Some((centre, radius, [shells, m, n, cube, segments])) = p.ovdf {
+                // As rsl_shade's `Placed::new`.
+                g.bound_world = vec4(pose.position(centre), radius * o.transform.scale.max_element());
+                g.bound_object = vec4(centre, rsl_vis::ovdf::OUTER * radius);
+                g.ovdf_centre = vec4(centre, radius);
+                (g.ovdf_shells, g.ovdf_m, g.ovdf_n, g.ovdf_cube, g.ovdf_segments) = (shells, m, n, cube, segments);
+            }
+            gpu_objects.push(g);
+        }
+        let groups = self.vertex_count.div_ceil(WORKGROUP_SIZE).max(1);
+        let (gx, gy) = (groups.min(MAX_GROUPS_X), groups.div_ceil(MAX_GROUPS_X));
+        let params = Params {
+            eye: vec4(eye, rsl_brdf::table::theta_max()),
+            vertex_count: self.vertex_count,
+            object_count: objects.len() as u32,
+            light_count: nl as u32,
+            terms: u32::from(terms.self_visibility) | (u32::from(terms.occluders) << 1),
+            row_stride: gx * WORKGROUP_SIZE,
+            ..Default::default()
+        };
+        self.upload(|s| &mut s.frame, "shade frame", bytemuck::cast_slice(&frame))?;
+        self.upload(|s| &mut s.objects, "shade objects", bytemuck::cast_slice(&gpu_objects))?;
+        self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.uploads.frame_bytes += (std::mem::size_of_val(frame.as_slice())
+            + std::mem::size_of_val(gpu_objects.as_slice())
+            + std::mem::size_of::<Params>()) as u64;
+        self.uploads.frames += 1;
+        let bind = self.bind_group();
+        let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut enc =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shade vertices") });
+        {
+            let timestamp_writes = self.timestamps.as_ref().map(|(set, _)| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(0),
+                end_of_pass_write_index: Some(1),
+            });
+            let mut pass = enc
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shade vertices"), timestamp_writes });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        if let Some((set, resolve)) = &self.timestamps {
+            enc.resolve_query_set(set, 0..2, resolve, 0);
+        }
+        let start = Instant::now();
+        self.ctx.queue.submit([enc.finish()]);
+        self.ctx
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Operation { operation: "shading", message: e.to_string() })?;
+        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Operation { operation: "shading dispatch", message: e.to_string() });
+        }
+        self.ctx.check_alive()?;
+        let gpu_ms = match &self.timestamps {
+            Some((_, resolve)) => {
+                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.ctx.read_buffer(resolve, 16)?);
+                let period = f64::from(self.ctx.queue.get_timestamp_period());
+                Some(ticks[1].saturating_sub(ticks[0]) as f64 * period / 1e6)
+            }
+            None => None,
+        };
+        Ok(PassTime { gpu_ms, wall_ms })
+    }
+
+    /// The last frame's per-vertex radiance, per object (read back from the GPU).
+    pub fn radiance(&self) -> Result<Vec<Vec<Vec3>>, GpuError> {
+        let all = self.read_shaded(1)?;
+        Ok(self.split(&all))
+    }
+
+    /// The last frame's per-vertex world positions, per object.
+    pub fn positions(&self) -> Result<Vec<Vec<Vec3>>, GpuError> {
+        let all = self.read_shaded(0)?;
+        Ok(self.split(&all))
+    }
+
+    fn read_shaded(&self, half: u64) -> Result<Vec<Vec3>, GpuError> {
+        let n = u64::from(self.vertex_count);
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let bytes = self.ctx.read_buffer_range(&self.shaded.buffer, half * n * 16, n * 16)?;
+        let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(v.into_iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect())
+    }
+
+    fn split(&self, all: &[Vec3]) -> Vec<Vec<Vec3>> {
+        self.placements
+            .iter()
+            .map(|p| all[p.vertex_offset as usize..(p.vertex_offset + p.vertex_count) as usize].to_vec())
+            .collect()
+    }
+
+    /// The buffer of shaded vertices: `vertex_count` world positions (vec4), then as many
+    /// radiances (vec4); usable as vertex data.
+    pub fn shaded_buffer(&self) -> &wgpu::Buffer {
+        &self.shaded.buffer
+    }
+
+    /// The index buffer of all loaded triangles (u32, global vertex indices) and its length.
+    pub fn index_buffer(&self) -> (&wgpu::Buffer, u32) {
+        (&self.indices.buffer, self.index_count)
+    }
+}
+
+/// Appends a compressed table set (rows as f32 bits, coefficients as f16 pairs or f32 bits).
+fn push_compressed(fields: &mut Vec<u32>, cpca: &Cpca) -> Compressed {
+    let rows = fields.len() as u32;
+    fields.extend(cpca.lookup_rows().iter().map(|v| v.to_bits()));
+    let coeffs = fields.len() as u32;
+    if cpca.f16 {
+        for pair in cpca.coeffs.chunks(2) {
+            let lo = u32::from(half::f16::from_f32(pair[0]).to_bits());
+            let hi = pair.get(1).map_or(0, |&c| u32::from(half::f16::from_f32(c).to_bits()));
+            fields.push(lo | (hi << 16));
+        }
+    } else {
+        fields.extend(cpca.coeffs.iter().map(|v| v.to_bits()));
+    }
+    Compressed { rows, coeffs, half: u32::from(cpca.f16), k: cpca.k as u32 }
+}
+
+/// Appends the cube data of resolution `m`: per texel its 3×3 neighbourhood (across seams,
+/// as `CubeGrid::neighbour`), then per texel its sample frame `Frame::from_normal(−u)`.
+fn push_cube(fields: &mut Vec<u32>, m: usize) -> u32 {
+    let at = fields.len() as u32;
+    let grid = CubeGrid::new(m);
+    for t in 0..grid.len() {
+        for dj in -1..=1 {
+            for di in -1..=1 {
+                let n = if (di, dj) == (0, 0) { t } else { grid.neighbour(t, di, dj) };
+                fields.push(n as u32);
+            }
+        }
+    }
+    for t in 0..grid.len() {
+        let f = Frame::from_normal(-grid.texel_dir(t));
+        fields.extend([f.t, f.b, f.n].iter().flat_map(|v| v.to_array()).map(f32::to_bits));
+    }
+    at
+}
+
+/// Appends a table: per slice its `(N+1)²` summed-area entries then its `N²` cells (f32).
+fn push_table(data: &mut Vec<[f32; 4]>, table: &BrdfTable) -> TablePlacement {
+    let offset = data.len() as u32;
+    let n = table.grid().n();
+    let (kind, views) = match table.views() {
+        Views::Single => (0, 1),
+        Views::Isotropic(t) => (1, t.len()),
+        Views::Anisotropic(v) => (2, *v),
+    };
+    let f = |v: [f64; 4]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
+    for k in 0..table.slices() {
+        let sat = table.slice_sat(k);
+        data.extend(sat.iter().map(|&v| f(v)));
+        let w = n + 1;
+        for j in 0..n {
+            for i in 0..n {
+                let c = |a: usize, b: usize| sat[b * w + a];
+                let (p, q, r, s) = (c(i + 1, j + 1), c(i, j + 1), c(i + 1, j), c(i, j));
+                data.push(f([0, 1, 2, 3].map(|ch| p[ch] - q[ch] - r[ch] + s[ch])));
+            }
+        }
+    }
+    TablePlacement { kind, n: n as u32, views: views as u32, offset, max_density: table.max_density() }
+}

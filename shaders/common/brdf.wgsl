@@ -1,0 +1,228 @@
+// Square integrals of a tabulated BRDF, mirroring rsl_brdf::table (BrdfTable::view_lookup,
+// square_for, box_blend). Xu et al. 2006, §4.2.
+//
+// A table's slices live in `tables` from `offset`, each `(n+1)²` summed-area entries (RGB,
+// prefix sums) followed by its `n²` cells (RGB, cell integrals). The CPU evaluates a box as
+// Σ wy·wx·SAT over Catmull–Rom taps of its four corners, in f64. The same linear combination
+// rearranged, Σ cell·Wy·Wx with Wx_i = Σ_{taps c > i} wx_c, touches only the cells under
+// the box and its spline margin and has no cancellation, so small boxes (a sun) keep their
+// relative precision in f32; boxes wider than 8 columns or rows, whose values are large, use
+// the 64 summed-area taps.
+
+const TABLE_SINGLE: u32 = 0u;
+const TABLE_ISOTROPIC: u32 = 1u;
+const TABLE_ANISOTROPIC: u32 = 2u;
+
+const VIEW_BELOW: u32 = 0u;
+const VIEW_SINGLE: u32 = 1u;
+const VIEW_ISOTROPIC: u32 = 2u;
+const VIEW_ANISOTROPIC: u32 = 3u;
+
+// Widest footprint (columns or rows) summed cell by cell.
+const DIRECT_SPAN: u32 = 8u;
+
+const SQRT_2: f32 = 1.41421356237;
+
+struct TableRef {
+    kind: u32,
+    n: u32,
+    views: u32,
+    offset: u32,
+    max_density: vec3<f32>,
+}
+
+struct ViewLookup {
+    kind: u32,
+    // Isotropic: lower slice. Anisotropic: node (i, j).
+    slice: u32,
+    node: vec2<u32>,
+    // Isotropic: (cos φ_v, sin φ_v).
+    rotation: vec2<f32>,
+    // Isotropic: (weight of slice + 1, 0). Anisotropic: (fx, fy).
+    weight: vec2<f32>,
+}
+
+fn view_lookup(table: TableRef, view: vec3<f32>, theta_max: f32) -> ViewLookup {
+    var out = ViewLookup(VIEW_BELOW, 0u, vec2<u32>(0u), vec2<f32>(1.0, 0.0), vec2<f32>(0.0));
+    if !(view.z > 0.0) {
+        return out;
+    }
+    if table.kind == TABLE_SINGLE {
+        out.kind = VIEW_SINGLE;
+        return out;
+    }
+    let v = table.views;
+    if table.kind == TABLE_ISOTROPIC {
+        let rxy = length(view.xy);
+        if rxy > 1e-12 {
+            out.rotation = view.xy / rxy;
+        }
+        let theta = min(acos_precise(view.z), theta_max);
+        // Invert θ = θ_max(1 − (1 − t)²): t = 1 − √(1 − θ/θ_max).
+        let t = (1.0 - sqrt(max(1.0 - theta / theta_max, 0.0))) * f32(v - 1u);
+        let k = min(u32(floor(t)), v - 2u);
+        out.kind = VIEW_ISOTROPIC;
+        out.slice = k;
+        out.weight = vec2<f32>(clamp(t - f32(k), 0.0, 1.0), 0.0);
+        return out;
+    }
+    var q = hemi_from_dir(view);
+    if length(q) > 1.0 {
+        q = q / length(q);
+    }
+    let top = f32(v - 1u);
+    let x = clamp((q.x + 1.0) * 0.5 * top, 0.0, top);
+    let y = clamp((q.y + 1.0) * 0.5 * top, 0.0, top);
+    let i = min(u32(floor(x)), v - 2u);
+    let j = min(u32(floor(y)), v - 2u);
+    out.kind = VIEW_ANISOTROPIC;
+    out.node = vec2<u32>(i, j);
+    out.weight = vec2<f32>(x - f32(i), y - f32(j));
+    return out;
+}
+
+// Catmull–Rom weights of the points at offsets −1, 0, 1, 2 for t ∈ [0, 1].
+fn catmull_rom(t: f32) -> vec4<f32> {
+    let t2 = t * t;
+    let t3 = t2 * t;
+    return vec4<f32>(
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    );
+}
+
+// The four replicated-edge prefix indices of a plane coordinate and their spline weights.
+struct Taps {
+    index: vec4<u32>,
+    weight: vec4<f32>,
+}
+
+fn spline_taps(c: f32, n: u32) -> Taps {
+    let g = clamp((c + 1.0) * 0.5 * f32(n), 0.0, f32(n));
+    let i = min(u32(g), n - 1u);
+    let w = catmull_rom(g - f32(i));
+    return Taps(vec4<u32>(max(i, 1u) - 1u, i, min(i + 1u, n), min(i + 2u, n)), w);
+}
+
+// Wx_i = Σ over the taps with prefix index > i of their signed weights (+ upper, − lower).
+fn suffix_weight(hi: Taps, lo: Taps, i: u32) -> f32 {
+    let above_hi = select(vec4<f32>(0.0), hi.weight, hi.index > vec4<u32>(i));
+    let above_lo = select(vec4<f32>(0.0), lo.weight, lo.index > vec4<u32>(i));
+    return (above_hi.x + above_hi.y + above_hi.z + above_hi.w) - (above_lo.x + above_lo.y + above_lo.z + above_lo.w);
+}
+
+// Σ w·∫ over the box [p − s, p + s]² of slices (k0, w0) and (k1, w1) (w1 = 0: one slice).
+fn box_blend(table: TableRef, k0: u32, w0: f32, k1: u32, w1: f32, p: vec2<f32>, s: f32) -> vec3<f32> {
+    let n = table.n;
+    let x0 = spline_taps(p.x - s, n);
+    let x1 = spline_taps(p.x + s, n);
+    let y0 = spline_taps(p.y - s, n);
+    let y1 = spline_taps(p.y + s, n);
+    let stride = (n + 1u) * (n + 1u) + n * n;
+    let slices = select(1u, 2u, w1 != 0.0);
+    var out = vec3<f32>(0.0);
+    let c_lo = x0.index.x;
+    let c_hi = x1.index.w;
+    let r_lo = y0.index.x;
+    let r_hi = y1.index.w;
+    if c_hi - c_lo <= DIRECT_SPAN && r_hi - r_lo <= DIRECT_SPAN {
+        var wx: array<f32, 8>;
+        for (var c = c_lo; c < c_hi; c++) {
+            wx[c - c_lo] = suffix_weight(x1, x0, c);
+        }
+        for (var e = 0u; e < slices; e++) {
+            let k = select(k0, k1, e == 1u);
+            let w = select(w0, w1, e == 1u);
+            let cells = table.offset + k * stride + (n + 1u) * (n + 1u);
+            var acc = vec3<f32>(0.0);
+            for (var r = r_lo; r < r_hi; r++) {
+                let wy = suffix_weight(y1, y0, r);
+                var line = vec3<f32>(0.0);
+                for (var c = c_lo; c < c_hi; c++) {
+                    line += wx[c - c_lo] * tables[cells + r * n + c].xyz;
+                }
+                acc += wy * line;
+            }
+            out += w * acc;
+        }
+        return out;
+    }
+    // Signed row and column taps of the four corners.
+    var rows: array<u32, 8>;
+    var wy: array<f32, 8>;
+    var cols: array<u32, 8>;
+    var wx: array<f32, 8>;
+    for (var d = 0u; d < 4u; d++) {
+        rows[d] = y1.index[d] * (n + 1u);
+        wy[d] = y1.weight[d];
+        rows[d + 4u] = y0.index[d] * (n + 1u);
+        wy[d + 4u] = -y0.weight[d];
+        cols[d] = x1.index[d];
+        wx[d] = x1.weight[d];
+        cols[d + 4u] = x0.index[d];
+        wx[d + 4u] = -x0.weight[d];
+    }
+    for (var e = 0u; e < slices; e++) {
+        let k = select(k0, k1, e == 1u);
+        let w = select(w0, w1, e == 1u);
+        let sat = table.offset + k * stride;
+        var acc = vec3<f32>(0.0);
+        for (var a = 0u; a < 8u; a++) {
+            var line = vec3<f32>(0.0);
+            for (var b = 0u; b < 8u; b++) {
+                line += wx[b] * tables[sat + rows[a] + cols[b]].xyz;
+            }
+            acc += wy[a] * line;
+        }
+        out += w * acc;
+    }
+    return out;
+}
+
+// ∫ ρ cos θ dω over the square of half-diagonal r around `light` (unit, local frame) for a
+// view located by view_lookup.
+fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) -> vec3<f32> {
+    let r = max(r_in, 0.0);
+    let solid_angle = 4.0 * r * r;
+    let s = r / SQRT_2;
+    var integral = vec3<f32>(0.0);
+    switch view.kind {
+        case VIEW_SINGLE: {
+            integral = box_blend(table, 0u, 1.0, 0u, 0.0, hemi_from_dir(light), s);
+        }
+        case VIEW_ISOTROPIC: {
+            // Rotate by −φ_v about z.
+            let c = view.rotation.x;
+            let sn = view.rotation.y;
+            let l = vec3<f32>(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
+            let f = view.weight.x;
+            integral = box_blend(table, view.slice, 1.0 - f, view.slice + 1u, f, hemi_from_dir(l), s);
+        }
+        case VIEW_ANISOTROPIC: {
+            let p = hemi_from_dir(light);
+            let v = table.views;
+            let half = (v + 1u) / 2u;
+            var corner: array<vec3<f32>, 4>;
+            for (var q = 0u; q < 4u; q++) {
+                // Node (a, b) is the stored node (min(a, v−1−a), min(b, v−1−b)) mirrored.
+                let a = view.node.x + (q & 1u);
+                let b = view.node.y + (q >> 1u);
+                let qa = min(a, v - 1u - a);
+                let qb = min(b, v - 1u - b);
+                let pq = vec2<f32>(select(p.x, -p.x, qa != a), select(p.y, -p.y, qb != b));
+                corner[q] = box_blend(table, qb * half + qa, 1.0, 0u, 0.0, pq, s);
+            }
+            let fx = view.weight.x;
+            let fy = view.weight.y;
+            integral = (corner[0] * (1.0 - fx) + corner[1] * fx) * (1.0 - fy) + (corner[2] * (1.0 - fx) + corner[3] * fx) * fy;
+        }
+        default: {
+            return vec3<f32>(0.0);
+        }
+    }
+    // The spline can overshoot next to a near-delta lobe; the true value lies in
+    // [0, max density × area].
+    return clamp(integral, vec3<f32>(0.0), table.max_density * solid_angle);
+}

@@ -1,0 +1,122 @@
+//! The GPU path of the engine: the same prepared scene shaded by wgpu compute
+//! (`rsl_gpu::shade`), returning the same [`ShadedFrame`] as the CPU path.
+//!
+//! Resources follow the engine's data: geometry and visibility fields are uploaded when the
+//! set of meshes or fields changes, BRDF tables when a material changes, and only poses and
+//! lights per frame.
+
+use crate::engine::{Engine, ShadedFrame};
+use anyhow::{Context, Result};
+use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
+use rsl_gpu::{GpuContext, GpuError};
+use rsl_scene::Scene;
+use rsl_shade::{FrameSetup, FrameStats, ShadeObject, Terms};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Identity of what is loaded: the engine, and per object its mesh and fields (geometry) or
+/// its table. The engine keeps every prepared item alive, so addresses identify them.
+type Key = (u64, Vec<usize>);
+
+fn geometry_key(engine: &Engine, objects: &[ShadeObject<'_>]) -> Key {
+    let ptrs = objects
+        .iter()
+        .flat_map(|o| {
+            [
+                std::ptr::from_ref(o.mesh) as usize,
+                std::ptr::from_ref(o.frames) as usize,
+                std::ptr::from_ref(o.svdf) as usize,
+                o.ovdf.map_or(0, |f| std::ptr::from_ref(f) as usize),
+            ]
+        })
+        .collect();
+    (engine.id(), ptrs)
+}
+
+fn table_key(engine: &Engine, objects: &[ShadeObject<'_>]) -> Key {
+    (engine.id(), objects.iter().map(|o| std::ptr::from_ref(o.table) as usize).collect())
+}
+
+/// Shades an engine's scene on the GPU.
+pub struct GpuRenderer {
+    shading: GpuShading,
+    geometry: Option<Key>,
+    tables: Option<Key>,
+    last: PassTime,
+}
+
+impl GpuRenderer {
+    /// Opens the best adapter and builds the shading pipeline.
+    pub fn new() -> Result<Self, GpuError> {
+        Self::with_context(Arc::new(GpuContext::new()?))
+    }
+
+    /// The renderer on an existing context.
+    pub fn with_context(ctx: Arc<GpuContext>) -> Result<Self, GpuError> {
+        Ok(Self { shading: GpuShading::new(ctx)?, geometry: None, tables: None, last: PassTime::default() })
+    }
+
+    /// The adapter, in words.
+    pub fn describe(&self) -> String {
+        self.shading.context().describe()
+    }
+
+    /// Bytes uploaded so far, by kind.
+    pub fn uploads(&self) -> Uploads {
+        self.shading.uploads()
+    }
+
+    /// The last shading pass's time.
+    pub fn last_pass(&self) -> PassTime {
+        self.last
+    }
+
+    /// The shading pass (its buffers feed the draw pass).
+    pub fn shading(&self) -> &GpuShading {
+        &self.shading
+    }
+
+    /// Shades every vertex of `scene` at time `t` (seen from the camera) on the GPU, loading
+    /// whatever changed since the last frame, and reads the result back.
+    pub fn shade(&mut self, engine: &Engine, scene: &Scene, t: f32) -> Result<ShadedFrame> {
+        self.shade_with(engine, scene, t, Terms::default())
+    }
+
+    /// [`GpuRenderer::shade`] with a choice of terms.
+    pub fn shade_with(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms) -> Result<ShadedFrame> {
+        let state = scene.at(t);
+        let eye = scene.camera.eye;
+        self.dispatch(engine, scene, t, terms)?;
+        let setup = FrameSetup::new(&engine.objects(scene, &state)?, &engine.lights(&state), eye, terms);
+        let radiance = self.shading.radiance().context("reading the shaded vertices back")?;
+        let positions = self.shading.positions().context("reading the shaded vertices back")?;
+        let normals =
+            (0..radiance.len()).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
+        let shade_ms = self.last.gpu_ms.unwrap_or(self.last.wall_ms);
+        let stats = FrameStats { vertices: radiance.iter().map(|r| r.len() as u64).sum(), ..FrameStats::default() };
+        Ok(ShadedFrame { state, positions, normals, radiance, stats, shade_ms })
+    }
+
+    /// Loads what changed and runs the shading pass for `scene` at `t`, leaving the result on
+    /// the GPU (for the draw pass); returns the pass time.
+    pub fn dispatch(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms) -> Result<PassTime> {
+        let state = scene.at(t);
+        let objects = engine.objects(scene, &state)?;
+        let g = geometry_key(engine, &objects);
+        if self.geometry.as_ref() != Some(&g) {
+            let start = Instant::now();
+            self.geometry = None;
+            self.shading.load_geometry(&objects).context("uploading geometry and visibility fields")?;
+            tracing::info!("GPU: geometry and fields uploaded in {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
+            self.geometry = Some(g);
+        }
+        let k = table_key(engine, &objects);
+        if self.tables.as_ref() != Some(&k) {
+            self.tables = None;
+            self.shading.load_tables(&objects).context("uploading BRDF tables")?;
+            self.tables = Some(k);
+        }
+        self.last = self.shading.shade(&objects, &engine.lights(&state), scene.camera.eye, terms)?;
+        Ok(self.last)
+    }
+}
