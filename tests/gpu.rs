@@ -130,3 +130,55 @@ fn gpu_matches_cpu_with_one_and_a_hundred_rsls() {
         check(&format!("N = {n}"), &engine.shade(&scene, 1.0).unwrap(), &gpu.shade(&engine, &scene, 1.0).unwrap());
     }
 }
+
+/// A scene written inline as if it were a file in data/scenes.
+fn inline_scene(text: &str) -> Scene {
+    Scene::from_toml_str(text, &root().join("data/scenes/inline-test.toml")).expect("valid test scene")
+}
+
+#[test]
+fn gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders() {
+    let Some(mut gpu) = renderer("gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders") else { return };
+    // Twenty small balls over a brushed (Ward) plate under sky.exr: plate vertices have more
+    // occluders nearby than the shader keeps per vertex (16), so the rest are located per
+    // light; the plate's table is anisotropic; Suzanne adds a stored self-visibility field.
+    let mut text = String::from(
+        r#"
+        quality = "draft"
+        [environment]
+        map = "../hdri/sky.exr"
+        rsl_count = 24
+        [camera]
+        eye = [0.0, 2.5, 3.0]
+        target = [0.0, 0.0, 0.0]
+        [[objects]]
+        name = "plate"
+        primitive = { kind = "plane", size = 2.0, resolution = 24 }
+        material = { model = "ward", alpha_x = 0.08, alpha_y = 0.3, specular = [0.6, 0.6, 0.6], diffuse = [0.3, 0.3, 0.3] }
+        [[objects]]
+        name = "suzanne"
+        mesh = "../models/suzanne.glb"
+        translation = [0.0, 0.5, -0.6]
+        scale = 0.3
+        material = { model = "phong", exponent = 30.0, specular = [0.4, 0.4, 0.4], diffuse = [0.5, 0.2, 0.1] }
+        "#,
+    );
+    for k in 0..20 {
+        let (x, z) = (((k % 5) as f32 - 2.0) * 0.13, ((k / 5) as f32 - 1.5) * 0.13);
+        text.push_str(&format!(
+            "[[objects]]\nname = \"ball{k}\"\nprimitive = {{ kind = \"sphere\", radius = 0.06, resolution = 8 }}\n\
+             translation = [{x}, 0.08, {z}]\nmaterial = {{ model = \"lambert\", albedo = [0.7, 0.7, 0.7] }}\n"
+        ));
+    }
+    let scene = inline_scene(&text);
+    let engine = engine(&scene);
+    let cpu = engine.shade(&scene, 0.0).unwrap();
+    // The overflow path is exercised: some plate vertex has more than 16 occluder fields near.
+    let state = scene.at(0.0);
+    let setup = engine.setup(&scene, &state, scene.camera.eye, rsl_shade::Terms::default()).unwrap();
+    // A ball's field reaches 6 bounding radii (0.36) from its centre, its translation.
+    let near =
+        |x: Vec3| (2..scene.objects.len()).filter(|&j| (state.objects[j].translation - x).length() < 0.35).count();
+    assert!((0..cpu.radiance[0].len()).any(|v| near(setup.position(0, v)) > 16), "no vertex with > 16 occluders near");
+    check("anisotropic plate, 20 occluders", &cpu, &gpu.shade(&engine, &scene, 0.0).unwrap());
+}

@@ -57,18 +57,69 @@ fn wgsl_layout(shader: &shaders::Shader, name: &str) -> (u32, Vec<(String, u32)>
     panic!("{}: no struct {name}", shader.name);
 }
 
+/// Asserts that the Rust struct `$ty` has the size of WGSL struct `$name` in `$shader` and
+/// the same members, in order, at the same offsets.
+macro_rules! assert_layout {
+    ($shader:expr, $name:literal, $ty:ty, [$($field:ident),+ $(,)?]) => {{
+        let (size, members) = wgsl_layout(&$shader, $name);
+        assert_eq!(size as usize, std::mem::size_of::<$ty>(), "{}: size", $name);
+        let rust: Vec<(&str, usize)> = vec![$((stringify!($field), std::mem::offset_of!($ty, $field))),+];
+        let wgsl: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o as usize)).collect();
+        assert_eq!(wgsl, rust, "{}: members and offsets", $name);
+    }};
+}
+
 #[test]
 fn hemi_sample_layout_matches_wgsl() {
     use rsl_gpu::hemi_map::HemiSample;
-    let (size, members) = wgsl_layout(&shaders::HEMI_MAP, "HemiSample");
-    assert_eq!(size as usize, std::mem::size_of::<HemiSample>());
-    let rust = [
-        ("dir", std::mem::offset_of!(HemiSample, dir)),
-        ("plane", std::mem::offset_of!(HemiSample, plane)),
-        ("back", std::mem::offset_of!(HemiSample, back)),
-    ];
-    assert_eq!(members.len(), rust.len());
-    for ((wname, woff), (rname, roff)) in members.iter().zip(rust) {
-        assert_eq!((wname.as_str(), *woff as usize), (rname, roff));
-    }
+    assert_layout!(shaders::HEMI_MAP, "HemiSample", HemiSample, [dir, plane, back]);
+}
+
+#[test]
+fn shading_layouts_match_wgsl() {
+    use rsl_gpu::shade::{Compressed, GpuObject, GpuVertex, Params};
+    let s = shaders::SHADE_VERTICES;
+    assert_layout!(
+        s,
+        "Params",
+        Params,
+        [eye, vertex_count, object_count, light_count, terms, row_stride, pad0, pad1, pad2]
+    );
+    assert_layout!(s, "GpuVertex", GpuVertex, [position, object, shade_n, local, shade_t, vis_t, vis_b, vis_n]);
+    assert_layout!(s, "Compressed", Compressed, [rows, coeffs, half, k]);
+    assert_layout!(
+        s,
+        "GpuObject",
+        GpuObject,
+        [
+            translation,
+            to_object,
+            normal_to_world,
+            linear_to_world,
+            bound_world,
+            bound_object,
+            max_density,
+            ovdf_centre,
+            vertex_offset,
+            vertex_count,
+            light_dirs,
+            fields,
+            table_kind,
+            table_n,
+            table_views,
+            table_offset,
+            svdf_rows,
+            svdf_coeffs,
+            svdf_half,
+            svdf_k,
+            svdf_n,
+            svdf_assignment,
+            ovdf_shells,
+            ovdf_m,
+            ovdf_n,
+            ovdf_cube,
+            ovdf_segments,
+            pad,
+        ]
+    );
 }
