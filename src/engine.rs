@@ -288,6 +288,19 @@ impl Engine {
         l * self.env.intensity
     }
 
+    /// The environment's radiance as the GPU draw pass shows it behind the objects.
+    pub fn backdrop(&self) -> rsl_gpu::draw::Backdrop<'_> {
+        match &self.env.radiance {
+            Radiance::Map(m) => rsl_gpu::draw::Backdrop::Map {
+                width: m.width() as u32,
+                height: m.height() as u32,
+                texels: m.texels(),
+                intensity: self.env.intensity,
+            },
+            Radiance::Constant(c) => rsl_gpu::draw::Backdrop::Constant(*c * self.env.intensity),
+        }
+    }
+
     fn prepare_environment(&mut self, scene: &Scene) -> Result<()> {
         let start = Instant::now();
         let env = &scene.environment;

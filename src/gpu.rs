@@ -7,9 +7,12 @@
 
 use crate::engine::{Engine, ShadedFrame};
 use anyhow::{Context, Result};
+use glam::Mat3;
+use rsl_gpu::draw::GpuDraw;
 use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
 use rsl_gpu::{GpuContext, GpuError};
 use rsl_scene::Scene;
+use rsl_shade::Image;
 use rsl_shade::{FrameSetup, FrameStats, ShadeObject, Terms};
 use std::sync::Arc;
 use std::time::Instant;
@@ -37,12 +40,41 @@ fn table_key(engine: &Engine, objects: &[ShadeObject<'_>]) -> Key {
     (engine.id(), objects.iter().map(|o| std::ptr::from_ref(o.table) as usize).collect())
 }
 
-/// Shades an engine's scene on the GPU.
+/// Shades an engine's scene on the GPU and draws it.
 pub struct GpuRenderer {
     shading: GpuShading,
+    draw: GpuDraw,
     geometry: Option<Key>,
     tables: Option<Key>,
+    /// The engine whose environment the draw pass holds.
+    backdrop: Option<u64>,
     last: PassTime,
+}
+
+/// A frame drawn on the GPU.
+#[derive(Clone, Debug)]
+pub struct GpuImage {
+    /// The linear image (alpha: coverage), read back.
+    pub image: Image,
+    /// 8-bit sRGB, tonemapped on the GPU at `exposure`.
+    pub rgb: Vec<u8>,
+    /// The exposure used.
+    pub exposure: f32,
+    /// Per pass.
+    pub timings: GpuTimings,
+}
+
+/// What each pass of a GPU frame cost, ms (GPU timestamps where the adapter has them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GpuTimings {
+    /// The shading compute pass.
+    pub shade: PassTime,
+    /// The draw pass.
+    pub draw: PassTime,
+    /// Reading the linear image back.
+    pub readback_ms: f64,
+    /// Tonemapping (with its readback).
+    pub tonemap: PassTime,
 }
 
 impl GpuRenderer {
@@ -53,7 +85,46 @@ impl GpuRenderer {
 
     /// The renderer on an existing context.
     pub fn with_context(ctx: Arc<GpuContext>) -> Result<Self, GpuError> {
-        Ok(Self { shading: GpuShading::new(ctx)?, geometry: None, tables: None, last: PassTime::default() })
+        Ok(Self {
+            shading: GpuShading::new(ctx.clone())?,
+            draw: GpuDraw::new(ctx)?,
+            geometry: None,
+            tables: None,
+            backdrop: None,
+            last: PassTime::default(),
+        })
+    }
+
+    /// Whether the adapter is a software rasteriser (such as Mesa's llvmpipe).
+    pub fn is_software(&self) -> bool {
+        self.shading.context().info.device_type == rsl_gpu::wgpu::DeviceType::Cpu
+    }
+
+    /// Shades and draws `scene` at time `t`: the linear image (read back) and its
+    /// tonemapped 8-bit form at `exposure` (`None`: automatic, from the linear image).
+    pub fn render(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        t: f32,
+        exposure: Option<f32>,
+        auto_exposure: impl Fn(&Image) -> f32,
+    ) -> Result<GpuImage> {
+        let shade = self.dispatch(engine, scene, t, Terms::default())?;
+        if self.backdrop != Some(engine.id()) {
+            self.draw.set_backdrop(&engine.backdrop()).context("uploading the environment map")?;
+            self.backdrop = Some(engine.id());
+        }
+        let state = scene.at(t);
+        let env_from_world = Mat3::from_quat(state.world_from_env.inverse());
+        let draw = self.draw.draw(&self.shading, &scene.camera, env_from_world)?;
+        let start = Instant::now();
+        let (pixels, covered) = self.draw.read_linear()?;
+        let readback_ms = start.elapsed().as_secs_f64() * 1e3;
+        let image = Image { width: scene.camera.width, height: scene.camera.height, pixels, covered };
+        let exposure = exposure.unwrap_or_else(|| auto_exposure(&image));
+        let (rgb, tonemap) = self.draw.tonemap(exposure)?;
+        Ok(GpuImage { image, rgb, exposure, timings: GpuTimings { shade, draw, readback_ms, tonemap } })
     }
 
     /// The adapter, in words.

@@ -1,6 +1,7 @@
 //! `rsl precompute`, `rsl render` and `rsl demo`.
 
 use crate::engine::{Engine, EngineOptions, ShadedFrame};
+use crate::gpu::GpuRenderer;
 use crate::{output, ply};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
@@ -12,8 +13,42 @@ use std::time::Instant;
 /// Where shading runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Device {
-    /// The CPU fast path (rayon).
+    /// The CPU fast path (rayon) and the CPU rasteriser.
     Cpu,
+    /// wgpu compute shading and a draw pass (any adapter, including software ones).
+    Gpu,
+    /// A hardware GPU when there is one, else the CPU (with one notice).
+    Auto,
+}
+
+/// The GPU renderer `device` asks for, or `None` for the CPU path. `auto` takes a hardware
+/// adapter only: a software one (Mesa's llvmpipe) is slower than the CPU path.
+pub fn select_device(device: Device) -> Result<Option<GpuRenderer>> {
+    match device {
+        Device::Cpu => Ok(None),
+        Device::Gpu => {
+            let g = GpuRenderer::new().context("--device gpu")?;
+            eprintln!("shading on the GPU: {}", g.describe());
+            Ok(Some(g))
+        }
+        Device::Auto => match GpuRenderer::new() {
+            Ok(g) if !g.is_software() => {
+                eprintln!("shading on the GPU: {}", g.describe());
+                Ok(Some(g))
+            }
+            Ok(g) => {
+                eprintln!(
+                    "notice: only a software GPU adapter ({}) was found; shading on the CPU (--device gpu uses it anyway)",
+                    g.describe()
+                );
+                Ok(None)
+            }
+            Err(e) => {
+                eprintln!("notice: no usable GPU ({e}); shading on the CPU");
+                Ok(None)
+            }
+        },
+    }
 }
 
 /// Options shared by every command that prepares a scene.
@@ -65,9 +100,13 @@ pub struct RenderArgs {
     /// Frames per second of an animation.
     #[arg(long, default_value_t = 24.0)]
     pub fps: f32,
-    /// Where shading runs.
-    #[arg(long, value_enum, default_value_t = Device::Cpu)]
+    /// Where shading and drawing run.
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
     pub device: Device,
+    /// Print the time of every pass of every frame (GPU timestamps where the adapter has
+    /// them, wall time otherwise).
+    #[arg(long)]
+    pub timings: bool,
     /// How radiance is computed: `rsl` (the renderer) or `truth` (Monte Carlo reference:
     /// per pixel through the camera, and per vertex for --vertex-out).
     #[arg(long, value_enum, default_value_t = Method::Rsl)]
@@ -247,7 +286,9 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     {
         bail!("--exposure must be a positive number, got {e}");
     }
-    let Device::Cpu = args.device;
+    if args.method == Method::Truth && args.device == Device::Gpu {
+        bail!("--method truth runs on the CPU only; drop --device gpu");
+    }
     if args.method == Method::Truth && args.spp == 0 {
         bail!("--spp must be at least 1");
     }
@@ -277,17 +318,53 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         Method::Truth => Some((crate::truth::env_light(&scene)?, crate::truth::vertex_frames(&scene))),
         Method::Rsl => None,
     };
+    let mut gpu = match (&engine, args.method) {
+        (Some(_), Method::Rsl) => select_device(args.device)?,
+        _ => None,
+    };
     let mut exposure = args.exposure;
     let mut gif_frames = Vec::new();
     let (mut shade_ms, mut raster_ms) = (0.0, 0.0);
     for &(k, t) in &times {
         let start = Instant::now();
-        let (image, vertices) = if let Some(engine) = &engine {
+        let mut encoded = None;
+        let (image, vertices) = if let (Some(engine), Some(gpu)) = (&engine, gpu.as_mut()) {
+            let frame = gpu.render(engine, &scene, t, exposure, exposure_for)?;
+            let g = frame.timings;
+            shade_ms += g.shade.gpu_ms.unwrap_or(g.shade.wall_ms);
+            raster_ms += g.draw.gpu_ms.unwrap_or(g.draw.wall_ms);
+            if args.timings {
+                let ms = |p: rsl_gpu::shade::PassTime| match p.gpu_ms {
+                    Some(m) => format!("{m:.3} ms (GPU), {:.1} ms wall", p.wall_ms),
+                    None => format!("{:.1} ms wall", p.wall_ms),
+                };
+                eprintln!(
+                    "t = {t:.3} s: shading {}; draw {}; image readback {:.1} ms; tonemap + readback {:.1} ms",
+                    ms(g.shade),
+                    ms(g.draw),
+                    g.readback_ms,
+                    g.tonemap.wall_ms
+                );
+            }
+            exposure = Some(frame.exposure);
+            encoded = Some(frame.rgb);
+            let vertices = if args.vertex_out.is_some() {
+                let ShadedFrame { positions, normals, radiance, .. } = gpu.shade(engine, &scene, t)?;
+                Vertices { positions, normals, radiance }
+            } else {
+                Vertices { positions: Vec::new(), normals: Vec::new(), radiance: Vec::new() }
+            };
+            (frame.image, vertices)
+        } else if let Some(engine) = &engine {
             let frame = engine.shade(&scene, t)?;
             shade_ms += frame.shade_ms;
             let start = Instant::now();
             let image = rasterise(engine, &scene, &frame);
-            raster_ms += start.elapsed().as_secs_f64() * 1e3;
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            raster_ms += ms;
+            if args.timings {
+                eprintln!("t = {t:.3} s: shading {:.1} ms (CPU); rasterising {ms:.1} ms (CPU)", frame.shade_ms);
+            }
             let ShadedFrame { positions, normals, radiance, .. } = frame;
             (image, Vertices { positions, normals, radiance })
         } else {
@@ -337,7 +414,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         };
         let out = k.map_or_else(|| args.out.clone(), |k| numbered(&args.out, k));
         let e = *exposure.get_or_insert_with(|| exposure_for(&image));
-        let rgb = tonemap::encode_all(&image.pixels, e);
+        let rgb = encoded.unwrap_or_else(|| tonemap::encode_all(&image.pixels, e));
         match format {
             Format::Png => output::write_png(&out, image.width, image.height, rgb.clone())?,
             Format::Exr => output::write_exr(&out, image.width, image.height, &image.pixels, &image.covered)?,
@@ -380,6 +457,9 @@ pub struct DemoArgs {
     /// The scene (default: the bundled default scene).
     #[arg(long)]
     pub scene: Option<PathBuf>,
+    /// Where shading and drawing run.
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    pub device: Device,
     /// Precomputation options.
     #[command(flatten)]
     pub prepare: PrepareArgs,
@@ -413,6 +493,11 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
     let mut engine = Engine::new(&scene, args.prepare.options())?;
     let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
     print_preparation(&engine);
+    let mut gpu = select_device(args.device)?;
+    let device = match &gpu {
+        Some(g) => format!("GPU: {}", g.describe()),
+        None => format!("CPU, {} threads", rayon::current_num_threads()),
+    };
     let frames = (args.seconds * args.fps).round().max(1.0) as u32;
     let swap_at = frames / 2;
     let swapped = &scene.objects[1].name.clone();
@@ -432,16 +517,33 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
             swap_ms = s.elapsed().as_secs_f64() * 1e3;
         }
         let t = k as f32 / args.fps;
-        let frame = engine.shade(&scene, t)?;
-        shade.push(frame.shade_ms);
-        let s = Instant::now();
-        let image = rasterise(&engine, &scene, &frame);
-        raster += s.elapsed().as_secs_f64() * 1e3;
-        let s = Instant::now();
-        let e = *exposure.get_or_insert_with(|| exposure_for(&image));
-        let rgb = tonemap::encode_all(&image.pixels, e);
-        output::write_png(&args.out.join(format!("frame_{k:04}.png")), image.width, image.height, rgb.clone())?;
-        encode += s.elapsed().as_secs_f64() * 1e3;
+        let rgb = if let Some(gpu) = gpu.as_mut() {
+            let frame = gpu.render(&engine, &scene, t, exposure, exposure_for)?;
+            shade.push(frame.timings.shade.gpu_ms.unwrap_or(frame.timings.shade.wall_ms));
+            raster += frame.timings.draw.gpu_ms.unwrap_or(frame.timings.draw.wall_ms);
+            exposure = Some(frame.exposure);
+            let s = Instant::now();
+            output::write_png(
+                &args.out.join(format!("frame_{k:04}.png")),
+                frame.image.width,
+                frame.image.height,
+                frame.rgb.clone(),
+            )?;
+            encode += s.elapsed().as_secs_f64() * 1e3;
+            frame.rgb
+        } else {
+            let frame = engine.shade(&scene, t)?;
+            shade.push(frame.shade_ms);
+            let s = Instant::now();
+            let image = rasterise(&engine, &scene, &frame);
+            raster += s.elapsed().as_secs_f64() * 1e3;
+            let s = Instant::now();
+            let e = *exposure.get_or_insert_with(|| exposure_for(&image));
+            let rgb = tonemap::encode_all(&image.pixels, e);
+            output::write_png(&args.out.join(format!("frame_{k:04}.png")), image.width, image.height, rgb.clone())?;
+            encode += s.elapsed().as_secs_f64() * 1e3;
+            rgb
+        };
         gif_frames.push(rgb);
         bar.inc(1);
     }
@@ -461,8 +563,8 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
          frames:        {frames} at {} fps ({} s), {}×{}; material of {swapped} swapped at frame {swap_at}\n\
          precompute:    {prepare_ms:.0} ms (cache: {} hits, {} from disk, {} computed)\n\
          material swap: {swap_ms:.1} ms (one BRDF table)\n\
-         shading:       {median:.1} ms/frame median, {:.1} mean (CPU, {} threads)\n\
-         rasterising:   {:.1} ms/frame\n\
+         shading:       {median:.1} ms/frame median, {:.1} mean ({device})\n\
+         drawing:       {:.1} ms/frame\n\
          PNG encoding:  {:.1} ms/frame; GIF {gif_ms:.0} ms\n\
          total:         {:.1} s; output in {}\n",
         path.display(),
@@ -477,7 +579,6 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
         c.disk_hits,
         c.misses,
         shade.iter().sum::<f64>() / n,
-        rayon::current_num_threads(),
         raster / n,
         encode / n,
         total.elapsed().as_secs_f64(),

@@ -3,10 +3,14 @@
 //! Every GPU operation returns a [`GpuError`] instead of panicking: no adapter, a failed
 //! device request, a shader that does not compile, a lost device or a failed readback.
 
+pub mod draw;
 pub mod hemi_map;
 pub mod shade;
 pub mod shaders;
 pub mod testing;
+
+/// The wgpu this crate is built on (for adapter types in callers).
+pub use wgpu;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -157,6 +161,17 @@ impl GpuContext {
         shader: &shaders::Shader,
         constants: &[(&str, f64)],
     ) -> Result<wgpu::ComputePipeline, GpuError> {
+        self.compute_pipeline_with_layout(shader, constants, None)
+    }
+
+    /// [`GpuContext::compute_pipeline`] with an explicit pipeline layout (`None`: derived
+    /// from the shader).
+    pub fn compute_pipeline_with_layout(
+        &self,
+        shader: &shaders::Shader,
+        constants: &[(&str, f64)],
+        layout: Option<&wgpu::PipelineLayout>,
+    ) -> Result<wgpu::ComputePipeline, GpuError> {
         self.check_alive()?;
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -165,9 +180,9 @@ impl GpuContext {
         });
         let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some(shader.name),
-            layout: None,
+            layout,
             module: &module,
-            entry_point: Some(shader.entry_point),
+            entry_point: Some(shader.entry_points[0]),
             compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
             cache: None,
         });

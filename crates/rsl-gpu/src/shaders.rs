@@ -14,8 +14,8 @@ pub struct Shader {
     pub common: &'static [(&'static str, &'static str)],
     /// The stage file's text.
     pub text: &'static str,
-    /// The compute entry point.
-    pub entry_point: &'static str,
+    /// Entry points: the compute entry, or the vertex then the fragment entry.
+    pub entry_points: &'static [&'static str],
 }
 
 impl Shader {
@@ -31,6 +31,7 @@ impl Shader {
 }
 
 const MATH: (&str, &str) = ("common/math.wgsl", include_str!("../../../shaders/common/math.wgsl"));
+const DRAW: (&str, &str) = ("common/draw.wgsl", include_str!("../../../shaders/common/draw.wgsl"));
 const HEMI: (&str, &str) = ("common/hemi.wgsl", include_str!("../../../shaders/common/hemi.wgsl"));
 const FRAME: (&str, &str) = ("common/frame.wgsl", include_str!("../../../shaders/common/frame.wgsl"));
 const COVERAGE: (&str, &str) = ("common/coverage.wgsl", include_str!("../../../shaders/common/coverage.wgsl"));
@@ -43,7 +44,7 @@ pub const HEMI_MAP: Shader = Shader {
     path: "smoke/hemi_map.wgsl",
     common: &[HEMI],
     text: include_str!("../../../shaders/smoke/hemi_map.wgsl"),
-    entry_point: "main",
+    entry_points: &["main"],
 };
 
 /// Per-vertex shading over all RSLs and occluders (Xu et al. 2006, eq. 5).
@@ -52,11 +53,38 @@ pub const SHADE_VERTICES: Shader = Shader {
     path: "shade/vertices.wgsl",
     common: &[MATH, HEMI, FRAME, COVERAGE, BRDF, VISIBILITY],
     text: include_str!("../../../shaders/shade/vertices.wgsl"),
-    entry_point: "shade_vertices",
+    entry_points: &["shade_vertices"],
+};
+
+/// The environment behind the objects: a full-screen triangle looking up the lat-long map.
+pub const DRAW_BACKGROUND: Shader = Shader {
+    name: "draw/background",
+    path: "draw/background.wgsl",
+    common: &[MATH, DRAW],
+    text: include_str!("../../../shaders/draw/background.wgsl"),
+    entry_points: &["vs_background", "fs_background"],
+};
+
+/// The objects: depth-tested triangles coloured by the shading pass's vertex radiance.
+pub const DRAW_OBJECTS: Shader = Shader {
+    name: "draw/objects",
+    path: "draw/objects.wgsl",
+    common: &[DRAW],
+    text: include_str!("../../../shaders/draw/objects.wgsl"),
+    entry_points: &["vs_objects", "fs_objects"],
+};
+
+/// Exposure, the filmic curve and sRGB encoding of the linear image into 8-bit pixels.
+pub const TONEMAP: Shader = Shader {
+    name: "draw/tonemap",
+    path: "draw/tonemap.wgsl",
+    common: &[],
+    text: include_str!("../../../shaders/draw/tonemap.wgsl"),
+    entry_points: &["tonemap"],
 };
 
 /// Every registered shader.
-pub const ALL: &[Shader] = &[HEMI_MAP, SHADE_VERTICES];
+pub const ALL: &[Shader] = &[HEMI_MAP, SHADE_VERTICES, DRAW_BACKGROUND, DRAW_OBJECTS, TONEMAP];
 
 /// Looks a shader up by name.
 pub fn by_name(name: &str) -> Option<&'static Shader> {

@@ -25,12 +25,10 @@ fn every_registered_shader_validates() {
         let mut v =
             naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
         v.validate(&module).unwrap_or_else(|e| panic!("{}: {}", shader.name, e.emit_to_string(&shader.source())));
-        assert!(
-            module.entry_points.iter().any(|e| e.name == shader.entry_point),
-            "{}: no entry point {}",
-            shader.name,
-            shader.entry_point
-        );
+        assert!(!shader.entry_points.is_empty(), "{}: no entry point named", shader.name);
+        for entry in shader.entry_points {
+            assert!(module.entry_points.iter().any(|e| e.name == *entry), "{}: no entry point {entry}", shader.name);
+        }
     }
 }
 

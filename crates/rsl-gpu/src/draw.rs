@@ -1,0 +1,521 @@
+//! The draw pass (Xu et al. 2006, §5.2: "shade vertices, then draw with the result"):
+//! the environment behind (`shaders/draw/background.wgsl`), the objects' triangles coloured
+//! by the shading pass's vertex radiance and depth-tested (`shaders/draw/objects.wgsl`),
+//! headless into a linear RGBA32F texture (alpha = covered by an object), then tonemapping
+//! to 8-bit sRGB (`shaders/draw/tonemap.wgsl`); both can be read back.
+
+use crate::shade::{GpuShading, PassTime};
+use crate::{GpuContext, GpuError, shaders};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, Vec3};
+use rsl_scene::Camera;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Mirrors WGSL `DrawParams` in `shaders/common/draw.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct DrawParams {
+    /// Clip from world (reversed depth, infinite far plane), columns.
+    pub clip_from_world: [[f32; 4]; 4],
+    /// Camera right, up, back in world space.
+    pub world_from_camera: [[f32; 4]; 3],
+    /// Environment from world.
+    pub env_from_world: [[f32; 4]; 3],
+    /// tan(fov/2)·aspect, tan(fov/2), width, height.
+    pub lens: [f32; 4],
+    /// Constant radiance (rgb) and intensity (w).
+    pub constant: [f32; 4],
+    /// Map width (0: constant environment).
+    pub map_width: u32,
+    /// Map height.
+    pub map_height: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// Mirrors WGSL `ToneParams` in `shaders/draw/tonemap.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ToneParams {
+    /// Exposure multiplier.
+    pub exposure: f32,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// The environment behind the objects.
+#[derive(Clone, Debug)]
+pub enum Backdrop<'a> {
+    /// A lat-long map (`width × height` texels, row 0 at the top) and its intensity.
+    Map {
+        /// Map width.
+        width: u32,
+        /// Map height.
+        height: u32,
+        /// Texels, row-major.
+        texels: &'a [Vec3],
+        /// Intensity.
+        intensity: f32,
+    },
+    /// A constant radiance (intensity included).
+    Constant(Vec3),
+}
+
+/// Distance of the near clipping plane (the CPU rasteriser's).
+const NEAR: f32 = 1e-3;
+const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+struct Target {
+    width: u32,
+    height: u32,
+    color: wgpu::Texture,
+    depth: wgpu::Texture,
+    encoded: wgpu::Buffer,
+}
+
+/// Pipelines and targets of the draw pass.
+pub struct GpuDraw {
+    ctx: Arc<GpuContext>,
+    background: wgpu::RenderPipeline,
+    objects: wgpu::RenderPipeline,
+    tonemap: wgpu::ComputePipeline,
+    tone_layout: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+    tone_params: wgpu::Buffer,
+    texels: wgpu::Buffer,
+    map_size: (u32, u32),
+    constant: Vec3,
+    intensity: f32,
+    target: Option<Target>,
+    timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+}
+
+fn cols3(m: Mat3) -> [[f32; 4]; 3] {
+    [m.x_axis.extend(0.0).to_array(), m.y_axis.extend(0.0).to_array(), m.z_axis.extend(0.0).to_array()]
+}
+
+impl GpuDraw {
+    /// Builds the pipelines (an adapter that cannot render to RGBA32F is an error).
+    pub fn new(ctx: Arc<GpuContext>) -> Result<Self, GpuError> {
+        ctx.check_alive()?;
+        let usages = ctx.adapter.get_texture_format_features(COLOR).allowed_usages;
+        if !usages.contains(wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING) {
+            return Err(GpuError::Scene(format!("{} cannot render to {COLOR:?}", ctx.info.name)));
+        }
+        let d = &ctx.device;
+        let background = render_pipeline(&ctx, &shaders::DRAW_BACKGROUND, &[], false)?;
+        let position = [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 0, shader_location: 0 }];
+        let radiance = [wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 0, shader_location: 1 }];
+        let buffers = [
+            wgpu::VertexBufferLayout {
+                array_stride: 16,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &position,
+            },
+            wgpu::VertexBufferLayout {
+                array_stride: 16,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &radiance,
+            },
+        ];
+        let objects = render_pipeline(&ctx, &shaders::DRAW_OBJECTS, &buffers, true)?;
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty,
+            count: None,
+        };
+        let tone_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("tonemap"),
+            entries: &[
+                entry(
+                    0,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                ),
+                entry(
+                    1,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                ),
+                entry(
+                    2,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: false },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                ),
+            ],
+        });
+        let layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tonemap"),
+            bind_group_layouts: &[Some(&tone_layout)],
+            immediate_size: 0,
+        });
+        let tonemap = ctx.compute_pipeline_with_layout(&shaders::TONEMAP, &[], Some(&layout))?;
+        let buffer = |label, size, usage| {
+            d.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+        };
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
+        let params = buffer("draw params", std::mem::size_of::<DrawParams>() as u64, uniform);
+        let tone_params = buffer("tone params", std::mem::size_of::<ToneParams>() as u64, uniform);
+        let texels = buffer("environment texels", 16, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
+        let timestamps = d.features().contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
+            let set = d.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("draw timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            });
+            let resolve =
+                buffer("draw timestamps", 16, wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC);
+            (set, resolve)
+        });
+        Ok(Self {
+            background,
+            objects,
+            tonemap,
+            tone_layout,
+            params,
+            tone_params,
+            texels,
+            map_size: (0, 0),
+            constant: Vec3::ZERO,
+            intensity: 1.0,
+            target: None,
+            timestamps,
+            ctx,
+        })
+    }
+
+    /// Sets the environment behind the objects (a map is uploaded once, here).
+    pub fn set_backdrop(&mut self, backdrop: &Backdrop<'_>) -> Result<(), GpuError> {
+        self.ctx.check_alive()?;
+        match backdrop {
+            Backdrop::Map { width, height, texels, intensity } => {
+                if texels.len() != (*width as usize) * (*height as usize) || *width == 0 || *height == 0 {
+                    return Err(GpuError::Scene(format!(
+                        "environment map of {width}×{height} has {} texels",
+                        texels.len()
+                    )));
+                }
+                let data: Vec<[f32; 4]> = texels.iter().map(|t| t.extend(0.0).to_array()).collect();
+                let bytes: &[u8] = bytemuck::cast_slice(&data);
+                let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
+                if bytes.len() as u64 > limit {
+                    return Err(GpuError::TooLarge {
+                        what: "the environment map".into(),
+                        bytes: bytes.len() as u64,
+                        limit,
+                    });
+                }
+                if self.texels.size() < bytes.len() as u64 {
+                    self.texels = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("environment texels"),
+                        size: bytes.len() as u64,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    });
+                }
+                self.ctx.queue.write_buffer(&self.texels, 0, bytes);
+                self.map_size = (*width, *height);
+                self.intensity = *intensity;
+            }
+            Backdrop::Constant(c) => {
+                self.map_size = (0, 0);
+                self.constant = *c;
+                self.intensity = 1.0;
+            }
+        }
+        Ok(())
+    }
+
+    fn target(&mut self, width: u32, height: u32) -> Result<&Target, GpuError> {
+        let max = self.ctx.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(GpuError::Scene(format!("image size {width}×{height} (the GPU allows 1 to {max} per side)")));
+        }
+        if self.target.as_ref().is_none_or(|t| (t.width, t.height) != (width, height)) {
+            let d = &self.ctx.device;
+            let texture = |label, format, usage| {
+                d.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
+            };
+            let color = texture(
+                "image",
+                COLOR,
+                wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC,
+            );
+            let depth = texture("depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT);
+            let encoded = d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("encoded image"),
+                size: u64::from(width) * u64::from(height) * 4,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            self.target = Some(Target { width, height, color, depth, encoded });
+        }
+        Ok(self.target.as_ref().expect("just created"))
+    }
+
+    /// Draws the shaded vertices of `shading` seen by `camera`, with the environment (seen
+    /// through `env_from_world`) behind them, into the linear image; waits for it.
+    pub fn draw(&mut self, shading: &GpuShading, camera: &Camera, env_from_world: Mat3) -> Result<PassTime, GpuError> {
+        self.ctx.check_alive()?;
+        let (width, height) = (camera.width, camera.height);
+        let t = (0.5 * camera.fov_y).tan();
+        let aspect = width as f32 / height as f32;
+        let view = camera.camera_from_world();
+        // WebGPU: NDC depth in [0, 1], y up.
+        let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(camera.fov_y, aspect, NEAR);
+        let world_from_camera = Mat3::from_mat4(view.inverse());
+        let params = DrawParams {
+            clip_from_world: (proj * view).to_cols_array_2d(),
+            world_from_camera: cols3(world_from_camera),
+            env_from_world: cols3(env_from_world),
+            lens: [t * aspect, t, width as f32, height as f32],
+            constant: self.constant.extend(self.intensity).to_array(),
+            map_width: self.map_size.0,
+            map_height: self.map_size.1,
+            ..Default::default()
+        };
+        self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let d = self.ctx.device.clone();
+        let bg_bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("draw background"),
+            layout: &self.background.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: self.texels.as_entire_binding() },
+            ],
+        });
+        let obj_bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("draw objects"),
+            layout: &self.objects.get_bind_group_layout(0),
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() }],
+        });
+        let (background, objects) = (self.background.clone(), self.objects.clone());
+        let timestamps = self.timestamps.as_ref().map(|(s, r)| (s.clone(), r.clone()));
+        let target = self.target(width, height)?;
+        let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
+        let depth = target.depth.create_view(&wgpu::TextureViewDescriptor::default());
+        let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("draw") });
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("draw"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: timestamps.as_ref().map(|(set, _)| wgpu::RenderPassTimestampWrites {
+                    query_set: set,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&background);
+            pass.set_bind_group(0, &bg_bind, &[]);
+            pass.draw(0..3, 0..1);
+            let (indices, count) = shading.index_buffer();
+            let n = u64::from(shading.vertex_count()) * 16;
+            if count > 0 {
+                pass.set_pipeline(&objects);
+                pass.set_bind_group(0, &obj_bind, &[]);
+                pass.set_vertex_buffer(0, shading.shaded_buffer().slice(0..n));
+                pass.set_vertex_buffer(1, shading.shaded_buffer().slice(n..2 * n));
+                pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..count, 0, 0..1);
+            }
+        }
+        if let Some((set, resolve)) = &timestamps {
+            enc.resolve_query_set(set, 0..2, resolve, 0);
+        }
+        let start = Instant::now();
+        self.ctx.queue.submit([enc.finish()]);
+        d.poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Operation { operation: "draw", message: e.to_string() })?;
+        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Operation { operation: "draw pass", message: e.to_string() });
+        }
+        self.ctx.check_alive()?;
+        let gpu_ms = match &timestamps {
+            Some((_, resolve)) => {
+                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.ctx.read_buffer(resolve, 16)?);
+                Some(ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(self.ctx.queue.get_timestamp_period()) / 1e6)
+            }
+            None => None,
+        };
+        Ok(PassTime { gpu_ms, wall_ms })
+    }
+
+    /// The last drawn image, linear: row-major pixels (row 0 at the top) and whether an
+    /// object covers each.
+    pub fn read_linear(&self) -> Result<(Vec<Vec3>, Vec<bool>), GpuError> {
+        let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
+        let row = u64::from(t.width) * 16;
+        let padded = row.next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
+        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("image readback"),
+            size: padded * u64::from(t.height),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut enc = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("image") });
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &t.color,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded as u32),
+                    rows_per_image: Some(t.height),
+                },
+            },
+            wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: 1 },
+        );
+        self.ctx.queue.submit([enc.finish()]);
+        let bytes = self.ctx.read_buffer(&staging, padded * u64::from(t.height))?;
+        let (mut pixels, mut covered) = (Vec::new(), Vec::new());
+        for r in bytes.chunks_exact(padded as usize) {
+            let px: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&r[..row as usize]);
+            pixels.extend(px.iter().map(|p| Vec3::new(p[0], p[1], p[2])));
+            covered.extend(px.iter().map(|p| p[3] > 0.5));
+        }
+        Ok((pixels, covered))
+    }
+
+    /// Tonemaps the last drawn image at `exposure` on the GPU and reads it back as
+    /// interleaved 8-bit sRGB.
+    pub fn tonemap(&mut self, exposure: f32) -> Result<(Vec<u8>, PassTime), GpuError> {
+        self.ctx.check_alive()?;
+        let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
+        let params = ToneParams { exposure, width: t.width, height: t.height, pad: 0 };
+        self.ctx.queue.write_buffer(&self.tone_params, 0, bytemuck::bytes_of(&params));
+        let view = t.color.create_view(&wgpu::TextureViewDescriptor::default());
+        let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("tonemap"),
+            layout: &self.tone_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.tone_params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry { binding: 2, resource: t.encoded.as_entire_binding() },
+            ],
+        });
+        let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut enc =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("tonemap") });
+        {
+            let mut pass =
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("tonemap"), timestamp_writes: None });
+            pass.set_pipeline(&self.tonemap);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(t.width.div_ceil(8), t.height.div_ceil(8), 1);
+        }
+        let start = Instant::now();
+        self.ctx.queue.submit([enc.finish()]);
+        let words = self.ctx.read_buffer(&t.encoded, u64::from(t.width) * u64::from(t.height) * 4)?;
+        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Operation { operation: "tonemap", message: e.to_string() });
+        }
+        let rgb = words.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        Ok((rgb, PassTime { gpu_ms: None, wall_ms }))
+    }
+}
+
+/// A render pipeline of a registered shader (entry points: vertex, fragment) drawing into
+/// the RGBA32F image with reversed depth; `depth_test` off draws behind everything.
+fn render_pipeline(
+    ctx: &GpuContext,
+    shader: &shaders::Shader,
+    buffers: &[wgpu::VertexBufferLayout<'_>],
+    depth_test: bool,
+) -> Result<wgpu::RenderPipeline, GpuError> {
+    let [vertex, fragment] = shader.entry_points else {
+        return Err(GpuError::Shader { name: shader.name, message: "needs a vertex and a fragment entry".into() });
+    };
+    let d = &ctx.device;
+    let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(shader.name),
+        source: wgpu::ShaderSource::Wgsl(shader.source().into()),
+    });
+    let pipeline = d.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(shader.name),
+        layout: None,
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some(vertex),
+            compilation_options: Default::default(),
+            buffers: &buffers.iter().cloned().map(Some).collect::<Vec<_>>(),
+        },
+        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH,
+            depth_write_enabled: Some(depth_test),
+            depth_compare: Some(if depth_test {
+                wgpu::CompareFunction::Greater
+            } else {
+                wgpu::CompareFunction::Always
+            }),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some(fragment),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState { format: COLOR, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    match pollster::block_on(scope.pop()) {
+        Some(e) => Err(GpuError::Shader { name: shader.name, message: e.to_string() }),
+        None => Ok(pipeline),
+    }
+}

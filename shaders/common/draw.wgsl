@@ -1,0 +1,20 @@
+// What the draw pass's stages share: the camera and environment of a frame.
+
+struct DrawParams {
+    // Clip space (reversed depth, infinite far plane) from world space.
+    clip_from_world: mat4x4<f32>,
+    // Camera axes in world space: right, up, back (the camera looks down −back).
+    world_from_camera: mat3x3<f32>,
+    // Environment space from world space (the inverse of the scene's rotation).
+    env_from_world: mat3x3<f32>,
+    // xy: tan(fov/2)·aspect and tan(fov/2); zw: image width and height in pixels.
+    lens: vec4<f32>,
+    // rgb: constant radiance (when map_width is 0); w: intensity.
+    constant: vec4<f32>,
+    map_width: u32,
+    map_height: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> draw: DrawParams;

@@ -1,0 +1,19 @@
+// The objects: triangles with the shading pass's per-vertex radiance, interpolated
+// perspective-correctly and depth-tested (reversed depth), drawn from both sides as the CPU
+// rasteriser does. Uses common/draw.wgsl.
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) radiance: vec3<f32>,
+}
+
+@vertex
+fn vs_objects(@location(0) position: vec4<f32>, @location(1) radiance: vec4<f32>) -> VertexOut {
+    return VertexOut(draw.clip_from_world * vec4<f32>(position.xyz, 1.0), radiance.xyz);
+}
+
+@fragment
+fn fs_objects(v: VertexOut) -> @location(0) vec4<f32> {
+    // Alpha 1: covered by an object.
+    return vec4<f32>(v.radiance, 1.0);
+}
