@@ -182,3 +182,95 @@ fn gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders() {
     assert!((0..cpu.radiance[0].len()).any(|v| near(setup.position(0, v)) > 16), "no vertex with > 16 occluders near");
     check("anisotropic plate, 20 occluders", &cpu, &gpu.shade(&engine, &scene, 0.0).unwrap());
 }
+
+#[test]
+fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
+    let Some(mut gpu) = renderer("gpu_image_matches_the_cpu_rasteriser_and_tonemapper") else { return };
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let t = 1.7;
+    let frame = gpu.render(&engine, &scene, t, None, rsl::render::exposure_for).unwrap();
+    let cpu_frame = engine.shade(&scene, t).unwrap();
+    let cpu = rsl::render::rasterise(&engine, &scene, &cpu_frame);
+    let g = &frame.image;
+    assert_eq!((g.width, g.height), (cpu.width, cpu.height));
+    let n = g.pixels.len();
+    // Coverage differs only along silhouettes, where the two rasterisers' edge rules (the
+    // CPU counts a centre on an edge as inside; GPUs follow the top-left rule) and float
+    // rounding of edge functions disagree on a pixel centre lying on an edge.
+    let coverage_differs = g.covered.iter().zip(&cpu.covered).filter(|(a, b)| a != b).count();
+    // Where both agree, pixels are the same interpolation of (nearly) the same vertex
+    // radiance, or the same environment lookup: within 1e-3 relative (or 1e-4 absolute).
+    let mut off = 0usize;
+    let mut worst = 0.0f32;
+    for k in 0..n {
+        if g.covered[k] != cpu.covered[k] {
+            continue;
+        }
+        let (a, b) = (cpu.pixels[k], g.pixels[k]);
+        let diff = (a - b).abs().max_element();
+        let rel = diff / a.abs().max_element().max(1e-30);
+        if diff > 1e-4 {
+            worst = worst.max(rel);
+        }
+        if diff > 1e-4 && rel > 1e-3 {
+            off += 1;
+        }
+    }
+    eprintln!(
+        "{n} pixels: coverage differs at {coverage_differs}, {off} agreeing pixels beyond 1e-3 (worst {worst:.2e})"
+    );
+    assert!(coverage_differs * 1000 <= n, "coverage differs at {coverage_differs} of {n} pixels (bound 0.1%)");
+    assert!(off * 1000 <= n, "{off} of {n} pixels differ by more than 1e-3 relative (bound 0.1%)");
+    // The GPU's tonemapping equals the CPU's encoding of the same linear image to one 8-bit
+    // level (pow and division may round differently on the GPU).
+    let cpu_rgb = rsl_shade::tonemap::encode_all(&g.pixels, frame.exposure);
+    let worst_level = frame.rgb.iter().zip(&cpu_rgb).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+    assert!(worst_level <= 1, "tonemapped pixels differ by {worst_level} levels");
+}
+
+#[test]
+fn a_shader_that_does_not_compile_is_an_error_not_a_panic() {
+    let Some(ctx) = rsl_gpu::testing::context_or_skip("a_shader_that_does_not_compile_is_an_error_not_a_panic") else {
+        return;
+    };
+    let broken = rsl_gpu::shaders::Shader {
+        text: "@compute @workgroup_size(1) fn main() { let x: f32 = undefined_value; }",
+        common: &[],
+        ..rsl_gpu::shaders::HEMI_MAP
+    };
+    match ctx.compute_pipeline(&broken, &[]) {
+        Err(rsl_gpu::GpuError::Shader { name, message }) => {
+            assert_eq!(name, "smoke/hemi_map");
+            assert!(message.contains("undefined_value"), "{message}");
+        }
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("a broken shader built"),
+    }
+    // The context stays usable afterwards.
+    assert!(ctx.check_alive().is_ok());
+    assert!(rsl_gpu::hemi_map::hemi_map_on_gpu(&ctx, &[[0.0, 0.0, 1.0]]).is_ok());
+}
+
+#[test]
+fn shading_objects_that_were_not_loaded_is_an_error() {
+    let Some(ctx) = rsl_gpu::testing::context_or_skip("shading_objects_that_were_not_loaded_is_an_error") else {
+        return;
+    };
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let state = scene.at(0.0);
+    let objects = engine.objects(&scene, &state).unwrap();
+    let mut shading = rsl_gpu::shade::GpuShading::new(Arc::new(ctx)).unwrap();
+    let lights = engine.lights(&state);
+    let e = shading.shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap_err();
+    assert!(e.to_string().contains("load_geometry"), "{e}");
+    shading.load_geometry(&objects).unwrap();
+    let e = shading.shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap_err();
+    assert!(e.to_string().contains("load_tables"), "{e}");
+    shading.load_tables(&objects).unwrap();
+    shading.shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap();
+    // Fewer objects than loaded: refused, not read out of bounds.
+    let e = shading.shade(&objects[..2], &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap_err();
+    assert!(e.to_string().contains("load_geometry"), "{e}");
+}

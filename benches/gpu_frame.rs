@@ -1,0 +1,65 @@
+//! `gpu_frame`: one GPU frame of the benchmark scene of `shade_frame` (data/scenes/bench.toml:
+//! 59,551 vertices in 12 objects, 30 RSLs, paper preset): the shading compute pass (per-frame
+//! uploads, dispatch, wait) with terms left out for a breakdown, and the draw pass. Prints
+//! the GPU's own timestamps per pass where the adapter has them. Skips (with a message)
+//! without an adapter.
+//!
+//! Precomputation comes from the disk cache (`RSL_CACHE_DIR`, else the user cache folder).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use rsl::engine::{Engine, EngineOptions};
+use rsl::gpu::GpuRenderer;
+use rsl::scene::Scene;
+use rsl_shade::Terms;
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let mut gpu = match GpuRenderer::new() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("gpu_frame: skipped: no adapter ({e})");
+            return;
+        }
+    };
+    eprintln!("gpu_frame: adapter {}", gpu.describe());
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/bench.toml");
+    let scene = Scene::load(&path).expect("bench scene");
+    let options = EngineOptions { cache_dir: rsl::cache::default_dir(), progress: true, ..Default::default() };
+    let engine = Engine::new(&scene, options).expect("prepared");
+    let (vertices, _) = scene.counts();
+    let t = 1.0;
+    eprintln!("{vertices} vertices, {} objects, {} RSLs", scene.objects.len(), engine.rsls().len());
+    let variants = [
+        ("brdf_only", Terms { self_visibility: false, occluders: false }),
+        ("brdf_self", Terms { self_visibility: true, occluders: false }),
+        ("full", Terms::default()),
+    ];
+    // GPU timestamps, median of 20 passes each.
+    for (name, terms) in variants {
+        let mut ms: Vec<f64> = (0..20)
+            .map(|_| {
+                let p = gpu.dispatch(&engine, &scene, t, terms).expect("shading pass");
+                p.gpu_ms.unwrap_or(p.wall_ms)
+            })
+            .collect();
+        ms.sort_by(f64::total_cmp);
+        let kind = if gpu.last_pass().gpu_ms.is_some() { "GPU timestamps" } else { "wall" };
+        eprintln!("gpu_frame/{name}: shading pass {:.3} ms median ({kind})", ms[ms.len() / 2]);
+    }
+    let frame = gpu.render(&engine, &scene, t, Some(1.0), |_| 1.0).expect("frame");
+    eprintln!("gpu_frame: draw pass {:?}, tonemap {:?}", frame.timings.draw, frame.timings.tonemap);
+    let mut g = c.benchmark_group("gpu_frame");
+    g.sample_size(20);
+    for (name, terms) in variants {
+        g.bench_function(name, |b| {
+            b.iter(|| black_box(gpu.dispatch(&engine, &scene, t, terms).expect("shading pass")))
+        });
+    }
+    g.bench_function("shade_and_draw", |b| {
+        b.iter(|| black_box(gpu.render(&engine, &scene, t, Some(1.0), |_| 1.0).expect("frame")))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
