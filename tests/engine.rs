@@ -308,8 +308,11 @@ fn render_writes_images_vertices_and_animations() {
     let cache = dir.join("cache");
     let cache = cache.to_str().unwrap();
     let out = |n: &str| dir.join(n).to_str().unwrap().to_string();
-    run(&["render", scene, "--time", "1.0", "--out", &out("a.png"), "--vertex-out", &out("a.ply"), "--cache", cache])
-        .unwrap();
+    // On the CPU path, so that the PLY holds exactly the engine's CPU radiance.
+    let args = ["--device", "cpu", "--cache", cache];
+    run(&[&["render", scene, "--time", "1.0", "--out", &out("a.png"), "--vertex-out", &out("a.ply")], &args[..]]
+        .concat())
+    .unwrap();
     let img = image::open(dir.join("a.png")).unwrap();
     assert_eq!((img.width(), img.height()), (640, 480));
     let ply = rsl::ply::read(&std::fs::read(dir.join("a.ply")).unwrap()).unwrap();
