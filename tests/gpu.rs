@@ -323,3 +323,19 @@ fn render_on_the_gpu_writes_the_same_outputs() {
     assert!(e.to_string().contains("CPU only"), "{e}");
     assert!(!dir.join("t.png").exists());
 }
+
+#[test]
+fn a_lost_device_is_an_error_not_a_panic() {
+    let Some(ctx) = rsl_gpu::testing::context_or_skip("a_lost_device_is_an_error_not_a_panic") else { return };
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let ctx = Arc::new(ctx);
+    let mut gpu = GpuRenderer::with_context(ctx.clone()).unwrap();
+    gpu.shade(&engine, &scene, 0.0).unwrap();
+    // Destroying the device is what a driver reset or a removed GPU looks like to wgpu.
+    ctx.device.destroy();
+    let e = gpu.shade(&engine, &scene, 0.5).unwrap_err();
+    let chain = format!("{e:#}");
+    assert!(chain.contains("lost") || chain.contains("GPU"), "{chain}");
+    assert!(matches!(ctx.check_alive(), Err(rsl_gpu::GpuError::DeviceLost)), "{:?}", ctx.check_alive().err());
+}
