@@ -434,7 +434,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     }
     let n = times.len() as f64;
     eprintln!(
-        "{} frame(s): shading (or estimating) {:.1} ms/frame, rasterising {:.1} ms/frame",
+        "{} frame(s): shading (or estimating) {:.1} ms/frame, drawing {:.1} ms/frame",
         times.len(),
         shade_ms / n,
         raster_ms / n

@@ -175,16 +175,7 @@ impl GpuDraw {
         let params = buffer("draw params", std::mem::size_of::<DrawParams>() as u64, uniform);
         let tone_params = buffer("tone params", std::mem::size_of::<ToneParams>() as u64, uniform);
         let texels = buffer("environment texels", 16, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST);
-        let timestamps = d.features().contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
-            let set = d.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("draw timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2,
-            });
-            let resolve =
-                buffer("draw timestamps", 16, wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC);
-            (set, resolve)
-        });
+        let timestamps = ctx.pass_timer("draw timestamps");
         Ok(Self {
             background,
             objects,
@@ -377,10 +368,7 @@ impl GpuDraw {
         }
         self.ctx.check_alive()?;
         let gpu_ms = match &timestamps {
-            Some((_, resolve)) => {
-                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.ctx.read_buffer(resolve, 16)?);
-                Some(ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(self.ctx.queue.get_timestamp_period()) / 1e6)
-            }
+            Some((_, resolve)) => Some(self.ctx.pass_ms(resolve)?),
             None => None,
         };
         Ok(PassTime { gpu_ms, wall_ms })

@@ -192,6 +192,31 @@ impl GpuContext {
         }
     }
 
+    /// A query set of two timestamps (a pass's beginning and end) and the buffer it resolves
+    /// into, or `None` when the device has no timestamp queries.
+    pub fn pass_timer(&self, label: &str) -> Option<(wgpu::QuerySet, wgpu::Buffer)> {
+        self.device.features().contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
+            let set = self.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some(label),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            });
+            let resolve = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (set, resolve)
+        })
+    }
+
+    /// Milliseconds between the two timestamps resolved into `resolve` by a pass timer.
+    pub fn pass_ms(&self, resolve: &wgpu::Buffer) -> Result<f64, GpuError> {
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.read_buffer(resolve, 16)?);
+        Ok(ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(self.queue.get_timestamp_period()) / 1e6)
+    }
+
     /// Copies the first `size` bytes of a GPU buffer into host memory (blocking).
     pub fn read_buffer(&self, src: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
         self.read_buffer_range(src, 0, size)

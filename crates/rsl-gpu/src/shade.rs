@@ -269,20 +269,7 @@ impl GpuShading {
             }),
             size: 16,
         };
-        let timestamps = ctx.device.features().contains(wgpu::Features::TIMESTAMP_QUERY).then(|| {
-            let set = d.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("shade timestamps"),
-                ty: wgpu::QueryType::Timestamp,
-                count: 2,
-            });
-            let resolve = d.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("shade timestamps"),
-                size: 16,
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            });
-            (set, resolve)
-        });
+        let timestamps = ctx.pass_timer("shade timestamps");
         Ok(Self {
             pipeline,
             params,
@@ -617,11 +604,7 @@ impl GpuShading {
         }
         self.ctx.check_alive()?;
         let gpu_ms = match &self.timestamps {
-            Some((_, resolve)) => {
-                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.ctx.read_buffer(resolve, 16)?);
-                let period = f64::from(self.ctx.queue.get_timestamp_period());
-                Some(ticks[1].saturating_sub(ticks[0]) as f64 * period / 1e6)
-            }
+            Some((_, resolve)) => Some(self.ctx.pass_ms(resolve)?),
             None => None,
         };
         Ok(PassTime { gpu_ms, wall_ms })
