@@ -121,3 +121,15 @@ fn shading_layouts_match_wgsl() {
         ]
     );
 }
+
+#[test]
+fn draw_layouts_match_wgsl() {
+    use rsl_gpu::draw::{DrawParams, ToneParams};
+    assert_layout!(
+        shaders::DRAW_BACKGROUND,
+        "DrawParams",
+        DrawParams,
+        [clip_from_world, world_from_camera, env_from_world, lens, constant, map_width, map_height, pad0, pad1]
+    );
+    assert_layout!(shaders::TONEMAP, "ToneParams", ToneParams, [exposure, width, height, pad]);
+}
