@@ -13,7 +13,7 @@ use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
 use rsl_gpu::{GpuContext, GpuError};
 use rsl_scene::Scene;
 use rsl_shade::Image;
-use rsl_shade::{FrameSetup, FrameStats, ShadeObject, Terms};
+use rsl_shade::{FrameStats, Pose, ShadeObject, Terms};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -155,14 +155,24 @@ impl GpuRenderer {
 
     /// [`GpuRenderer::shade`] with a choice of terms.
     pub fn shade_with(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms) -> Result<ShadedFrame> {
-        let state = scene.at(t);
-        let eye = scene.camera.eye;
         self.dispatch(engine, scene, t, terms)?;
-        let setup = FrameSetup::new(&engine.objects(scene, &state)?, &engine.lights(&state), eye, terms);
-        let radiance = self.shading.radiance().context("reading the shaded vertices back")?;
-        let positions = self.shading.positions().context("reading the shaded vertices back")?;
-        let normals =
-            (0..radiance.len()).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
+        self.read_frame(engine, scene, t)
+    }
+
+    /// The last shading pass's result (of `scene` at time `t`) read back, without shading
+    /// again: world positions and radiance from the GPU, world normals from the poses.
+    pub fn read_frame(&self, engine: &Engine, scene: &Scene, t: f32) -> Result<ShadedFrame> {
+        let state = scene.at(t);
+        let rsl_gpu::shade::ShadedVertices { positions, radiance } =
+            self.shading.read_vertices().context("reading the shaded vertices back")?;
+        let normals = engine
+            .objects(scene, &state)?
+            .iter()
+            .map(|o| {
+                let pose = Pose::new(&o.transform);
+                o.mesh.normals.iter().map(|&n| pose.normal(n)).collect()
+            })
+            .collect();
         let shade_ms = self.last.gpu_ms.unwrap_or(self.last.wall_ms);
         let stats = FrameStats { vertices: radiance.iter().map(|r| r.len() as u64).sum(), ..FrameStats::default() };
         Ok(ShadedFrame { state, positions, normals, radiance, stats, shade_ms })

@@ -349,7 +349,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             exposure = Some(frame.exposure);
             encoded = Some(frame.rgb);
             let vertices = if args.vertex_out.is_some() {
-                let ShadedFrame { positions, normals, radiance, .. } = gpu.shade(engine, &scene, t)?;
+                // The frame just drawn, read back (not shaded again).
+                let ShadedFrame { positions, normals, radiance, .. } = gpu.read_frame(engine, &scene, t)?;
                 Vertices { positions, normals, radiance }
             } else {
                 Vertices { positions: Vec::new(), normals: Vec::new(), radiance: Vec::new() }

@@ -4,7 +4,7 @@
 //! headless into a linear RGBA32F texture (alpha = covered by an object), then tonemapping
 //! to 8-bit sRGB (`shaders/draw/tonemap.wgsl`); both can be read back.
 
-use crate::shade::{GpuShading, PassTime};
+use crate::shade::{GpuShading, PassTime, columns};
 use crate::{GpuContext, GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
@@ -96,10 +96,6 @@ pub struct GpuDraw {
     intensity: f32,
     target: Option<Target>,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
-}
-
-fn cols3(m: Mat3) -> [[f32; 4]; 3] {
-    [m.x_axis.extend(0.0).to_array(), m.y_axis.extend(0.0).to_array(), m.z_axis.extend(0.0).to_array()]
 }
 
 impl GpuDraw {
@@ -286,8 +282,8 @@ impl GpuDraw {
         let world_from_camera = Mat3::from_mat4(view.inverse());
         let params = DrawParams {
             clip_from_world: (proj * view).to_cols_array_2d(),
-            world_from_camera: cols3(world_from_camera),
-            env_from_world: cols3(env_from_world),
+            world_from_camera: columns(world_from_camera),
+            env_from_world: columns(env_from_world),
             lens: [t * aspect, t, width as f32, height as f32],
             constant: self.constant.extend(self.intensity).to_array(),
             map_width: self.map_size.0,

@@ -20,7 +20,7 @@ use crate::{GpuContext, GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
 use rsl_brdf::{BrdfTable, Views};
-use rsl_shade::{Light, Pose, ShadeObject, Terms};
+use rsl_shade::{Light, OccluderBound, Pose, ShadeObject, Terms};
 use rsl_sphere::Frame;
 use rsl_sphere::cube::CubeGrid;
 use rsl_vis::cpca::Cpca;
@@ -182,6 +182,15 @@ pub struct PassTime {
     pub wall_ms: f64,
 }
 
+/// A shading pass's output read back: per object, per vertex.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ShadedVertices {
+    /// World positions.
+    pub positions: Vec<Vec<Vec3>>,
+    /// Radiance toward the eye.
+    pub radiance: Vec<Vec<Vec3>>,
+}
+
 /// Where an object's static data lives on the GPU.
 #[derive(Clone, Copy, Debug, Default)]
 struct Placement {
@@ -208,7 +217,8 @@ fn vec4(v: Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
 }
 
-fn columns(m: Mat3) -> [[f32; 4]; 3] {
+/// A 3×3 matrix as WGSL `mat3x3<f32>` stores it: three columns padded to vec4.
+pub(crate) fn columns(m: Mat3) -> [[f32; 4]; 3] {
     [vec4(m.x_axis, 0.0), vec4(m.y_axis, 0.0), vec4(m.z_axis, 0.0)]
 }
 
@@ -310,21 +320,14 @@ impl GpuShading {
         self.vertex_count
     }
 
-    /// Writes `bytes` into a slot, recreating it when too small (the bind group is then
-    /// rebuilt).
-    fn upload(&mut self, which: fn(&mut Self) -> &mut Slot, label: &str, bytes: &[u8]) -> Result<(), GpuError> {
+    /// Writes `data` into a slot, recreating it when too small (the bind group is then
+    /// rebuilt). Every upload is a slice of 4-byte values, as buffer writes require.
+    fn upload<T: Pod>(&mut self, which: fn(&mut Self) -> &mut Slot, label: &str, data: &[T]) -> Result<(), GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
         self.reserve(which, label, bytes.len() as u64)?;
         if !bytes.is_empty() {
-            let mut padded;
-            let data = if bytes.len().is_multiple_of(4) {
-                bytes
-            } else {
-                padded = bytes.to_vec();
-                padded.resize(bytes.len().next_multiple_of(4), 0);
-                &padded
-            };
             let ctx = self.ctx.clone();
-            ctx.queue.write_buffer(&which(self).buffer, 0, data);
+            ctx.queue.write_buffer(&which(self).buffer, 0, bytes);
         }
         Ok(())
     }
@@ -431,10 +434,10 @@ impl GpuShading {
             fields.len() * 4,
             std::mem::size_of_val(segments.as_slice()),
         ];
-        self.upload(|s| &mut s.vertices, "shade vertices", bytemuck::cast_slice(&vertices))?;
-        self.upload(|s| &mut s.indices, "scene indices", bytemuck::cast_slice(&indices))?;
-        self.upload(|s| &mut s.fields, "visibility fields", bytemuck::cast_slice(&fields))?;
-        self.upload(|s| &mut s.segments, "occluder segments", bytemuck::cast_slice(&segments))?;
+        self.upload(|s| &mut s.vertices, "shade vertices", &vertices)?;
+        self.upload(|s| &mut s.indices, "scene indices", &indices)?;
+        self.upload(|s| &mut s.fields, "visibility fields", &fields)?;
+        self.upload(|s| &mut s.segments, "occluder segments", &segments)?;
         // Two vec4 per vertex: world position, radiance.
         self.reserve(|s| &mut s.shaded, "shaded vertices", vertices.len() as u64 * 32)?;
         self.uploads.geometry_bytes += bytes.iter().sum::<usize>() as u64;
@@ -457,7 +460,7 @@ impl GpuShading {
             placements.push(p);
         }
         let bytes = std::mem::size_of_val(data.as_slice()) as u64;
-        self.upload(|s| &mut s.tables, "BRDF tables", bytemuck::cast_slice(&data))?;
+        self.upload(|s| &mut s.tables, "BRDF tables", &data)?;
         self.uploads.table_bytes += bytes;
         self.uploads.table_loads += 1;
         self.table_placements = placements;
@@ -521,7 +524,7 @@ impl GpuShading {
         for (i, o) in objects.iter().enumerate() {
             let pose = Pose::new(&o.transform);
             let light_dirs = frame.len() as u32;
-            frame.extend(lights.iter().map(|l| vec4((pose.to_object * l.dir).normalize_or_zero(), 0.0)));
+            frame.extend(lights.iter().map(|l| vec4(pose.direction_to_object(l.dir), 0.0)));
             let p = &self.placements[i];
             let t = &self.table_placements[i];
             let mut g = GpuObject {
@@ -546,10 +549,10 @@ impl GpuShading {
                 svdf_assignment: p.svdf.2,
                 ..Default::default()
             };
-            if let Some((centre, radius, [shells, m, n, cube, segments])) = p.ovdf {
-                // As rsl_shade's `Placed::new`.
-                g.bound_world = vec4(pose.position(centre), radius * o.transform.scale.max_element());
-                g.bound_object = vec4(centre, rsl_vis::ovdf::OUTER * radius);
+            if let (Some(field), Some((centre, radius, [shells, m, n, cube, segments]))) = (o.ovdf, p.ovdf) {
+                let b = OccluderBound::new(field, &o.transform, &pose);
+                g.bound_world = vec4(b.centre_world, b.radius_world);
+                g.bound_object = vec4(b.centre_object, b.reach_object);
                 g.ovdf_centre = vec4(centre, radius);
                 (g.ovdf_shells, g.ovdf_m, g.ovdf_n, g.ovdf_cube, g.ovdf_segments) = (shells, m, n, cube, segments);
             }
@@ -566,8 +569,8 @@ impl GpuShading {
             row_stride: gx * WORKGROUP_SIZE,
             ..Default::default()
         };
-        self.upload(|s| &mut s.frame, "shade frame", bytemuck::cast_slice(&frame))?;
-        self.upload(|s| &mut s.objects, "shade objects", bytemuck::cast_slice(&gpu_objects))?;
+        self.upload(|s| &mut s.frame, "shade frame", &frame)?;
+        self.upload(|s| &mut s.objects, "shade objects", &gpu_objects)?;
         self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
         self.uploads.frame_bytes += (std::mem::size_of_val(frame.as_slice())
             + std::mem::size_of_val(gpu_objects.as_slice())
@@ -610,33 +613,25 @@ impl GpuShading {
         Ok(PassTime { gpu_ms, wall_ms })
     }
 
-    /// The last frame's per-vertex radiance, per object (read back from the GPU).
-    pub fn radiance(&self) -> Result<Vec<Vec<Vec3>>, GpuError> {
-        let all = self.read_shaded(1)?;
-        Ok(self.split(&all))
-    }
-
-    /// The last frame's per-vertex world positions, per object.
-    pub fn positions(&self) -> Result<Vec<Vec<Vec3>>, GpuError> {
-        let all = self.read_shaded(0)?;
-        Ok(self.split(&all))
-    }
-
-    fn read_shaded(&self, half: u64) -> Result<Vec<Vec3>, GpuError> {
-        let n = u64::from(self.vertex_count);
-        if n == 0 {
-            return Ok(Vec::new());
-        }
-        let bytes = self.ctx.read_buffer_range(&self.shaded.buffer, half * n * 16, n * 16)?;
-        let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        Ok(v.into_iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect())
-    }
-
-    fn split(&self, all: &[Vec3]) -> Vec<Vec<Vec3>> {
-        self.placements
-            .iter()
-            .map(|p| all[p.vertex_offset as usize..(p.vertex_offset + p.vertex_count) as usize].to_vec())
-            .collect()
+    /// The last frame's per-vertex world positions and radiance, per object (one readback).
+    pub fn read_vertices(&self) -> Result<ShadedVertices, GpuError> {
+        let n = self.vertex_count as usize;
+        let all: Vec<Vec3> = if n == 0 {
+            Vec::new()
+        } else {
+            let bytes = self.ctx.read_buffer(&self.shaded.buffer, 2 * n as u64 * 16)?;
+            bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&bytes)
+                .into_iter()
+                .map(|p| Vec3::new(p[0], p[1], p[2]))
+                .collect()
+        };
+        let split = |half: &[Vec3]| {
+            self.placements
+                .iter()
+                .map(|p| half[p.vertex_offset as usize..(p.vertex_offset + p.vertex_count) as usize].to_vec())
+                .collect()
+        };
+        Ok(ShadedVertices { positions: split(&all[..n]), radiance: split(&all[n..]) })
     }
 
     /// The buffer of shaded vertices: `vertex_count` world positions (vec4), then as many

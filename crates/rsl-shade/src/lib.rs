@@ -7,4 +7,6 @@ pub mod shade;
 pub mod tonemap;
 
 pub use raster::{Image, RasterMesh, rasterise};
-pub use shade::{FrameSetup, FrameStats, Light, Pose, ShadeObject, Terms, VertexFrames, shade, shade_reference};
+pub use shade::{
+    FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, VertexFrames, shade, shade_reference,
+};

@@ -192,6 +192,12 @@ impl Pose {
         self.to_object * (x - self.translation)
     }
 
+    /// Unit object-space direction of a world direction (a light's centre, for the
+    /// visibility fields).
+    pub fn direction_to_object(&self, d: Vec3) -> Vec3 {
+        (self.to_object * d).normalize_or_zero()
+    }
+
     /// Unit world normal of an object-space normal.
     pub fn normal(&self, n: Vec3) -> Vec3 {
         (self.normal_to_world * n).normalize_or_zero()
@@ -212,32 +218,42 @@ struct Placed<'a> {
     /// Light directions in object space (unit).
     light_dirs: Vec<Vec3>,
     /// Bounding sphere of the occluder field in world space, and its object-space form.
-    bound: Option<Bound>,
+    bound: Option<OccluderBound>,
 }
 
-#[derive(Clone, Copy)]
-struct Bound {
-    centre_world: Vec3,
-    radius_world: f32,
-    centre_object: Vec3,
+/// An occluder field's bounding sphere at an object's current transform: what culling and
+/// the "beyond the outer shell" test read (every path that shades uses this one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OccluderBound {
+    /// Centre, world space.
+    pub centre_world: Vec3,
+    /// Radius, world space (scaled by the largest scale factor: a sphere that contains the
+    /// scaled object).
+    pub radius_world: f32,
+    /// Centre, object space.
+    pub centre_object: Vec3,
     /// Beyond this object-space distance from the centre the field holds nothing.
-    reach_object: f32,
+    pub reach_object: f32,
+}
+
+impl OccluderBound {
+    /// The bound of `field` for an object at `transform` (whose pose is `pose`).
+    pub fn new(field: &Ovdf, transform: &Transform, pose: &Pose) -> Self {
+        let (c, radius) = field.bounds();
+        Self {
+            centre_world: pose.position(c),
+            radius_world: radius * transform.scale.max_element(),
+            centre_object: c,
+            reach_object: OUTER * radius,
+        }
+    }
 }
 
 impl<'a> Placed<'a> {
     fn new(object: ShadeObject<'a>, lights: &[Light]) -> Self {
-        let t = object.transform;
-        let pose = Pose::new(&t);
-        let light_dirs = lights.iter().map(|l| (pose.to_object * l.dir).normalize_or_zero()).collect();
-        let bound = object.ovdf.map(|f| {
-            let (c, radius) = f.bounds();
-            Bound {
-                centre_world: pose.position(c),
-                radius_world: radius * t.scale.max_element(),
-                centre_object: c,
-                reach_object: OUTER * radius,
-            }
-        });
+        let pose = Pose::new(&object.transform);
+        let light_dirs = lights.iter().map(|l| pose.direction_to_object(l.dir)).collect();
+        let bound = object.ovdf.map(|f| OccluderBound::new(f, &object.transform, &pose));
         Self { object, pose, light_dirs, bound }
     }
 
@@ -443,7 +459,7 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                 let brdf = o.table.square(frame.to_local(light.dir), r, view).integral;
                 let mut cover = 1.0;
                 if setup.terms.self_visibility {
-                    let d = (p.pose.to_object * light.dir).normalize_or_zero();
+                    let d = p.pose.direction_to_object(light.dir);
                     let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
                     cover = o.svdf.coverage(v, q, r);
                 }
@@ -456,7 +472,7 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                         if culled(&n, light.dir, setup.cones[l]) {
                             continue;
                         }
-                        let d = (q.pose.to_object * light.dir).normalize_or_zero();
+                        let d = q.pose.direction_to_object(light.dir);
                         cover *= q.object.ovdf.expect("near() needs a field").coverage(n.x_object, d, r);
                     }
                 }
