@@ -84,9 +84,11 @@ pub struct BrdfTable {
     brdf: Brdf,
     grid: HemiGrid,
     views: Views,
-    /// Per view slice, `(N+1)²` prefix sums (RGB, f64), row-major, `sat[j][i]` = Σ of cells
-    /// with index < i in x and < j in y.
-    /// The fourth lane is zero padding, so that a tap is one 4-wide vector operation.
+    /// Per view slice, the `(N+1)²` prefix sums (RGB, f64) with replicated edges, `(N+3)²`
+    /// entries row-major: entry `(a, b)` is the sum of the cells with index `< clamp(a − 1,
+    /// 0, N)` in x and `< clamp(b − 1, 0, N)` in y. A spline's four taps around grid index
+    /// `i` are then always the four consecutive entries from `i`. The fourth lane is zero
+    /// padding, so that a tap is one 4-wide vector operation.
     sat: Vec<Vec<[f64; 4]>>,
     /// Largest cell density (integral / cell solid angle), per channel, over all slices.
     max_density: Vec3,
@@ -211,14 +213,16 @@ impl BrdfTable {
 
     /// The summed-area table of view slice `k`: `(N+1)²` prefix sums, row-major, `[j·(N+1) + i]`
     /// the sum of the cells with index `< i` in x and `< j` in y (RGB and a zero lane).
-    pub fn slice_sat(&self, k: usize) -> &[[f64; 4]] {
-        &self.sat[k]
+    pub fn slice_sat(&self, k: usize) -> Vec<[f64; 4]> {
+        let n = self.grid.n();
+        let w = n + 3;
+        (0..=n).flat_map(|j| (0..=n).map(move |i| (j + 1) * w + i + 1)).map(|e| self.sat[k][e]).collect()
     }
 
     /// Directional albedo of view slice `k`: the sum of all its cells.
     pub fn slice_albedo(&self, k: usize) -> Vec3 {
         let n = self.grid.n();
-        let e = self.sat[k][n * (n + 1) + n];
+        let e = self.sat[k][(n + 1) * (n + 3) + n + 1];
         Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32)
     }
 
@@ -315,65 +319,113 @@ impl BrdfTable {
     ///
     /// Each corner's `F(x, y)` is the prefix function interpolated between grid corners by
     /// Catmull–Rom splines in x and y (exact at corners; outside `[−1, 1]²` `F` is constant,
-    /// which replicated edge indices reproduce); the box is `F(x1, y1) − F(x0, y1) −
+    /// which the replicated edges reproduce); the box is `F(x1, y1) − F(x0, y1) −
     /// F(x1, y0) + F(x0, y0)`, summed in f64.
     fn box_blend(&self, slices: &[(usize, f32)], p: Vec2, s: f32) -> Vec3 {
         let n = self.grid.n();
-        // Taps of one coordinate: 4 replicated-edge indices and their spline weights.
+        let width = n + 3;
+        // Taps of one coordinate: the first of 4 consecutive (padded) indices and their
+        // spline weights.
         let taps = |c: f32| {
             let g = ((f64::from(c) + 1.0) * 0.5 * n as f64).clamp(0.0, n as f64);
             // g ≥ 0, so truncation is the floor.
             let i = (g as usize).min(n - 1);
-            let w = catmull_rom(g - i as f64);
-            ([0, 1, 2, 3].map(|d| (i + d).saturating_sub(1).min(n)), w)
+            (i, catmull_rom(g - i as f64))
         };
         let (x0, x1) = (taps(p.x - s), taps(p.x + s));
         let (y0, y1) = (taps(p.y - s), taps(p.y + s));
-        // Signed column and row weights of the four corners.
-        let mut cols = [(0usize, 0.0f64); 8];
-        let mut rows = [(0usize, 0.0f64); 8];
-        for d in 0..4 {
-            cols[d] = (x1.0[d], x1.1[d]);
-            cols[d + 4] = (x0.0[d], -x0.1[d]);
-            rows[d] = (y1.0[d] * (n + 1), y1.1[d]);
-            rows[d + 4] = (y0.0[d] * (n + 1), -y0.1[d]);
-        }
-        let out = blend_taps(&self.sat, slices, &rows, &cols);
+        // Signed weights of the eight columns (x1's four, then x0's) and the eight rows.
+        let wx = [x1.1[0], x1.1[1], x1.1[2], x1.1[3], -x0.1[0], -x0.1[1], -x0.1[2], -x0.1[3]];
+        let wy = [y1.1[0], y1.1[1], y1.1[2], y1.1[3], -y0.1[0], -y0.1[1], -y0.1[2], -y0.1[3]];
+        let rows: [usize; 8] = std::array::from_fn(|r| if r < 4 { y1.0 + r } else { y0.0 + r - 4 } * width);
+        let taps = Taps { rows, wy, cols: [x1.0, x0.0], wx };
+        let out = blend_taps(&self.sat, slices, &taps);
         Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32)
     }
 }
 
-/// `Σ_slices w · Σ_rows wy · Σ_cols wx · sat[row + col]` over RGB(+pad) lanes, compiled for
-/// AVX2 and SSE4.1 with run-time dispatch (the 4-lane loops become vector code).
-#[multiversion::multiversion(targets("x86_64+avx2+fma", "x86_64+avx2", "x86_64+sse4.1"))]
-fn blend_taps(
-    sat: &[Vec<[f64; 4]>],
-    slices: &[(usize, f32)],
-    rows: &[(usize, f64); 8],
-    cols: &[(usize, f64); 8],
-) -> [f64; 4] {
+/// The 8×8 taps of a box on a padded summed-area table: eight rows (entry offsets) with
+/// signed weights, and two runs of four consecutive columns with signed weights.
+struct Taps {
+    rows: [usize; 8],
+    wy: [f64; 8],
+    cols: [usize; 2],
+    wx: [f64; 8],
+}
+
+/// `Σ_slices w · Σ_rows wy · Σ_cols wx · sat[row + col]` over RGB(+pad) lanes: AVX2 and FMA
+/// where the processor has them, else portable code (the same sums in the same order, with
+/// separate multiplies and adds).
+fn blend_taps(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], taps: &Taps) -> [f64; 4] {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+        #[allow(unsafe_code)]
+        // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
+        return unsafe { simd::blend_taps(sat, slices, taps) };
+    }
     let mut out = [0.0f64; 4];
     for &(k, w) in slices {
         let sat = &sat[k];
-        let mut acc = [0.0f64; 4];
-        for &(row, wy) in rows {
-            let mut line = [0.0f64; 4];
-            for &(col, wx) in cols {
-                let v = sat[row + col];
-                for c in 0..4 {
-                    line[c] += wx * v[c];
+        // One partial sum per row: eight independent chains of additions.
+        let mut lines = [[0.0f64; 4]; 8];
+        for (line, &row) in lines.iter_mut().zip(&taps.rows) {
+            for (run, &col) in taps.cols.iter().enumerate() {
+                let quad = &sat[row + col..row + col + 4];
+                for d in 0..4 {
+                    let wx = taps.wx[run * 4 + d];
+                    for c in 0..4 {
+                        line[c] += wx * quad[d][c];
+                    }
                 }
             }
-            for c in 0..4 {
-                acc[c] += wy * line[c];
-            }
         }
+        let weighted: [[f64; 4]; 8] = std::array::from_fn(|r| lines[r].map(|x| x * taps.wy[r]));
+        let acc = pairwise(weighted);
         let w = f64::from(w);
         for c in 0..4 {
             out[c] += w * acc[c];
         }
     }
     out
+}
+
+/// The sum of eight RGB(+pad) values, pairwise.
+fn pairwise(v: [[f64; 4]; 8]) -> [f64; 4] {
+    let pair = |a: [f64; 4], b: [f64; 4]| std::array::from_fn::<f64, 4, _>(|c| a[c] + b[c]);
+    pair(pair(pair(v[0], v[4]), pair(v[2], v[6])), pair(pair(v[1], v[5]), pair(v[3], v[7])))
+}
+
+/// [`blend_taps`] in AVX2 with fused multiply-adds: one register per row's partial sum.
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use super::Taps;
+    use std::arch::x86_64::*;
+
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) fn blend_taps(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], taps: &Taps) -> [f64; 4] {
+        let wx: [__m256d; 8] = std::array::from_fn(|d| _mm256_set1_pd(taps.wx[d]));
+        let mut out = _mm256_setzero_pd();
+        for &(k, w) in slices {
+            let sat = &sat[k];
+            let mut lines = [_mm256_setzero_pd(); 8];
+            for (line, &row) in lines.iter_mut().zip(&taps.rows) {
+                for (run, &col) in taps.cols.iter().enumerate() {
+                    let quad = &sat[row + col..row + col + 4];
+                    for d in 0..4 {
+                        *line = _mm256_fmadd_pd(wx[run * 4 + d], bytemuck::cast(quad[d]), *line);
+                    }
+                }
+            }
+            let weighted: [__m256d; 8] = std::array::from_fn(|r| _mm256_mul_pd(lines[r], _mm256_set1_pd(taps.wy[r])));
+            let pair = |a, b| _mm256_add_pd(a, b);
+            let acc = pair(
+                pair(pair(weighted[0], weighted[4]), pair(weighted[2], weighted[6])),
+                pair(pair(weighted[1], weighted[5]), pair(weighted[3], weighted[7])),
+            );
+            out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(w)), acc, out);
+        }
+        bytemuck::cast(out)
+    }
 }
 
 /// Catmull–Rom weights of the points at offsets −1, 0, 1, 2 for a parameter `t ∈ [0, 1]`.
@@ -490,7 +542,8 @@ fn slice(brdf: &Brdf, grid: &HemiGrid, points: &QuadraturePoints, wo: Vec3, mirr
     (cells, max_density)
 }
 
-/// Summed-area table of `N×N` cells: `(N+1)²` prefix sums.
+/// Summed-area table of `N×N` cells: `(N+1)²` prefix sums, stored with replicated edges as
+/// `(N+3)²` entries (see `BrdfTable::sat`).
 fn summed_area(cells: &[[f64; 3]], n: usize) -> Vec<[f64; 4]> {
     let mut sat = vec![[0.0f64; 4]; (n + 1) * (n + 1)];
     for j in 0..n {
@@ -502,7 +555,9 @@ fn summed_area(cells: &[[f64; 3]], n: usize) -> Vec<[f64; 4]> {
             }
         }
     }
-    sat
+    let w = n + 3;
+    let clamp = |a: usize| a.saturating_sub(1).min(n);
+    (0..w * w).map(|e| sat[clamp(e / w) * (n + 1) + clamp(e % w)]).collect()
 }
 
 /// Whether the square `[x0, x0 + side] × [y0, y0 + side]` must be split: it is wider than the

@@ -649,7 +649,7 @@ impl GpuShading {
 /// Appends a compressed table set (rows as f32 bits, coefficients as f16 pairs or f32 bits).
 fn push_compressed(fields: &mut Vec<u32>, cpca: &Cpca) -> Compressed {
     let rows = fields.len() as u32;
-    fields.extend(cpca.lookup_rows().iter().map(|v| v.to_bits()));
+    fields.extend(cpca.lookup_rows().into_iter().map(f32::to_bits));
     let coeffs = fields.len() as u32;
     if cpca.f16 {
         for pair in cpca.coeffs.chunks(2) {

@@ -34,7 +34,7 @@ use rsl_sphere::Frame;
 use rsl_sphere::hemi::hemi_from_dir;
 use rsl_sphere::mesh::TriMesh;
 use rsl_vis::ovdf::OUTER;
-use rsl_vis::{Ovdf, OvdfPoint, Svdf};
+use rsl_vis::{Ovdf, OvdfLookup, Svdf};
 
 /// A rotatable square light in world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -316,8 +316,9 @@ fn near(placed: &Placed<'_>, j: usize, x: Vec3) -> Option<Near> {
     let offset = b.centre_world - x;
     let dist = offset.length();
     let angular_radius = (dist > b.radius_world).then(|| {
-        let beta = (b.radius_world / dist).clamp(0.0, 1.0).asin();
-        (beta, beta.cos(), beta.sin())
+        // sin β = R/d and cos β = √(1 − sin²β), as the GPU computes them.
+        let sb = (b.radius_world / dist).clamp(0.0, 1.0);
+        (sb.asin(), (1.0 - sb * sb).max(0.0).sqrt(), sb)
     });
     let to_centre = if dist > 0.0 { offset / dist } else { Vec3::Y };
     Some(Near { j, x_object, to_centre, angular_radius })
@@ -357,7 +358,7 @@ impl<'a> FrameSetup<'a> {
 
     /// Radiance of vertex `v` of object `i` toward the eye, and its lookups (the fast path's
     /// inner loop).
-    fn vertex(&self, i: usize, v: usize, nears: &mut Vec<(Near, OvdfPoint)>, stats: &mut FrameStats) -> Vec3 {
+    fn vertex(&self, i: usize, v: usize, nears: &mut Vec<(Near, Lazy<'a>)>, stats: &mut FrameStats) -> Vec3 {
         let p = &self.placed[i];
         let o = &p.object;
         stats.vertices += 1;
@@ -371,12 +372,16 @@ impl<'a> FrameSetup<'a> {
         }
         nears.clear();
         if self.terms.occluders {
-            nears.extend((0..self.placed.len()).filter(|&j| j != i).filter_map(|j| {
-                let n = near(&self.placed[j], j, x)?;
-                Some((n, self.placed[j].object.ovdf?.locate(n.x_object)?))
-            }));
+            // Where the vertex lies in a field is found the first time a light needs it:
+            // culling often leaves an occluder nothing to look up.
+            nears.extend(
+                (0..self.placed.len())
+                    .filter(|&j| j != i)
+                    .filter_map(|j| Some((near(&self.placed[j], j, x)?, Lazy::Unknown))),
+            );
         }
         let vis_frame = &o.frames.visibility[v];
+        let self_vis = o.svdf.vertex(v);
         let mut sum = Vec3::ZERO;
         for (l, light) in self.lights.iter().enumerate() {
             let r = light.half_diagonal;
@@ -388,9 +393,9 @@ impl<'a> FrameSetup<'a> {
             let mut cover = 1.0;
             if self.terms.self_visibility {
                 stats.self_lookups += 1;
-                cover = o.svdf.coverage(v, hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
+                cover = self_vis.coverage(hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
             }
-            for (n, at) in nears.iter() {
+            for (n, at) in nears.iter_mut() {
                 if cover <= 0.0 {
                     break;
                 }
@@ -398,16 +403,32 @@ impl<'a> FrameSetup<'a> {
                     stats.occluders_culled += 1;
                     continue;
                 }
-                stats.occluder_lookups += 1;
                 let q = &self.placed[n.j];
-                if let Some(field) = q.object.ovdf {
-                    cover *= field.coverage_at(at, q.light_dirs[l], r);
+                if let Lazy::Unknown = at {
+                    *at = match q.object.ovdf.and_then(|f| Some(f.prepare(&f.locate(n.x_object)?))) {
+                        Some(prepared) => Lazy::Ready(prepared),
+                        None => Lazy::Outside,
+                    };
+                }
+                if let Lazy::Ready(at) = at {
+                    stats.occluder_lookups += 1;
+                    cover *= at.coverage(q.light_dirs[l], r);
                 }
             }
             sum += light.radiance * brdf * cover;
         }
         sum
     }
+}
+
+/// An occluder field's lookup at a vertex, prepared when first needed.
+enum Lazy<'a> {
+    /// Not located yet.
+    Unknown,
+    /// Beyond the field: nothing occluded.
+    Outside,
+    /// Located and prepared.
+    Ready(OvdfLookup<'a>),
 }
 
 /// Vertices per parallel work item of the fast path.

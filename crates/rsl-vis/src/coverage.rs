@@ -120,6 +120,7 @@ pub fn table() -> &'static [f32] {
 /// The visible fraction of a rotatable square of half-diagonal `r` whose centre lies at
 /// signed distance `d` (plane units, positive where visible) from a straight boundary.
 /// A square of zero size is visible exactly where `d > 0`.
+#[inline]
 pub fn coverage(d: f32, r: f32) -> f32 {
     if r.is_nan() || r <= 0.0 {
         return step(f64::from(d)) as f32;

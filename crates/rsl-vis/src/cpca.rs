@@ -31,10 +31,159 @@ pub struct Cpca {
     pub coeffs: Vec<f32>,
     /// Whether the coefficients are half-precision values (stored as f16).
     pub f16: bool,
-    /// Per cluster and component `j`, the mean then the `k` basis values of that component,
-    /// contiguous (`(c·d + j)·(k + 1)`): what a single-component lookup reads. Derived from
-    /// `means` and `bases` by [`Cpca::with_lookup`].
-    pub(crate) lookup: Vec<f32>,
+    /// Per cluster `c` and component `j`, the `k` basis values of that component in
+    /// [`Lanes`] of eight (zero-padded), at `(c·d + j)·L` with `L = ⌈k/8⌉`: what a
+    /// single-component lookup reads, each lane within one cache line. Derived from `bases`
+    /// by [`Cpca::with_lookup`].
+    pub(crate) rows: Vec<Lane>,
+    /// Each vector's `k` coefficients in `L` lanes (zero-padded), derived from `coeffs`.
+    pub(crate) coeff_lanes: Vec<Lane>,
+}
+
+/// Eight `f32` on a 32-byte boundary: one vector register, never split across cache lines.
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C, align(32))]
+pub struct Lane(pub [f32; 8]);
+
+/// Lanes of eight that hold `k` values.
+pub fn lanes_for(k: usize) -> usize {
+    k.div_ceil(8)
+}
+
+/// One vector of a [`Cpca`] model, with everything a lookup of it reads gathered once: its
+/// cluster's mean and basis rows and its coefficients.
+#[derive(Clone, Copy, Debug)]
+pub struct CpcaVector<'a> {
+    /// The cluster's basis rows, `L` lanes per component.
+    pub(crate) rows: &'a [Lane],
+    /// The cluster's mean.
+    pub(crate) mean: &'a [f32],
+    /// The vector's coefficients, `L` lanes.
+    pub(crate) coeffs: &'a [Lane],
+}
+
+impl CpcaVector<'_> {
+    /// Lanes per component.
+    fn lanes(&self) -> usize {
+        self.coeffs.len()
+    }
+
+    /// Component `j`: mean plus coefficients × basis.
+    pub fn value(&self, j: usize) -> f32 {
+        let l = self.lanes();
+        let mut acc = [0.0f32; 8];
+        for (row, co) in self.rows[j * l..(j + 1) * l].iter().zip(self.coeffs) {
+            for e in 0..8 {
+                acc[e] += co.0[e] * row.0[e];
+            }
+        }
+        self.mean[j] + hsum(acc)
+    }
+
+    /// The vector read as an `n×n` table (`d = n²`) and interpolated bilinearly at plane
+    /// point `p` between cell centres: the same as `map::bilinear_cells` over
+    /// [`CpcaVector::value`], reconstructing only the four cells it needs (their rows
+    /// blended, then one product with the coefficients).
+    #[inline]
+    pub fn bilinear(&self, n: usize, p: glam::Vec2) -> f32 {
+        vector_bilinear(self, n, p)
+    }
+
+    /// Adds `Σ_c w_c·(coefficients ⊙ row_c)` to the lanes of `acc` and returns `Σ_c w_c·mean_c`:
+    /// the bilinear blend of four cells, before its lanes are summed. The same order of
+    /// operations everywhere, so every path that blends cells agrees to the bit.
+    #[inline(always)]
+    pub(crate) fn blend_into(&self, acc: &mut [f32; 8], cells: [usize; 4], w: [f32; 4]) -> f32 {
+        let l = self.lanes();
+        let [r0, r1, r2, r3] = cells.map(|c| &self.rows[c * l..(c + 1) * l]);
+        for t in 0..l {
+            let (a, b, c, d, co) = (r0[t].0, r1[t].0, r2[t].0, r3[t].0, self.coeffs[t].0);
+            let blended: [f32; 8] = std::array::from_fn(|e| w[0] * a[e] + w[1] * b[e] + w[2] * c[e] + w[3] * d[e]);
+            *acc = std::array::from_fn(|e| acc[e] + co[e] * blended[e]);
+        }
+        w[0] * self.mean[cells[0]]
+            + w[1] * self.mean[cells[1]]
+            + w[2] * self.mean[cells[2]]
+            + w[3] * self.mean[cells[3]]
+    }
+}
+
+/// [`CpcaVector::bilinear`]: AVX2 and FMA where the processor has them.
+fn vector_bilinear(v: &CpcaVector<'_>, n: usize, p: glam::Vec2) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if simd::available() {
+        #[allow(unsafe_code)]
+        // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
+        return unsafe { simd::vector_bilinear(v, n, p) };
+    }
+    let (cells, w) = crate::map::bilinear_taps(n, p);
+    let mut acc = [0.0f32; 8];
+    let mean = v.blend_into(&mut acc, cells, w);
+    mean + hsum(acc)
+}
+
+/// The lookups' kernels in AVX2 and FMA (eight lanes, fused multiply-adds), chosen at run
+/// time by [`simd::available`]; the portable code beside each caller computes the same
+/// blend.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod simd {
+    use super::CpcaVector;
+    use std::arch::x86_64::*;
+
+    /// Whether the processor has AVX2 and FMA (detected once, then cached).
+    #[inline]
+    pub(crate) fn available() -> bool {
+        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+    }
+
+    /// [`CpcaVector::blend_into`] in vector registers: `blend!(v, acc, cells, w)` adds
+    /// `Σ_c w_c·(coefficients ⊙ row_c)` to `acc` (an `__m256`) and is `Σ_c w_c·mean_c`. A
+    /// macro, so that it is expanded inside each caller's `target_feature` function (which
+    /// a call across functions with `#[inline]` does not guarantee).
+    macro_rules! blend {
+        ($v:expr, $acc:expr, $cells:expr, $w:expr) => {{
+            let v: &crate::cpca::CpcaVector<'_> = $v;
+            let cells: [usize; 4] = $cells;
+            let w: [f32; 4] = $w;
+            let l = v.coeffs.len();
+            let (r0, r1) = (&v.rows[cells[0] * l..(cells[0] + 1) * l], &v.rows[cells[1] * l..(cells[1] + 1) * l]);
+            let (r2, r3) = (&v.rows[cells[2] * l..(cells[2] + 1) * l], &v.rows[cells[3] * l..(cells[3] + 1) * l]);
+            let (w0, w1) = (_mm256_set1_ps(w[0]), _mm256_set1_ps(w[1]));
+            let (w2, w3) = (_mm256_set1_ps(w[2]), _mm256_set1_ps(w[3]));
+            for t in 0..l {
+                let b = _mm256_mul_ps(w0, bytemuck::cast::<_, __m256>(r0[t]));
+                let b = _mm256_fmadd_ps(w1, bytemuck::cast::<_, __m256>(r1[t]), b);
+                let b = _mm256_fmadd_ps(w2, bytemuck::cast::<_, __m256>(r2[t]), b);
+                let b = _mm256_fmadd_ps(w3, bytemuck::cast::<_, __m256>(r3[t]), b);
+                $acc = _mm256_fmadd_ps(bytemuck::cast::<_, __m256>(v.coeffs[t]), b, $acc);
+            }
+            w[0] * v.mean[cells[0]] + w[1] * v.mean[cells[1]] + w[2] * v.mean[cells[2]] + w[3] * v.mean[cells[3]]
+        }};
+    }
+    pub(crate) use blend;
+
+    /// The sum of the eight lanes.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    pub(crate) fn sum(acc: __m256) -> f32 {
+        let lanes: [f32; 8] = bytemuck::cast(acc);
+        super::hsum(lanes)
+    }
+
+    /// [`CpcaVector::bilinear`].
+    #[target_feature(enable = "avx2,fma")]
+    pub(crate) fn vector_bilinear(v: &CpcaVector<'_>, n: usize, p: glam::Vec2) -> f32 {
+        let (cells, w) = crate::map::bilinear_taps(n, p);
+        let mut acc = _mm256_setzero_ps();
+        let mean = blend!(v, acc, cells, w);
+        mean + sum(acc)
+    }
+}
+
+/// The sum of eight lanes, pairwise (fixed order).
+#[inline(always)]
+pub(crate) fn hsum(a: [f32; 8]) -> f32 {
+    ((a[0] + a[4]) + (a[2] + a[6])) + ((a[1] + a[5]) + (a[3] + a[7]))
 }
 
 /// `Σ (x − m)·b` with eight independent partial sums (vectorisable, fixed order).
@@ -49,26 +198,6 @@ fn centred_dot(x: &[f32], m: &[f32], b: &[f32]) -> f32 {
     }
     let tail: f32 = xr.iter().zip(mr).zip(br).map(|((x, m), b)| (x - m) * b).sum();
     acc.iter().sum::<f32>() + tail
-}
-
-/// `Σ_t co_t · Σ_c w_c·rows_c[t]`: the coefficients against the bilinear blend of four
-/// cells' basis values, in 8 partial sums (vectorisable, fixed order).
-#[inline]
-fn blend_dot(rows: [&[f32]; 4], w: [f32; 4], co: &[f32]) -> f32 {
-    let k = co.len();
-    let [r0, r1, r2, r3] = rows.map(|r| &r[..k]);
-    let mut acc = [0.0f32; 8];
-    let full = k - k % 8;
-    for t0 in (0..full).step_by(8) {
-        for (l, a) in acc.iter_mut().enumerate() {
-            let t = t0 + l;
-            *a += co[t] * (w[0] * r0[t] + w[1] * r1[t] + w[2] * r2[t] + w[3] * r3[t]);
-        }
-    }
-    for t in full..k {
-        acc[t - full] += co[t] * (w[0] * r0[t] + w[1] * r1[t] + w[2] * r2[t] + w[3] * r3[t]);
-    }
-    acc.iter().sum()
 }
 
 /// `x − m`.
@@ -136,7 +265,8 @@ impl Cpca {
             assignment: Vec::new(),
             coeffs: Vec::new(),
             f16: false,
-            lookup: Vec::new(),
+            rows: Vec::new(),
+            coeff_lanes: Vec::new(),
         };
         for it in 0..=iterations {
             // Refit every cluster.
@@ -207,23 +337,52 @@ impl Cpca {
         model.with_lookup()
     }
 
-    /// Builds the component-major copy of the means and bases that [`Cpca::value`] reads.
+    /// Builds the lane layouts that lookups read ([`Cpca::vector`]) from `bases` and
+    /// `coeffs`.
     pub(crate) fn with_lookup(mut self) -> Self {
         let (d, k) = (self.d, self.k);
-        self.lookup = Vec::with_capacity(self.clusters() * d * (k + 1));
-        for (mean, basis) in self.means.iter().zip(&self.bases) {
+        let l = lanes_for(k);
+        self.rows = vec![Lane::default(); self.clusters() * d * l];
+        for (c, basis) in self.bases.iter().enumerate() {
             for j in 0..d {
-                self.lookup.push(mean[j]);
-                self.lookup.extend((0..k).map(|t| basis[t * d + j]));
+                for t in 0..k {
+                    self.rows[(c * d + j) * l + t / 8].0[t % 8] = basis[t * d + j];
+                }
+            }
+        }
+        self.coeff_lanes = vec![Lane::default(); self.assignment.len() * l];
+        for (i, co) in self.coeffs.chunks_exact(k.max(1)).enumerate().take(self.assignment.len()) {
+            for (t, &a) in co.iter().enumerate().take(k) {
+                self.coeff_lanes[i * l + t / 8].0[t % 8] = a;
             }
         }
         self
     }
 
-    /// The component-major rows [`Cpca::value`] reads: per cluster `c` and component `j`, at
+    /// Component-major rows as the GPU reads them: per cluster `c` and component `j`, at
     /// `(c·d + j)·(k + 1)`, the mean then the `k` basis values of that component.
-    pub fn lookup_rows(&self) -> &[f32] {
-        &self.lookup
+    pub fn lookup_rows(&self) -> Vec<f32> {
+        let (d, k) = (self.d, self.k);
+        let mut out = Vec::with_capacity(self.clusters() * d * (k + 1));
+        for (mean, basis) in self.means.iter().zip(&self.bases) {
+            for j in 0..d {
+                out.push(mean[j]);
+                out.extend((0..k).map(|t| basis[t * d + j]));
+            }
+        }
+        out
+    }
+
+    /// Vector `i` prepared for lookups.
+    #[inline]
+    pub fn vector(&self, i: usize) -> CpcaVector<'_> {
+        let (d, l) = (self.d, lanes_for(self.k));
+        let c = self.assignment[i] as usize;
+        CpcaVector {
+            rows: &self.rows[c * d * l..(c + 1) * d * l],
+            mean: &self.means[c],
+            coeffs: &self.coeff_lanes[i * l..(i + 1) * l],
+        }
     }
 
     /// Number of clusters.
@@ -266,28 +425,13 @@ impl Cpca {
 
     /// Component `j` of vector `i`, reconstructed from its cluster.
     pub fn value(&self, i: usize, j: usize) -> f32 {
-        let (k, c) = (self.k, self.assignment[i] as usize);
-        let co = &self.coeffs[i * k..(i + 1) * k];
-        let at = (c * self.d + j) * (k + 1);
-        let row = &self.lookup[at..at + k + 1];
-        row[0] + co.iter().zip(&row[1..]).map(|(a, b)| a * b).sum::<f32>()
+        self.vector(i).value(j)
     }
 
     /// Vector `i` read as an `n×n` table (`d = n²`) and interpolated bilinearly at plane
-    /// point `p` between cell centres: the same as `map::bilinear_cells` over
-    /// [`Cpca::value`], reconstructing only the four cells it needs with the coefficients
-    /// fetched once.
+    /// point `p` between cell centres (see [`CpcaVector::bilinear`]).
     pub fn bilinear(&self, i: usize, n: usize, p: glam::Vec2) -> f32 {
-        let k = self.k;
-        let c = self.assignment[i] as usize;
-        let co = &self.coeffs[i * k..(i + 1) * k];
-        let (cells, w) = crate::map::bilinear_taps(n, p);
-        let rows = cells.map(|j| {
-            let at = (c * self.d + j) * (k + 1);
-            &self.lookup[at..at + k + 1]
-        });
-        let means = w[0] * rows[0][0] + w[1] * rows[1][0] + w[2] * rows[2][0] + w[3] * rows[3][0];
-        means + blend_dot(rows.map(|r| &r[1..]), w, co)
+        self.vector(i).bilinear(n, p)
     }
 
     /// Vector `i`, reconstructed.
@@ -305,6 +449,7 @@ impl Cpca {
             f16: true,
             ..self.clone()
         }
+        .with_lookup()
     }
 
     /// Bytes as stored: f16 or f32 coefficients.

@@ -16,6 +16,6 @@ pub mod svdf;
 
 pub use coverage::coverage;
 pub use map::{Vdt, VisibilityMap};
-pub use ovdf::{Ovdf, OvdfParams, OvdfPoint};
+pub use ovdf::{Ovdf, OvdfLookup, OvdfParams, OvdfPoint};
 pub use rays::{Occluder, VisError};
-pub use svdf::{CompressionReport, Svdf, SvdfParams};
+pub use svdf::{CompressionReport, Svdf, SvdfParams, SvdfVertex};

@@ -207,7 +207,7 @@ pub(crate) fn bilinear_cells(n: usize, p: Vec2, at: impl Fn(usize) -> f32) -> f3
 
 /// The four cells and weights of [`bilinear_cells`] at `p` (an `n = 1` grid gives its one
 /// cell with weight 1).
-#[inline]
+#[inline(always)]
 pub(crate) fn bilinear_taps(n: usize, p: Vec2) -> ([usize; 4], [f32; 4]) {
     if n == 1 {
         return ([0; 4], [1.0, 0.0, 0.0, 0.0]);

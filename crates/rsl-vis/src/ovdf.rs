@@ -16,8 +16,8 @@
 //! inside the inner one the inner shell is used.
 
 use crate::coverage::coverage;
-use crate::cpca::Cpca;
-use crate::map::{VisibilityMap, bilinear_cells};
+use crate::cpca::{Cpca, CpcaVector, hsum};
+use crate::map::{VisibilityMap, bilinear_cells, bilinear_taps};
 use crate::rays::{Occluder, VisError};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -292,21 +292,25 @@ impl Ovdf {
     /// The signed distance at a located point for light from `dir` (object space):
     /// trilinear over its 8 samples.
     pub fn distance_at(&self, at: &OvdfPoint, dir: Vec3) -> f32 {
-        let n = self.params.n;
-        // Each texel's plane point is the same on both shells.
-        let points = at.texels.map(|t| hemi_from_dir(self.frames[t].to_local(dir)));
-        let shell = |s: usize| {
-            let mut sum = 0.0;
-            for ((&(segment, index), &w), &p) in at.places.iter().zip(&at.weights).zip(&points) {
-                sum += w * self.segments[s * 24 + segment as usize].bilinear(index as usize, n, p);
-            }
-            sum
+        self.prepare(at).distance(dir)
+    }
+
+    /// Everything the lookups at a located point read, gathered once: the four texels'
+    /// sample frames, and each of the 8 samples' rows, coefficients and trilinear weight.
+    pub fn prepare(&self, at: &OvdfPoint) -> OvdfLookup<'_> {
+        let w = at.shell_weight;
+        let shells = if w <= 0.0 { 1 } else { 2 };
+        let sample = |k: usize| {
+            let (s, t) = (at.shell + k / 4, k % 4);
+            let (segment, index) = at.places[t];
+            let weight = if k < 4 { if shells == 1 { 1.0 } else { 1.0 - w } } else { w } * at.weights[t];
+            (self.segments[s * 24 + segment as usize].vector(index as usize), weight)
         };
-        let near = shell(at.shell);
-        if at.shell_weight <= 0.0 {
-            near
-        } else {
-            near * (1.0 - at.shell_weight) + shell(at.shell + 1) * at.shell_weight
+        OvdfLookup {
+            n: self.params.n,
+            shells,
+            frames: at.texels.map(|t| self.frames[t]),
+            samples: std::array::from_fn(|k| if k / 4 < shells { sample(k) } else { sample(k % 4) }),
         }
     }
 
@@ -331,6 +335,71 @@ impl Ovdf {
     pub fn coverage(&self, x: Vec3, dir: Vec3, r: f32) -> f32 {
         coverage(self.distance(x, dir), r)
     }
+}
+
+/// A located point of an occluder field prepared for lookups in many directions
+/// ([`Ovdf::prepare`]).
+#[derive(Clone, Copy, Debug)]
+pub struct OvdfLookup<'a> {
+    n: usize,
+    /// 1 when the point lies on the inner shell (its outer weight is zero), else 2.
+    shells: usize,
+    /// The four texels' sample frames.
+    frames: [Frame; 4],
+    /// Inner shell's four texels, then the outer shell's, each with its trilinear weight.
+    samples: [(CpcaVector<'a>, f32); 8],
+}
+
+impl OvdfLookup<'_> {
+    /// The signed distance for light from `dir` (object space): trilinear over the 8
+    /// samples (each texel's plane point and bilinear cells are shared by both shells).
+    pub fn distance(&self, dir: Vec3) -> f32 {
+        lookup_distance(self, dir)
+    }
+
+    /// The visible fraction of the square of half-diagonal `r` around `dir`.
+    pub fn coverage(&self, dir: Vec3, r: f32) -> f32 {
+        coverage(self.distance(dir), r)
+    }
+}
+
+/// [`OvdfLookup::distance`]: AVX2 and FMA where the processor has them.
+fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if crate::cpca::simd::available() {
+        #[allow(unsafe_code)]
+        // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
+        return unsafe { lookup_distance_avx2(at, dir) };
+    }
+    let mut acc = [0.0f32; 8];
+    let mut mean = 0.0f32;
+    for t in 0..4 {
+        let (cells, w) = bilinear_taps(at.n, hemi_from_dir(at.frames[t].to_local(dir)));
+        for shell in 0..at.shells {
+            let (v, weight) = &at.samples[shell * 4 + t];
+            mean += v.blend_into(&mut acc, cells, w.map(|x| x * weight));
+        }
+    }
+    mean + hsum(acc)
+}
+
+/// [`lookup_distance`] in AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn lookup_distance_avx2(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
+    use crate::cpca::simd::{self, blend};
+    use std::arch::x86_64::*;
+    let mut acc = _mm256_setzero_ps();
+    let mut mean = 0.0f32;
+    for t in 0..4 {
+        let (cells, w) = bilinear_taps(at.n, hemi_from_dir(at.frames[t].to_local(dir)));
+        for shell in 0..at.shells {
+            let (v, weight) = &at.samples[shell * 4 + t];
+            let w = [w[0] * weight, w[1] * weight, w[2] * weight, w[3] * weight];
+            mean += blend!(v, acc, cells, w);
+        }
+    }
+    mean + simd::sum(acc)
 }
 
 /// Radius of shell `s` of `shells`, in bounding radii.

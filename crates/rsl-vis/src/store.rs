@@ -200,7 +200,7 @@ fn read_cpca(r: &mut Reader) -> Result<Cpca, FieldFileError> {
     } else {
         r.f32s(vectors * k)?
     };
-    Ok(Cpca { d, k, means, bases, assignment, coeffs, f16, lookup: Vec::new() }.with_lookup())
+    Ok(Cpca { d, k, means, bases, assignment, coeffs, f16, rows: Vec::new(), coeff_lanes: Vec::new() }.with_lookup())
 }
 
 /// Serialises an occluder field.

@@ -7,7 +7,7 @@
 //! the horizon, `1 − |p|`.
 
 use crate::coverage::coverage;
-use crate::cpca::Cpca;
+use crate::cpca::{Cpca, CpcaVector};
 use crate::map::{VisibilityMap, bilinear_cells};
 use crate::rays::{Occluder, VisError};
 use glam::Vec2;
@@ -164,9 +164,14 @@ impl Svdf {
     /// The signed distance to the self-visibility boundary at plane point `p` for `vertex`:
     /// bilinear over the four nearest cell centres, reconstructing only those four values.
     pub fn distance(&self, vertex: usize, p: Vec2) -> f32 {
+        self.vertex(vertex).distance(p)
+    }
+
+    /// Vertex `vertex`'s field prepared for lookups in many directions.
+    pub fn vertex(&self, vertex: usize) -> SvdfVertex<'_> {
         match self {
-            Svdf::Convex { .. } => 1.0 - p.length(),
-            Svdf::Field { n, cpca, .. } => cpca.bilinear(vertex, *n, p),
+            Svdf::Convex { .. } => SvdfVertex::Convex,
+            Svdf::Field { n, cpca, .. } => SvdfVertex::Field { n: *n, vector: cpca.vector(vertex) },
         }
     }
 
@@ -178,6 +183,37 @@ impl Svdf {
 
 /// RMS errors of the distances and of random squares' coverage reconstructed by `cpca`,
 /// against the uncompressed tables `raw`.
+/// One vertex's self-visibility prepared for lookups ([`Svdf::vertex`]).
+#[derive(Clone, Copy, Debug)]
+pub enum SvdfVertex<'a> {
+    /// A convex object: the horizon alone.
+    Convex,
+    /// A compressed table.
+    Field {
+        /// `N` of the table.
+        n: usize,
+        /// The vertex's vector of the CPCA model.
+        vector: CpcaVector<'a>,
+    },
+}
+
+impl SvdfVertex<'_> {
+    /// The signed distance at plane point `p` (see [`Svdf::distance`]).
+    #[inline]
+    pub fn distance(&self, p: Vec2) -> f32 {
+        match self {
+            SvdfVertex::Convex => 1.0 - p.length(),
+            SvdfVertex::Field { n, vector } => vector.bilinear(*n, p),
+        }
+    }
+
+    /// The visible fraction of the square of half-diagonal `r` around plane point `p`.
+    #[inline]
+    pub fn coverage(&self, p: Vec2, r: f32) -> f32 {
+        coverage(self.distance(p), r)
+    }
+}
+
 fn errors(raw: &[f32], n: usize, cpca: &Cpca) -> (f32, f32) {
     let d = n * n;
     let nv = raw.len() / d;
