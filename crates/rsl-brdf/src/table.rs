@@ -90,6 +90,10 @@ pub struct BrdfTable {
     /// `i` are then always the four consecutive entries from `i`. The fourth lane is zero
     /// padding, so that a tap is one 4-wide vector operation.
     sat: Vec<Vec<[f64; 4]>>,
+    /// For isotropic tables, each pair of neighbouring view slices `k`, `k + 1` interleaved:
+    /// entry `e` holds slice `k`'s then slice `k + 1`'s value, one 64-byte line, so that a
+    /// view between two slices reads both with one eight-lane operation (AVX-512).
+    pairs: Vec<Vec<Pair>>,
     /// Largest cell density (integral / cell solid angle), per channel, over all slices.
     max_density: Vec3,
 }
@@ -175,8 +179,20 @@ impl BrdfTable {
         };
         let max_density = slices.iter().fold(Vec3::ZERO, |m, s| m.max(s.1));
         let n = grid.n();
-        let sat = slices.into_par_iter().map(|(cells, _)| summed_area(&cells, n)).collect();
-        Ok(Self { brdf: *brdf, grid, views, sat, max_density })
+        let sat: Vec<Vec<[f64; 4]>> = slices.into_par_iter().map(|(cells, _)| summed_area(&cells, n)).collect();
+        let pairs = match views {
+            Views::Isotropic(_) => sat
+                .windows(2)
+                .map(|w| {
+                    w[0].iter()
+                        .zip(&w[1])
+                        .map(|(a, b)| Pair([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]))
+                        .collect()
+                })
+                .collect(),
+            _ => Vec::new(),
+        };
+        Ok(Self { brdf: *brdf, grid, views, sat, pairs, max_density })
     }
 
     /// The tabulated BRDF.
@@ -202,7 +218,8 @@ impl BrdfTable {
 
     /// Bytes of the summed-area tables.
     pub fn bytes(&self) -> usize {
-        self.sat.iter().map(|s| std::mem::size_of_val(s.as_slice())).sum()
+        self.sat.iter().map(|s| std::mem::size_of_val(s.as_slice())).sum::<usize>()
+            + self.pairs.iter().map(|s| std::mem::size_of_val(s.as_slice())).sum::<usize>()
     }
 
     /// Largest cell density `∫ρcos / Ω` in any slice, per channel: no square's average can
@@ -286,6 +303,13 @@ impl BrdfTable {
                 // Rotate by −φ_v about z.
                 let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
                 let p = hemi_from_dir(l);
+                #[cfg(target_arch = "x86_64")]
+                if let Some(pair) = self.pairs.get(k).filter(|_| simd::available_512()) {
+                    #[allow(unsafe_code)]
+                    // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
+                    let out = unsafe { simd::box_pair(pair, [1.0 - f, f], p, s, self.grid.n()) };
+                    return self.finish(Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32), solid_angle);
+                }
                 self.box_blend(&[(k, 1.0 - f), (k + 1, f)], p, s)
             }
             ViewLookup::Anisotropic { node: [i, j], weight: [fx, fy] } => {
@@ -302,8 +326,12 @@ impl BrdfTable {
                     + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
             }
         };
-        // The spline can overshoot next to a near-delta lobe; the true value lies in
-        // [0, max density × area].
+        self.finish(integral, solid_angle)
+    }
+
+    /// A square's result from its raw integral. The spline can overshoot next to a
+    /// near-delta lobe; the true value lies in [0, max density × area].
+    fn finish(&self, integral: Vec3, solid_angle: f32) -> SquareIntegral {
         let integral = integral.clamp(Vec3::ZERO, self.max_density * solid_angle);
         let average = if solid_angle > 0.0 { integral / solid_angle } else { Vec3::ZERO };
         SquareIntegral { integral, solid_angle, average }
@@ -324,6 +352,13 @@ impl BrdfTable {
     fn box_blend(&self, slices: &[(usize, f32)], p: Vec2, s: f32) -> Vec3 {
         let n = self.grid.n();
         let width = n + 3;
+        #[cfg(target_arch = "x86_64")]
+        if simd::available() {
+            #[allow(unsafe_code)]
+            // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
+            let out = unsafe { simd::box_blend(&self.sat, slices, p, s, n) };
+            return Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32);
+        }
         // Taps of one coordinate: the first of 4 consecutive (padded) indices and their
         // spline weights.
         let taps = |c: f32| {
@@ -344,6 +379,12 @@ impl BrdfTable {
     }
 }
 
+/// Two view slices' entries side by side (slice `k`'s RGB and pad, then slice `k + 1`'s), on
+/// a 64-byte boundary: one cache line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(C, align(64))]
+struct Pair([f64; 8]);
+
 /// The 8×8 taps of a box on a padded summed-area table: eight rows (entry offsets) with
 /// signed weights, and two runs of four consecutive columns with signed weights.
 struct Taps {
@@ -353,16 +394,10 @@ struct Taps {
     wx: [f64; 8],
 }
 
-/// `Σ_slices w · Σ_rows wy · Σ_cols wx · sat[row + col]` over RGB(+pad) lanes: AVX2 and FMA
-/// where the processor has them, else portable code (the same sums in the same order, with
-/// separate multiplies and adds).
+/// `Σ_slices w · Σ_rows wy · Σ_cols wx · sat[row + col]` over RGB(+pad) lanes (the portable
+/// path; `simd::box_blend` computes the same sums in the same order with fused
+/// multiply-adds).
 fn blend_taps(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], taps: &Taps) -> [f64; 4] {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-        #[allow(unsafe_code)]
-        // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
-        return unsafe { simd::blend_taps(sat, slices, taps) };
-    }
     let mut out = [0.0f64; 4];
     for &(k, w) in slices {
         let sat = &sat[k];
@@ -395,36 +430,127 @@ fn pairwise(v: [[f64; 4]; 8]) -> [f64; 4] {
     pair(pair(pair(v[0], v[4]), pair(v[2], v[6])), pair(pair(v[1], v[5]), pair(v[3], v[7])))
 }
 
-/// [`blend_taps`] in AVX2 with fused multiply-adds: one register per row's partial sum.
+/// `BrdfTable::box_blend` in AVX2 with fused multiply-adds: the four coordinates' spline
+/// taps at once, then one register per row's partial sum.
 #[cfg(target_arch = "x86_64")]
 mod simd {
-    use super::Taps;
+    use glam::Vec2;
     use std::arch::x86_64::*;
 
+    /// Whether the processor has AVX2 and FMA (detected once, then cached).
+    #[inline]
+    pub(super) fn available() -> bool {
+        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+    }
+
+    /// Whether the processor also has AVX-512F (detected once, then cached).
+    #[inline]
+    pub(super) fn available_512() -> bool {
+        available() && std::is_x86_feature_detected!("avx512f")
+    }
+
+    /// The spline taps of the box `[p − s, p + s]²` on a padded table of width `n + 3`:
+    /// column weights (x1's four taps positive, then x0's negative), row weights likewise,
+    /// row offsets and the two column runs' first indices.
+    #[inline]
     #[target_feature(enable = "avx2,fma")]
-    pub(super) fn blend_taps(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], taps: &Taps) -> [f64; 4] {
-        let wx: [__m256d; 8] = std::array::from_fn(|d| _mm256_set1_pd(taps.wx[d]));
+    fn taps(p: Vec2, s: f32, n: usize) -> ([f64; 8], [f64; 8], [usize; 8], [usize; 2]) {
+        let width = n + 3;
+        // Lanes: x0, x1, y0, y1 (the box's edges), as `taps` in the portable path.
+        let c = _mm256_cvtps_pd(_mm_setr_ps(p.x - s, p.x + s, p.y - s, p.y + s));
+        let (one, half, zero) = (_mm256_set1_pd(1.0), _mm256_set1_pd(0.5), _mm256_setzero_pd());
+        let nf = _mm256_set1_pd(n as f64);
+        let g = _mm256_mul_pd(_mm256_mul_pd(_mm256_add_pd(c, one), half), nf);
+        let g = _mm256_min_pd(_mm256_max_pd(g, zero), nf);
+        let i = _mm256_min_pd(_mm256_floor_pd(g), _mm256_set1_pd((n - 1) as f64));
+        let t = _mm256_sub_pd(g, i);
+        let first: [i32; 4] = bytemuck::cast(_mm256_cvttpd_epi32(i));
+        // Catmull–Rom weights of the taps at offsets −1, 0, 1, 2.
+        let (t2, two) = (_mm256_mul_pd(t, t), _mm256_set1_pd(2.0));
+        let t3 = _mm256_mul_pd(t2, t);
+        let (three, four, five) = (_mm256_set1_pd(3.0), _mm256_set1_pd(4.0), _mm256_set1_pd(5.0));
+        let w: [[f64; 4]; 4] = [
+            bytemuck::cast(_mm256_mul_pd(half, _mm256_sub_pd(_mm256_sub_pd(_mm256_mul_pd(two, t2), t3), t))),
+            bytemuck::cast(_mm256_mul_pd(
+                half,
+                _mm256_add_pd(_mm256_sub_pd(_mm256_mul_pd(three, t3), _mm256_mul_pd(five, t2)), two),
+            )),
+            bytemuck::cast(_mm256_mul_pd(
+                half,
+                _mm256_add_pd(_mm256_sub_pd(_mm256_mul_pd(four, t2), _mm256_mul_pd(three, t3)), t),
+            )),
+            bytemuck::cast(_mm256_mul_pd(half, _mm256_sub_pd(t3, t2))),
+        ];
+        let wx: [f64; 8] = std::array::from_fn(|d| if d < 4 { w[d][1] } else { -w[d - 4][0] });
+        let wy: [f64; 8] = std::array::from_fn(|d| if d < 4 { w[d][3] } else { -w[d - 4][2] });
+        let first = first.map(|f| f as usize);
+        let rows: [usize; 8] = std::array::from_fn(|r| if r < 4 { first[3] + r } else { first[2] + r - 4 } * width);
+        (wx, wy, rows, [first[1], first[0]])
+    }
+
+    /// `Σ_slices w ·` the box `[p − s, p + s]²` of each slice's padded `(n+3)²` table.
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(unsafe_code)]
+    pub(super) fn box_blend(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], p: Vec2, s: f32, n: usize) -> [f64; 4] {
+        let width = n + 3;
+        let (wx, wy, rows, cols) = taps(p, s, n);
+        let wx = wx.map(|w| _mm256_set1_pd(w));
         let mut out = _mm256_setzero_pd();
-        for &(k, w) in slices {
-            let sat = &sat[k];
+        for &(k, weight) in slices {
+            let sat = &sat[k][..];
+            assert_eq!(sat.len(), width * width, "a padded table of (n+3)² entries");
             let mut lines = [_mm256_setzero_pd(); 8];
-            for (line, &row) in lines.iter_mut().zip(&taps.rows) {
-                for (run, &col) in taps.cols.iter().enumerate() {
-                    let quad = &sat[row + col..row + col + 4];
+            for (line, &row) in lines.iter_mut().zip(&rows) {
+                for (run, &col) in cols.iter().enumerate() {
                     for d in 0..4 {
-                        *line = _mm256_fmadd_pd(wx[run * 4 + d], bytemuck::cast(quad[d]), *line);
+                        // SAFETY: the first tap index is at most n − 1 in each coordinate, so
+                        // row + col + d ≤ (n + 2)·(n + 3) + n + 2 < (n + 3)², the length
+                        // asserted above.
+                        let v: __m256d = bytemuck::cast(unsafe { *sat.get_unchecked(row + col + d) });
+                        *line = _mm256_fmadd_pd(wx[run * 4 + d], v, *line);
                     }
                 }
             }
-            let weighted: [__m256d; 8] = std::array::from_fn(|r| _mm256_mul_pd(lines[r], _mm256_set1_pd(taps.wy[r])));
+            let weighted: [__m256d; 8] = std::array::from_fn(|r| _mm256_mul_pd(lines[r], _mm256_set1_pd(wy[r])));
             let pair = |a, b| _mm256_add_pd(a, b);
             let acc = pair(
                 pair(pair(weighted[0], weighted[4]), pair(weighted[2], weighted[6])),
                 pair(pair(weighted[1], weighted[5]), pair(weighted[3], weighted[7])),
             );
-            out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(w)), acc, out);
+            out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(weight)), acc, out);
         }
         bytemuck::cast(out)
+    }
+
+    /// [`box_blend`] of two neighbouring slices interleaved in `pair`, with weights `w`:
+    /// both slices in each eight-lane operation (the same sums, lane for lane).
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    #[allow(unsafe_code)]
+    pub(super) fn box_pair(pair: &[super::Pair], w: [f32; 2], p: Vec2, s: f32, n: usize) -> [f64; 4] {
+        let width = n + 3;
+        assert_eq!(pair.len(), width * width, "a padded table of (n+3)² entries");
+        let (wx, wy, rows, cols) = taps(p, s, n);
+        let wx = wx.map(|w| _mm512_set1_pd(w));
+        let mut lines = [_mm512_setzero_pd(); 8];
+        for (line, &row) in lines.iter_mut().zip(&rows) {
+            for (run, &col) in cols.iter().enumerate() {
+                for d in 0..4 {
+                    // SAFETY: as in `box_blend`: every index is below (n + 3)², the length
+                    // asserted above.
+                    let v: __m512d = bytemuck::cast(unsafe { *pair.get_unchecked(row + col + d) });
+                    *line = _mm512_fmadd_pd(wx[run * 4 + d], v, *line);
+                }
+            }
+        }
+        let weighted: [__m512d; 8] = std::array::from_fn(|r| _mm512_mul_pd(lines[r], _mm512_set1_pd(wy[r])));
+        let add = |a, b| _mm512_add_pd(a, b);
+        let acc = add(
+            add(add(weighted[0], weighted[4]), add(weighted[2], weighted[6])),
+            add(add(weighted[1], weighted[5]), add(weighted[3], weighted[7])),
+        );
+        let (low, high) = (_mm512_castpd512_pd256(acc), _mm512_extractf64x4_pd::<1>(acc));
+        let out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(w[0])), low, _mm256_setzero_pd());
+        bytemuck::cast(_mm256_fmadd_pd(_mm256_set1_pd(f64::from(w[1])), high, out))
     }
 }
 

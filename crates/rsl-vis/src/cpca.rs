@@ -68,6 +68,11 @@ impl CpcaVector<'_> {
         self.coeffs.len()
     }
 
+    /// Whether the vector has `d` means and `d` rows of its lanes (what lookups index).
+    pub(crate) fn is_whole(&self, d: usize) -> bool {
+        self.mean.len() == d && self.rows.len() == d * self.lanes()
+    }
+
     /// Component `j`: mean plus coefficients × basis.
     pub fn value(&self, j: usize) -> f32 {
         let l = self.lanes();
@@ -160,7 +165,6 @@ pub(crate) mod simd {
             w[0] * v.mean[cells[0]] + w[1] * v.mean[cells[1]] + w[2] * v.mean[cells[2]] + w[3] * v.mean[cells[3]]
         }};
     }
-    pub(crate) use blend;
 
     /// The sum of the eight lanes.
     #[inline]

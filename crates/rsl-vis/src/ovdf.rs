@@ -250,6 +250,7 @@ impl Ovdf {
 
     /// Where `x` (object space) lies among the samples, or `None` beyond the outer shell
     /// (where nothing is occluded): computed once per point and reused for every direction.
+    #[inline]
     pub fn locate(&self, x: Vec3) -> Option<OvdfPoint> {
         let v = x - self.centre;
         let r = v.length() / self.radius;
@@ -297,21 +298,34 @@ impl Ovdf {
 
     /// Everything the lookups at a located point read, gathered once: the four texels'
     /// sample frames, and each of the 8 samples' rows, coefficients and trilinear weight.
+    #[inline]
     pub fn prepare(&self, at: &OvdfPoint) -> OvdfLookup<'_> {
         let w = at.shell_weight;
         let shells = if w <= 0.0 { 1 } else { 2 };
-        let sample = |k: usize| {
-            let (s, t) = (at.shell + k / 4, k % 4);
-            let (segment, index) = at.places[t];
-            let weight = if k < 4 { if shells == 1 { 1.0 } else { 1.0 - w } } else { w } * at.weights[t];
-            (self.segments[s * 24 + segment as usize].vector(index as usize), weight)
-        };
-        OvdfLookup {
-            n: self.params.n,
-            shells,
-            frames: at.texels.map(|t| self.frames[t]),
-            samples: std::array::from_fn(|k| if k / 4 < shells { sample(k) } else { sample(k % 4) }),
+        let n = self.params.n;
+        let mut axes = [[0.0f32; 4]; 9];
+        for (t, &texel) in at.texels.iter().enumerate() {
+            let f = &self.frames[texel];
+            for (k, v) in [f.t, f.b, f.n].iter().enumerate() {
+                axes[3 * k][t] = v.x;
+                axes[3 * k + 1][t] = v.y;
+                axes[3 * k + 2][t] = v.z;
+            }
         }
+        // The outer shell's samples repeat the inner ones (with zero weight) when unused.
+        let outer = if shells == 2 { 1 } else { 0 };
+        let (w_inner, w_outer) = if shells == 2 { (1.0 - w, w) } else { (1.0, 0.0) };
+        let mut whole = true;
+        let mut sample = |k: usize| {
+            let t = k % 4;
+            let (segment, index) = at.places[t];
+            let (s, weight) = if k < 4 { (at.shell, w_inner) } else { (at.shell + outer, w_outer) };
+            let v = self.segments[s * 24 + segment as usize].vector(index as usize);
+            whole &= v.is_whole(n * n);
+            (v, weight * at.weights[t])
+        };
+        let samples = [sample(0), sample(1), sample(2), sample(3), sample(4), sample(5), sample(6), sample(7)];
+        OvdfLookup { n, shells, axes, samples, whole }
     }
 
     /// The signed distance (visible > 0) to this object's shadow boundary for light from
@@ -344,10 +358,15 @@ pub struct OvdfLookup<'a> {
     n: usize,
     /// 1 when the point lies on the inner shell (its outer weight is zero), else 2.
     shells: usize,
-    /// The four texels' sample frames.
-    frames: [Frame; 4],
+    /// The four texels' sample frames, by component across the texels: `t.x, t.y, t.z, b.x,
+    /// …, n.z`, each for texels 0–3.
+    axes: [[f32; 4]; 9],
     /// Inner shell's four texels, then the outer shell's, each with its trilinear weight.
     samples: [(CpcaVector<'a>, f32); 8],
+    /// Whether every sample holds `n²` means and rows (what the vector kernel reads
+    /// without bounds checks); fields are built so, and a lookup that is not takes the
+    /// portable path.
+    whole: bool,
 }
 
 impl OvdfLookup<'_> {
@@ -358,15 +377,23 @@ impl OvdfLookup<'_> {
     }
 
     /// The visible fraction of the square of half-diagonal `r` around `dir`.
+    #[inline]
     pub fn coverage(&self, dir: Vec3, r: f32) -> f32 {
         coverage(self.distance(dir), r)
+    }
+
+    /// Texel `t`'s local coordinates of `dir`.
+    fn to_local(&self, t: usize, d: Vec3) -> Vec3 {
+        let a = &self.axes;
+        let dot = |k: usize| d.x * a[k][t] + d.y * a[k + 1][t] + d.z * a[k + 2][t];
+        Vec3::new(dot(0), dot(3), dot(6))
     }
 }
 
 /// [`OvdfLookup::distance`]: AVX2 and FMA where the processor has them.
 fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
     #[cfg(target_arch = "x86_64")]
-    if crate::cpca::simd::available() {
+    if at.whole && at.n >= 2 && crate::cpca::simd::available() {
         #[allow(unsafe_code)]
         // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
         return unsafe { lookup_distance_avx2(at, dir) };
@@ -374,7 +401,7 @@ fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
     let mut acc = [0.0f32; 8];
     let mut mean = 0.0f32;
     for t in 0..4 {
-        let (cells, w) = bilinear_taps(at.n, hemi_from_dir(at.frames[t].to_local(dir)));
+        let (cells, w) = bilinear_taps(at.n, hemi_from_dir(at.to_local(t, dir)));
         for shell in 0..at.shells {
             let (v, weight) = &at.samples[shell * 4 + t];
             mean += v.blend_into(&mut acc, cells, w.map(|x| x * weight));
@@ -383,23 +410,79 @@ fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
     mean + hsum(acc)
 }
 
-/// [`lookup_distance`] in AVX2 and FMA.
+/// [`lookup_distance`] in AVX2 and FMA: the four texels' plane points and bilinear taps
+/// four at a time, then each sample's rows blended in vector registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+#[allow(unsafe_code)]
 fn lookup_distance_avx2(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
-    use crate::cpca::simd::{self, blend};
     use std::arch::x86_64::*;
+    let a = &at.axes;
+    let v = |k: usize| -> __m128 { bytemuck::cast(a[k]) };
+    let (dx, dy, dz) = (_mm_set1_ps(dir.x), _mm_set1_ps(dir.y), _mm_set1_ps(dir.z));
+    // Local coordinates per texel (Frame::to_local), then hemi_from_dir, four at once.
+    let lx = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, v(0)), _mm_mul_ps(dy, v(1))), _mm_mul_ps(dz, v(2)));
+    let ly = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, v(3)), _mm_mul_ps(dy, v(4))), _mm_mul_ps(dz, v(5)));
+    let lz = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, v(6)), _mm_mul_ps(dy, v(7))), _mm_mul_ps(dz, v(8)));
+    let (one, zero) = (_mm_set1_ps(1.0), _mm_setzero_ps());
+    let upper = _mm_cmpge_ps(lz, zero);
+    let s = _mm_sqrt_ps(_mm_add_ps(one, lz));
+    let r = _mm_sqrt_ps(_mm_add_ps(_mm_mul_ps(lx, lx), _mm_mul_ps(ly, ly)));
+    let f = _mm_div_ps(_mm_sqrt_ps(_mm_max_ps(_mm_sub_ps(one, lz), zero)), r);
+    let off_pole = _mm_cmpgt_ps(r, zero);
+    let lower_x = _mm_blendv_ps(_mm_set1_ps(rsl_sphere::hemi::MAX_RADIUS), _mm_mul_ps(lx, f), off_pole);
+    let lower_y = _mm_blendv_ps(zero, _mm_mul_ps(ly, f), off_pole);
+    let px = _mm_blendv_ps(lower_x, _mm_div_ps(lx, s), upper);
+    let py = _mm_blendv_ps(lower_y, _mm_div_ps(ly, s), upper);
+    // bilinear_taps: the cell below and left among the centres (NaN clamps to 0 here).
+    let n = at.n;
+    let (nf, top) = (_mm_set1_ps(n as f32), _mm_set1_ps((n - 1) as f32));
+    let grid = |p: __m128| {
+        let g = _mm_sub_ps(_mm_mul_ps(_mm_mul_ps(_mm_add_ps(p, one), _mm_set1_ps(0.5)), nf), _mm_set1_ps(0.5));
+        let g = _mm_min_ps(_mm_max_ps(g, zero), top);
+        let i = _mm_min_epi32(_mm_cvttps_epi32(g), _mm_set1_epi32(n as i32 - 2));
+        (i, _mm_sub_ps(g, _mm_cvtepi32_ps(i)))
+    };
+    let ((ix, fx), (iy, fy)) = (grid(px), grid(py));
+    let base: [i32; 4] = bytemuck::cast(_mm_add_epi32(_mm_mullo_epi32(iy, _mm_set1_epi32(n as i32)), ix));
+    let (gx, gy) = (_mm_sub_ps(one, fx), _mm_sub_ps(one, fy));
+    let weights: [[f32; 4]; 4] = [
+        bytemuck::cast(_mm_mul_ps(gx, gy)),
+        bytemuck::cast(_mm_mul_ps(fx, gy)),
+        bytemuck::cast(_mm_mul_ps(gx, fy)),
+        bytemuck::cast(_mm_mul_ps(fx, fy)),
+    ];
     let mut acc = _mm256_setzero_ps();
     let mut mean = 0.0f32;
     for t in 0..4 {
-        let (cells, w) = bilinear_taps(at.n, hemi_from_dir(at.frames[t].to_local(dir)));
+        // Every index is below n²: i, j ≤ n − 2 after the clamps above.
+        let b = base[t] as usize;
+        let cells = [b, b + 1, b + n, b + n + 1];
         for shell in 0..at.shells {
             let (v, weight) = &at.samples[shell * 4 + t];
-            let w = [w[0] * weight, w[1] * weight, w[2] * weight, w[3] * weight];
-            mean += blend!(v, acc, cells, w);
+            let w = [weights[0][t] * weight, weights[1][t] * weight, weights[2][t] * weight, weights[3][t] * weight];
+            let l = v.coeffs.len();
+            // SAFETY: `at.whole` (checked by the caller) says every sample has n² means and
+            // n²·l rows, and every cell is below n².
+            unsafe {
+                mean += w[0] * v.mean.get_unchecked(cells[0])
+                    + w[1] * v.mean.get_unchecked(cells[1])
+                    + w[2] * v.mean.get_unchecked(cells[2])
+                    + w[3] * v.mean.get_unchecked(cells[3]);
+                let (w0, w1, w2, w3) =
+                    (_mm256_set1_ps(w[0]), _mm256_set1_ps(w[1]), _mm256_set1_ps(w[2]), _mm256_set1_ps(w[3]));
+                for lane in 0..l {
+                    let row = |c: usize| -> __m256 { bytemuck::cast(*v.rows.get_unchecked(c * l + lane)) };
+                    let blended = _mm256_mul_ps(w0, row(cells[0]));
+                    let blended = _mm256_fmadd_ps(w1, row(cells[1]), blended);
+                    let blended = _mm256_fmadd_ps(w2, row(cells[2]), blended);
+                    let blended = _mm256_fmadd_ps(w3, row(cells[3]), blended);
+                    acc = _mm256_fmadd_ps(bytemuck::cast(*v.coeffs.get_unchecked(lane)), blended, acc);
+                }
+            }
         }
     }
-    mean + simd::sum(acc)
+    mean + crate::cpca::simd::sum(acc)
 }
 
 /// Radius of shell `s` of `shells`, in bounding radii.
