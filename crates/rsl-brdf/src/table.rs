@@ -291,13 +291,22 @@ impl BrdfTable {
     pub fn square_for(&self, view: &ViewLookup, light: Vec3, r: f32) -> SquareIntegral {
         let r = if r.is_finite() { r.max(0.0) } else { 0.0 };
         let solid_angle = 4.0 * r * r;
-        let zero = SquareIntegral { integral: Vec3::ZERO, solid_angle, average: Vec3::ZERO };
+        let integral = self.integral_for(view, light, r);
+        let average = if solid_angle > 0.0 { integral / solid_angle } else { Vec3::ZERO };
+        SquareIntegral { integral, solid_angle, average }
+    }
+
+    /// The integral of [`BrdfTable::square_for`] alone (what shading multiplies), `∫ ρ cos θ
+    /// dω` over the square, RGB.
+    #[inline]
+    pub fn integral_for(&self, view: &ViewLookup, light: Vec3, r: f32) -> Vec3 {
+        let r = if r.is_finite() { r.max(0.0) } else { 0.0 };
         if !light.is_finite() {
-            return zero;
+            return Vec3::ZERO;
         }
         let s = r / std::f32::consts::SQRT_2;
         let integral = match *view {
-            ViewLookup::Below => return zero,
+            ViewLookup::Below => return Vec3::ZERO,
             ViewLookup::Single => self.box_integral(0, hemi_from_dir(light), s),
             ViewLookup::Isotropic { cos: c, sin: sn, slice: k, weight: f } => {
                 // Rotate by −φ_v about z.
@@ -308,12 +317,12 @@ impl BrdfTable {
                     #[allow(unsafe_code)]
                     // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
                     let out = unsafe { simd::box_pair(pair, [1.0 - f, f], p, s, self.grid.n()) };
-                    return self.finish(Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32), solid_angle);
+                    return self.clamp(Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32), r);
                 }
                 self.box_blend(&[(k, 1.0 - f), (k + 1, f)], p, s)
             }
             ViewLookup::Anisotropic { node: [i, j], weight: [fx, fy] } => {
-                let Views::Anisotropic(v) = self.views else { return zero };
+                let Views::Anisotropic(v) = self.views else { return Vec3::ZERO };
                 let p = hemi_from_dir(light);
                 let half = v.div_ceil(2);
                 // Node (a, b) is the stored node (min(a, v−1−a), min(b, v−1−b)) mirrored.
@@ -326,15 +335,13 @@ impl BrdfTable {
                     + (at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx) * fy
             }
         };
-        self.finish(integral, solid_angle)
+        self.clamp(integral, r)
     }
 
-    /// A square's result from its raw integral. The spline can overshoot next to a
+    /// A square's integral, within what it can be: the spline can overshoot next to a
     /// near-delta lobe; the true value lies in [0, max density × area].
-    fn finish(&self, integral: Vec3, solid_angle: f32) -> SquareIntegral {
-        let integral = integral.clamp(Vec3::ZERO, self.max_density * solid_angle);
-        let average = if solid_angle > 0.0 { integral / solid_angle } else { Vec3::ZERO };
-        SquareIntegral { integral, solid_angle, average }
+    fn clamp(&self, integral: Vec3, r: f32) -> Vec3 {
+        integral.clamp(Vec3::ZERO, self.max_density * (4.0 * r * r))
     }
 
     /// `∫` over the box `[p − s, p + s]²` (plane coordinates) of slice `k`.

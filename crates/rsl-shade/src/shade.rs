@@ -386,7 +386,7 @@ impl<'a> FrameSetup<'a> {
         for (l, light) in self.lights.iter().enumerate() {
             let r = light.half_diagonal;
             stats.brdf_lookups += 1;
-            let brdf = o.table.square_for(&lookup, frame.to_local(light.dir), r).integral;
+            let brdf = o.table.integral_for(&lookup, frame.to_local(light.dir), r);
             if brdf == Vec3::ZERO {
                 continue;
             }

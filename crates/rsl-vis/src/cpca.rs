@@ -116,7 +116,7 @@ impl CpcaVector<'_> {
 /// [`CpcaVector::bilinear`]: AVX2 and FMA where the processor has them.
 fn vector_bilinear(v: &CpcaVector<'_>, n: usize, p: glam::Vec2) -> f32 {
     #[cfg(target_arch = "x86_64")]
-    if simd::available() {
+    if v.is_whole(n * n) && simd::available() {
         #[allow(unsafe_code)]
         // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
         return unsafe { simd::vector_bilinear(v, n, p) };
@@ -142,29 +142,41 @@ pub(crate) mod simd {
     }
 
     /// [`CpcaVector::blend_into`] in vector registers: `blend!(v, acc, cells, w)` adds
-    /// `Σ_c w_c·(coefficients ⊙ row_c)` to `acc` (an `__m256`) and is `Σ_c w_c·mean_c`. A
-    /// macro, so that it is expanded inside each caller's `target_feature` function (which
-    /// a call across functions with `#[inline]` does not guarantee).
+    /// `Σ_c w_c·(coefficients ⊙ row_c)` to `acc` (an `__m256`) and is `Σ_c w_c·mean_c`,
+    /// reading without bounds checks. A macro, so that it is expanded inside each caller's
+    /// `target_feature` function (which a call across functions with `#[inline]` does not
+    /// guarantee).
+    ///
+    /// The caller must have checked that `v` is whole ([`CpcaVector::is_whole`]) for a
+    /// `d` above every cell index.
     macro_rules! blend {
         ($v:expr, $acc:expr, $cells:expr, $w:expr) => {{
             let v: &crate::cpca::CpcaVector<'_> = $v;
             let cells: [usize; 4] = $cells;
             let w: [f32; 4] = $w;
             let l = v.coeffs.len();
-            let (r0, r1) = (&v.rows[cells[0] * l..(cells[0] + 1) * l], &v.rows[cells[1] * l..(cells[1] + 1) * l]);
-            let (r2, r3) = (&v.rows[cells[2] * l..(cells[2] + 1) * l], &v.rows[cells[3] * l..(cells[3] + 1) * l]);
-            let (w0, w1) = (_mm256_set1_ps(w[0]), _mm256_set1_ps(w[1]));
-            let (w2, w3) = (_mm256_set1_ps(w[2]), _mm256_set1_ps(w[3]));
-            for t in 0..l {
-                let b = _mm256_mul_ps(w0, bytemuck::cast::<_, __m256>(r0[t]));
-                let b = _mm256_fmadd_ps(w1, bytemuck::cast::<_, __m256>(r1[t]), b);
-                let b = _mm256_fmadd_ps(w2, bytemuck::cast::<_, __m256>(r2[t]), b);
-                let b = _mm256_fmadd_ps(w3, bytemuck::cast::<_, __m256>(r3[t]), b);
-                $acc = _mm256_fmadd_ps(bytemuck::cast::<_, __m256>(v.coeffs[t]), b, $acc);
+            // SAFETY: the caller checked that `v` has `d` means and `d·l` rows with every
+            // cell below `d`, and `lane < l`.
+            #[allow(unsafe_code)]
+            unsafe {
+                let (w0, w1) = (_mm256_set1_ps(w[0]), _mm256_set1_ps(w[1]));
+                let (w2, w3) = (_mm256_set1_ps(w[2]), _mm256_set1_ps(w[3]));
+                for lane in 0..l {
+                    let row = |c: usize| -> __m256 { bytemuck::cast(*v.rows.get_unchecked(c * l + lane)) };
+                    let b = _mm256_mul_ps(w0, row(cells[0]));
+                    let b = _mm256_fmadd_ps(w1, row(cells[1]), b);
+                    let b = _mm256_fmadd_ps(w2, row(cells[2]), b);
+                    let b = _mm256_fmadd_ps(w3, row(cells[3]), b);
+                    $acc = _mm256_fmadd_ps(bytemuck::cast(*v.coeffs.get_unchecked(lane)), b, $acc);
+                }
+                w[0] * v.mean.get_unchecked(cells[0])
+                    + w[1] * v.mean.get_unchecked(cells[1])
+                    + w[2] * v.mean.get_unchecked(cells[2])
+                    + w[3] * v.mean.get_unchecked(cells[3])
             }
-            w[0] * v.mean[cells[0]] + w[1] * v.mean[cells[1]] + w[2] * v.mean[cells[2]] + w[3] * v.mean[cells[3]]
         }};
     }
+    pub(crate) use blend;
 
     /// The sum of the eight lanes.
     #[inline]
@@ -174,7 +186,7 @@ pub(crate) mod simd {
         super::hsum(lanes)
     }
 
-    /// [`CpcaVector::bilinear`].
+    /// [`CpcaVector::bilinear`] of a whole vector (every cell of the taps is below `n²`).
     #[target_feature(enable = "avx2,fma")]
     pub(crate) fn vector_bilinear(v: &CpcaVector<'_>, n: usize, p: glam::Vec2) -> f32 {
         let (cells, w) = crate::map::bilinear_taps(n, p);

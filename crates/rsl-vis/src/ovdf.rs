@@ -268,19 +268,26 @@ impl Ovdf {
         let (x, y) = ((fu + 1.0) * 0.5 * m as f64 - 0.5, (fv + 1.0) * 0.5 * m as f64 - 0.5);
         let (i0, j0) = (x.floor() as i64, y.floor() as i64);
         let (fx, fy) = ((x - i0 as f64) as f32, (y - j0 as f64) as f32);
-        // The texel at (i, j) of this face, stepping across a seam for i or j just outside.
+        let half = m / 2;
+        // The texel at (i, j) of this face, stepping across a seam for i or j just outside,
+        // and its place: its segment within a shell (face·4 + quadrant) and its index there.
         let texel = |i: i64, j: i64| {
             let last = m as i64 - 1;
             let (ci, cj) = (i.clamp(0, last), j.clamp(0, last));
             let t = grid.index(face, ci as usize, cj as usize);
-            if (ci, cj) == (i, j) { t } else { grid.neighbour(t, (i - ci) as i32, (j - cj) as i32) }
+            let (t, (f, i, j)) = if (ci, cj) == (i, j) {
+                (t, (face, ci as usize, cj as usize))
+            } else {
+                let t = grid.neighbour(t, (i - ci) as i32, (j - cj) as i32);
+                (t, grid.coords(t))
+            };
+            let (qi, qj) = (usize::from(i >= half), usize::from(j >= half));
+            let place = ((f * 4 + qj * 2 + qi) as u32, ((j - qj * half) * half + i - qi * half) as u32);
+            (t, place)
         };
-        let texels = [texel(i0, j0), texel(i0 + 1, j0), texel(i0, j0 + 1), texel(i0 + 1, j0 + 1)];
-        let half = m / 2;
-        let places = texels.map(|t| {
-            let (face, i, j) = grid.coords(t);
-            ((face * 4 + (j / half) * 2 + i / half) as u32, ((j % half) * half + i % half) as u32)
-        });
+        let corners = [texel(i0, j0), texel(i0 + 1, j0), texel(i0, j0 + 1), texel(i0 + 1, j0 + 1)];
+        let texels = [corners[0].0, corners[1].0, corners[2].0, corners[3].0];
+        let places = [corners[0].1, corners[1].1, corners[2].1, corners[3].1];
         Some(OvdfPoint {
             shell: s0,
             shell_weight: fs,
@@ -414,7 +421,6 @@ fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
 /// four at a time, then each sample's rows blended in vector registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-#[allow(unsafe_code)]
 fn lookup_distance_avx2(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
     use std::arch::x86_64::*;
     let a = &at.axes;
@@ -461,25 +467,8 @@ fn lookup_distance_avx2(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
         for shell in 0..at.shells {
             let (v, weight) = &at.samples[shell * 4 + t];
             let w = [weights[0][t] * weight, weights[1][t] * weight, weights[2][t] * weight, weights[3][t] * weight];
-            let l = v.coeffs.len();
-            // SAFETY: `at.whole` (checked by the caller) says every sample has n² means and
-            // n²·l rows, and every cell is below n².
-            unsafe {
-                mean += w[0] * v.mean.get_unchecked(cells[0])
-                    + w[1] * v.mean.get_unchecked(cells[1])
-                    + w[2] * v.mean.get_unchecked(cells[2])
-                    + w[3] * v.mean.get_unchecked(cells[3]);
-                let (w0, w1, w2, w3) =
-                    (_mm256_set1_ps(w[0]), _mm256_set1_ps(w[1]), _mm256_set1_ps(w[2]), _mm256_set1_ps(w[3]));
-                for lane in 0..l {
-                    let row = |c: usize| -> __m256 { bytemuck::cast(*v.rows.get_unchecked(c * l + lane)) };
-                    let blended = _mm256_mul_ps(w0, row(cells[0]));
-                    let blended = _mm256_fmadd_ps(w1, row(cells[1]), blended);
-                    let blended = _mm256_fmadd_ps(w2, row(cells[2]), blended);
-                    let blended = _mm256_fmadd_ps(w3, row(cells[3]), blended);
-                    acc = _mm256_fmadd_ps(bytemuck::cast(*v.coeffs.get_unchecked(lane)), blended, acc);
-                }
-            }
+            // `at.whole` (checked by the caller) says every sample is whole for n².
+            mean += crate::cpca::simd::blend!(v, acc, cells, w);
         }
     }
     mean + crate::cpca::simd::sum(acc)
