@@ -358,7 +358,6 @@ impl BrdfTable {
     /// F(x1, y0) + F(x0, y0)`, summed in f64.
     fn box_blend(&self, slices: &[(usize, f32)], p: Vec2, s: f32) -> Vec3 {
         let n = self.grid.n();
-        let width = n + 3;
         #[cfg(target_arch = "x86_64")]
         if simd::available() {
             #[allow(unsafe_code)]
@@ -366,6 +365,13 @@ impl BrdfTable {
             let out = unsafe { simd::box_blend(&self.sat, slices, p, s, n) };
             return Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32);
         }
+        self.box_blend_portable(slices, p, s)
+    }
+
+    /// [`BrdfTable::box_blend`] in portable code.
+    fn box_blend_portable(&self, slices: &[(usize, f32)], p: Vec2, s: f32) -> Vec3 {
+        let n = self.grid.n();
+        let width = n + 3;
         // Taps of one coordinate: the first of 4 consecutive (padded) indices and their
         // spline weights.
         let taps = |c: f32| {
@@ -413,10 +419,9 @@ fn blend_taps(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], taps: &Taps) -> [f
         for (line, &row) in lines.iter_mut().zip(&taps.rows) {
             for (run, &col) in taps.cols.iter().enumerate() {
                 let quad = &sat[row + col..row + col + 4];
-                for d in 0..4 {
-                    let wx = taps.wx[run * 4 + d];
+                for (v, wx) in quad.iter().zip(&taps.wx[run * 4..run * 4 + 4]) {
                     for c in 0..4 {
-                        line[c] += wx * quad[d][c];
+                        line[c] += wx * v[c];
                     }
                 }
             }
@@ -732,4 +737,43 @@ fn integrate(
     }
     let pts = gauss_points(x0, y0, side);
     gauss_sum(brdf, wo, side, pts.iter().map(|&p| (dir_from_hemi(p), p.length_squared() < 1.0)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rsl_sphere::sampling::Pcg32;
+
+    #[test]
+    fn every_box_path_gives_the_portable_sums() {
+        let brdf = Brdf::Ggx { alpha: 0.08, specular: Vec3::new(0.9, 0.6, 0.3), diffuse: Vec3::splat(0.1) };
+        let table = BrdfTable::build(&brdf, Resolution { n: 32, views: 16 }).unwrap();
+        let mut rng = Pcg32::new(4);
+        let mut checked = 0;
+        for _ in 0..3000 {
+            // Boxes from a fraction of a cell to wider than the grid, past its edges too.
+            let p = Vec2::new(rng.next_f32() * 2.6 - 1.3, rng.next_f32() * 2.6 - 1.3);
+            let s = 10f32.powf(-3.0 + 3.3 * rng.next_f32());
+            let k = rng.next_u32() as usize % (table.slices() - 1);
+            let f = rng.next_f32();
+            let slices = [(k, 1.0 - f), (k + 1, f)];
+            let want = table.box_blend_portable(&slices, p, s);
+            let close = |got: Vec3| (got - want).abs().max_element() <= 1e-6 * want.abs().max_element() + 1e-10;
+            assert!(
+                close(table.box_blend(&slices, p, s)),
+                "p = {p}, s = {s}: {} vs {want}",
+                table.box_blend(&slices, p, s)
+            );
+            #[cfg(target_arch = "x86_64")]
+            if simd::available_512() {
+                #[allow(unsafe_code)]
+                // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
+                let out = unsafe { simd::box_pair(&table.pairs[k], [1.0 - f, f], p, s, 32) };
+                let got = Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32);
+                assert!(close(got), "pairs, p = {p}, s = {s}: {got} vs {want}");
+            }
+            checked += 1;
+        }
+        assert_eq!(checked, 3000);
+    }
 }

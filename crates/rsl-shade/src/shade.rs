@@ -422,6 +422,8 @@ impl<'a> FrameSetup<'a> {
 }
 
 /// An occluder field's lookup at a vertex, prepared when first needed.
+// Held in a reused per-thread list (a box each would allocate per vertex and occluder).
+#[allow(clippy::large_enum_variant)]
 enum Lazy<'a> {
     /// Not located yet.
     Unknown,

@@ -78,8 +78,8 @@ impl CpcaVector<'_> {
         let l = self.lanes();
         let mut acc = [0.0f32; 8];
         for (row, co) in self.rows[j * l..(j + 1) * l].iter().zip(self.coeffs) {
-            for e in 0..8 {
-                acc[e] += co.0[e] * row.0[e];
+            for ((a, c), r) in acc.iter_mut().zip(&co.0).zip(&row.0) {
+                *a += c * r;
             }
         }
         self.mean[j] + hsum(acc)
@@ -121,6 +121,11 @@ fn vector_bilinear(v: &CpcaVector<'_>, n: usize, p: glam::Vec2) -> f32 {
         // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
         return unsafe { simd::vector_bilinear(v, n, p) };
     }
+    vector_bilinear_portable(v, n, p)
+}
+
+/// [`CpcaVector::bilinear`] in portable code.
+fn vector_bilinear_portable(v: &CpcaVector<'_>, n: usize, p: glam::Vec2) -> f32 {
     let (cells, w) = crate::map::bilinear_taps(n, p);
     let mut acc = [0.0f32; 8];
     let mean = v.blend_into(&mut acc, cells, w);
@@ -604,6 +609,30 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn bilinear_lookups_match_reconstructed_tables_on_every_path() {
+        // k = 8 fills one lane; k = 3 pads one; k = 17 takes three.
+        for (k, seed) in [(8usize, 1u64), (3, 2), (17, 3)] {
+            let (n, vectors) = (12, 60);
+            let data = synthetic(vectors, n * n, 3, k.min(5), seed);
+            let model = Cpca::fit(&data, n * n, 3, k, 2, seed);
+            let mut rng = Pcg32::new(seed);
+            let mut worst = 0.0f32;
+            for _ in 0..2000 {
+                let i = rng.next_u32() as usize % vectors;
+                // Points inside and beyond the grid's cell centres (clamped there).
+                let p = glam::Vec2::new(rng.next_f32() * 2.4 - 1.2, rng.next_f32() * 2.4 - 1.2);
+                let table = model.reconstruct(i);
+                let want = crate::map::bilinear_cells(n, p, |c| table[c]);
+                let v = model.vector(i);
+                for got in [vector_bilinear(&v, n, p), vector_bilinear_portable(&v, n, p), model.bilinear(i, n, p)] {
+                    worst = worst.max((got - want).abs() / want.abs().max(1.0));
+                }
+            }
+            assert!(worst < 1e-5, "k = {k}: worst difference {worst}");
+        }
     }
 
     #[test]

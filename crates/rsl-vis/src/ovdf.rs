@@ -390,7 +390,7 @@ impl OvdfLookup<'_> {
     }
 
     /// Texel `t`'s local coordinates of `dir`.
-    fn to_local(&self, t: usize, d: Vec3) -> Vec3 {
+    fn texel_local(&self, t: usize, d: Vec3) -> Vec3 {
         let a = &self.axes;
         let dot = |k: usize| d.x * a[k][t] + d.y * a[k + 1][t] + d.z * a[k + 2][t];
         Vec3::new(dot(0), dot(3), dot(6))
@@ -405,10 +405,15 @@ fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
         // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
         return unsafe { lookup_distance_avx2(at, dir) };
     }
+    lookup_distance_portable(at, dir)
+}
+
+/// [`lookup_distance`] in portable code.
+fn lookup_distance_portable(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
     let mut acc = [0.0f32; 8];
     let mut mean = 0.0f32;
     for t in 0..4 {
-        let (cells, w) = bilinear_taps(at.n, hemi_from_dir(at.to_local(t, dir)));
+        let (cells, w) = bilinear_taps(at.n, hemi_from_dir(at.texel_local(t, dir)));
         for shell in 0..at.shells {
             let (v, weight) = &at.samples[shell * 4 + t];
             mean += v.blend_into(&mut acc, cells, w.map(|x| x * weight));
@@ -483,4 +488,81 @@ pub fn shell_radius(s: usize, shells: usize) -> f32 {
 /// (exposed for tests that build the same frame).
 pub fn sample_plane_point(u: Vec3, dir: Vec3) -> Vec2 {
     hemi_from_dir(Frame::from_normal(-u).to_local(dir))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rsl_sphere::sampling::Pcg32;
+
+    /// A field of random segments (no geometry): 2 shells of 6×4×4 samples with 8×8 tables,
+    /// `k` vectors per segment.
+    fn random_field(k: usize, seed: u64) -> Ovdf {
+        let params = OvdfParams { shells: 3, m: 4, n: 8, supersample: 1, vectors: k };
+        let mut rng = Pcg32::new(seed);
+        let segments = (0..params.shells * 24)
+            .map(|s| {
+                let data: Vec<f32> = (0..4 * 64).map(|_| rng.next_f32() * 2.0 - 1.0).collect();
+                Cpca::fit(&data, 64, 1, k, 0, s as u64)
+            })
+            .collect();
+        Ovdf::from_parts(Vec3::new(0.1, -0.2, 0.3), 0.7, params, segments, [0; 3], [0.0; 2]).unwrap()
+    }
+
+    /// The distance at a located point written out independently: 8 samples, each
+    /// reconstructed cell by cell (`Cpca::value`) and read bilinearly in its own frame.
+    fn distance_by_cells(f: &Ovdf, at: &OvdfPoint, dir: Vec3) -> f32 {
+        let n = f.params.n;
+        let shell = |s: usize| -> f32 {
+            (0..4)
+                .map(|t| {
+                    let (segment, index) = at.places[t];
+                    let cpca = &f.segments[s * 24 + segment as usize];
+                    let p = hemi_from_dir(f.frames[at.texels[t]].to_local(dir));
+                    at.weights[t] * bilinear_cells(n, p, |c| cpca.value(index as usize, c))
+                })
+                .sum()
+        };
+        shell(at.shell) * (1.0 - at.shell_weight) + shell(at.shell + 1) * at.shell_weight
+    }
+
+    #[test]
+    fn lookups_match_the_tables_cell_by_cell_on_every_path() {
+        // k = 8 fills one lane; k = 5 pads one; k = 12 takes two.
+        for (k, seed) in [(8, 1), (5, 2), (12, 3)] {
+            let f = random_field(k, seed);
+            let mut rng = Pcg32::new(seed + 10);
+            let mut worst = 0.0f32;
+            for _ in 0..400 {
+                let u = rsl_sphere::sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                // Points across the shells (inside the inner one too), directions anywhere.
+                let x = f.centre + u * f.radius * (0.2 + 6.0 * rng.next_f32());
+                let dir = rsl_sphere::sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                let Some(at) = f.locate(x) else { continue };
+                let want = distance_by_cells(&f, &at, dir);
+                let prepared = f.prepare(&at);
+                for got in [lookup_distance(&prepared, dir), lookup_distance_portable(&prepared, dir)] {
+                    worst = worst.max((got - want).abs() / want.abs().max(1.0));
+                }
+            }
+            assert!(worst < 2e-5, "k = {k}: worst difference {worst}");
+        }
+    }
+
+    #[test]
+    fn located_places_agree_with_the_grid_across_seams() {
+        let f = random_field(4, 5);
+        let grid = CubeGrid::new(f.params.m);
+        let half = f.params.m / 2;
+        let mut rng = Pcg32::new(9);
+        for _ in 0..2000 {
+            let u = rsl_sphere::sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let at = f.locate(f.centre + u * f.radius).unwrap();
+            for (t, place) in at.texels.iter().zip(at.places) {
+                let (face, i, j) = grid.coords(*t);
+                let want = ((face * 4 + (j / half) * 2 + i / half) as u32, ((j % half) * half + i % half) as u32);
+                assert_eq!(place, want);
+            }
+        }
+    }
 }

@@ -64,6 +64,8 @@ pub struct CompressionReport {
 }
 
 /// A self-visibility field.
+// One per distinct mesh: the size of the convex variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Svdf {
     /// Every vertex sees its whole hemisphere: nothing is stored.
