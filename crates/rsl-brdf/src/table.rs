@@ -340,6 +340,7 @@ impl BrdfTable {
 
     /// A square's integral, within what it can be: the spline can overshoot next to a
     /// near-delta lobe; the true value lies in [0, max density × area].
+    #[inline]
     fn clamp(&self, integral: Vec3, r: f32) -> Vec3 {
         integral.clamp(Vec3::ZERO, self.max_density * (4.0 * r * r))
     }

@@ -4,6 +4,11 @@
 //!
 //! The self-visibility field (SVDF, [`svdf`]) is compressed with clustered PCA ([`cpca`]).
 //! The occluder field (OVDF, [`ovdf`]) is compressed with PCA per segment.
+//!
+//! `unsafe` is confined to the lookups' vector kernels (AVX2/FMA, detected at run time):
+//! calling them, and reading CPCA rows without bounds checks after a per-vector check that
+//! every cell index the bilinear taps can form is in range. Field lookups are a large part
+//! of a frame's time.
 
 pub mod coverage;
 pub mod cpca;
