@@ -92,7 +92,9 @@ pub struct BrdfTable {
     sat: Vec<Vec<[f64; 4]>>,
     /// For isotropic tables, each pair of neighbouring view slices `k`, `k + 1` interleaved:
     /// entry `e` holds slice `k`'s then slice `k + 1`'s value, one 64-byte line, so that a
-    /// view between two slices reads both with one eight-lane operation (AVX-512).
+    /// view between two slices reads both with one eight-lane operation (AVX-512). For a
+    /// single slice, its entries paired with the next row's (`e` and `e + N + 3`), so that
+    /// two rows of a box's taps take one operation.
     pairs: Vec<Vec<Pair>>,
     /// Largest cell density (integral / cell solid angle), per channel, over all slices.
     max_density: Vec3,
@@ -190,7 +192,23 @@ impl BrdfTable {
                         .collect()
                 })
                 .collect(),
-            _ => Vec::new(),
+            // A single slice pairs each row with the next (the last with zeros): two rows
+            // of a box's taps per eight-lane operation.
+            Views::Single => {
+                let width = n + 3;
+                let row = |e: usize| sat[0].get(e + width).copied().unwrap_or([0.0; 4]);
+                vec![
+                    sat[0]
+                        .iter()
+                        .enumerate()
+                        .map(|(e, a)| {
+                            let b = row(e);
+                            Pair([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
+                        })
+                        .collect(),
+                ]
+            }
+            Views::Anisotropic(_) => Vec::new(),
         };
         Ok(Self { brdf: *brdf, grid, views, sat, pairs, max_density })
     }
@@ -307,7 +325,17 @@ impl BrdfTable {
         let s = r / std::f32::consts::SQRT_2;
         let integral = match *view {
             ViewLookup::Below => return Vec3::ZERO,
-            ViewLookup::Single => self.box_integral(0, hemi_from_dir(light), s),
+            ViewLookup::Single => {
+                let p = hemi_from_dir(light);
+                #[cfg(target_arch = "x86_64")]
+                if let Some(rows) = self.pairs.first().filter(|_| simd::available_512()) {
+                    #[allow(unsafe_code)]
+                    // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
+                    let out = unsafe { simd::box_rows(rows, p, s, self.grid.n()) };
+                    return self.clamp(Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32), r);
+                }
+                self.box_integral(0, p, s)
+            }
             ViewLookup::Isotropic { cos: c, sin: sn, slice: k, weight: f } => {
                 // Rotate by −φ_v about z.
                 let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
@@ -565,6 +593,41 @@ mod simd {
         let out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(w[0])), low, _mm256_setzero_pd());
         bytemuck::cast(_mm256_fmadd_pd(_mm256_set1_pd(f64::from(w[1])), high, out))
     }
+
+    /// [`box_blend`] of a single slice whose rows are paired in `rows` (entry `e` holds rows
+    /// `e` and `e + n + 3`): the box's rows two at a time, the same sums in the same order.
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    #[allow(unsafe_code)]
+    pub(super) fn box_rows(rows_paired: &[super::Pair], p: Vec2, s: f32, n: usize) -> [f64; 4] {
+        let width = n + 3;
+        assert_eq!(rows_paired.len(), width * width, "a padded table of (n+3)² entries");
+        let (wx, wy, rows, cols) = taps(p, s, n);
+        let wx = wx.map(|w| _mm512_set1_pd(w));
+        // Lines q = 0..4 hold rows 2q and 2q + 1 (each run of four rows is consecutive).
+        let mut lines = [_mm512_setzero_pd(); 4];
+        for (q, line) in lines.iter_mut().enumerate() {
+            let row = rows[2 * q];
+            for (run, &col) in cols.iter().enumerate() {
+                for d in 0..4 {
+                    // SAFETY: as in `box_blend`: every index is below (n + 3)², the length
+                    // asserted above.
+                    let v: __m512d = bytemuck::cast(unsafe { *rows_paired.get_unchecked(row + col + d) });
+                    *line = _mm512_fmadd_pd(wx[run * 4 + d], v, *line);
+                }
+            }
+        }
+        let weight = |q: usize| {
+            let (a, b) = (_mm256_set1_pd(wy[2 * q]), _mm256_set1_pd(wy[2 * q + 1]));
+            _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(a), b)
+        };
+        let weighted: [__m512d; 4] = std::array::from_fn(|q| _mm512_mul_pd(lines[q], weight(q)));
+        // Rows 0, 2, 4, 6 in the low halves and 1, 3, 5, 7 in the high: the portable pairwise
+        // order, ((0 + 4) + (2 + 6)) + ((1 + 5) + (3 + 7)).
+        let acc = _mm512_add_pd(_mm512_add_pd(weighted[0], weighted[2]), _mm512_add_pd(weighted[1], weighted[3]));
+        let (low, high) = (_mm512_castpd512_pd256(acc), _mm512_extractf64x4_pd::<1>(acc));
+        let out = _mm256_fmadd_pd(_mm256_set1_pd(1.0), _mm256_add_pd(low, high), _mm256_setzero_pd());
+        bytemuck::cast(out)
+    }
 }
 
 /// Catmull–Rom weights of the points at offsets −1, 0, 1, 2 for a parameter `t ∈ [0, 1]`.
@@ -776,5 +839,27 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, 3000);
+    }
+
+    #[test]
+    fn a_single_slice_reads_the_same_with_paired_rows() {
+        let brdf = Brdf::Lambert { albedo: Vec3::new(0.8, 0.5, 0.2) };
+        let table = BrdfTable::build(&brdf, Resolution { n: 32, views: 16 }).unwrap();
+        let mut rng = Pcg32::new(6);
+        for _ in 0..3000 {
+            let p = Vec2::new(rng.next_f32() * 2.6 - 1.3, rng.next_f32() * 2.6 - 1.3);
+            let s = 10f32.powf(-3.0 + 3.3 * rng.next_f32());
+            let want = table.box_blend_portable(&[(0, 1.0)], p, s);
+            let close = |got: Vec3| (got - want).abs().max_element() <= 1e-6 * want.abs().max_element() + 1e-10;
+            assert!(close(table.box_blend(&[(0, 1.0)], p, s)));
+            #[cfg(target_arch = "x86_64")]
+            if simd::available_512() {
+                #[allow(unsafe_code)]
+                // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
+                let out = unsafe { simd::box_rows(&table.pairs[0], p, s, 32) };
+                let got = Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32);
+                assert!(close(got), "paired rows, p = {p}, s = {s}: {got} vs {want}");
+            }
+        }
     }
 }
