@@ -478,16 +478,16 @@ mod simd {
     use glam::Vec2;
     use std::arch::x86_64::*;
 
-    /// Whether the processor has AVX2 and FMA (detected once, then cached).
+    /// Whether the AVX2/FMA kernels run ([`rsl_sphere::simd::level`]).
     #[inline]
     pub(super) fn available() -> bool {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+        rsl_sphere::simd::level() >= rsl_sphere::simd::Level::Avx2
     }
 
-    /// Whether the processor also has AVX-512F (detected once, then cached).
+    /// Whether the AVX-512 kernels run ([`rsl_sphere::simd::level`]).
     #[inline]
     pub(super) fn available_512() -> bool {
-        available() && std::is_x86_feature_detected!("avx512f")
+        rsl_sphere::simd::level() >= rsl_sphere::simd::Level::Avx512
     }
 
     /// The spline taps of the box `[p − s, p + s]²` on a padded table of width `n + 3`:

@@ -28,6 +28,7 @@ pub mod hemi;
 pub mod latlong;
 pub mod mesh;
 pub mod sampling;
+pub mod simd;
 
 pub use frame::Frame;
 pub use glam;

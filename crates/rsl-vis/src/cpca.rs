@@ -140,10 +140,10 @@ pub(crate) mod simd {
     use super::CpcaVector;
     use std::arch::x86_64::*;
 
-    /// Whether the processor has AVX2 and FMA (detected once, then cached).
+    /// Whether the AVX2/FMA kernels run ([`rsl_sphere::simd::level`]).
     #[inline]
     pub(crate) fn available() -> bool {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+        rsl_sphere::simd::level() >= rsl_sphere::simd::Level::Avx2
     }
 
     /// [`CpcaVector::blend_into`] in vector registers: `blend!(v, acc, cells, w)` adds
