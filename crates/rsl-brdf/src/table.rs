@@ -183,30 +183,14 @@ impl BrdfTable {
         let n = grid.n();
         let sat: Vec<Vec<[f64; 4]>> = slices.into_par_iter().map(|(cells, _)| summed_area(&cells, n)).collect();
         let pairs = match views {
-            Views::Isotropic(_) => sat
-                .windows(2)
-                .map(|w| {
-                    w[0].iter()
-                        .zip(&w[1])
-                        .map(|(a, b)| Pair([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]))
-                        .collect()
-                })
-                .collect(),
+            Views::Isotropic(_) => {
+                sat.windows(2).map(|w| w[0].iter().zip(&w[1]).map(|(a, b)| Pair::of(*a, *b)).collect()).collect()
+            }
             // A single slice pairs each row with the next (the last with zeros): two rows
             // of a box's taps per eight-lane operation.
             Views::Single => {
-                let width = n + 3;
-                let row = |e: usize| sat[0].get(e + width).copied().unwrap_or([0.0; 4]);
-                vec![
-                    sat[0]
-                        .iter()
-                        .enumerate()
-                        .map(|(e, a)| {
-                            let b = row(e);
-                            Pair([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
-                        })
-                        .collect(),
-                ]
+                let below = |e: usize| sat[0].get(e + n + 3).copied().unwrap_or([0.0; 4]);
+                vec![sat[0].iter().enumerate().map(|(e, a)| Pair::of(*a, below(e))).collect()]
             }
             Views::Anisotropic(_) => Vec::new(),
         };
@@ -427,6 +411,13 @@ impl BrdfTable {
 #[repr(C, align(64))]
 struct Pair([f64; 8]);
 
+impl Pair {
+    /// `a`'s lanes, then `b`'s.
+    fn of(a: [f64; 4], b: [f64; 4]) -> Self {
+        Pair([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
+    }
+}
+
 /// The 8×8 taps of a box on a padded summed-area table: eight rows (entry offsets) with
 /// signed weights, and two runs of four consecutive columns with signed weights.
 struct Taps {
@@ -471,10 +462,12 @@ fn pairwise(v: [[f64; 4]; 8]) -> [f64; 4] {
     pair(pair(pair(v[0], v[4]), pair(v[2], v[6])), pair(pair(v[1], v[5]), pair(v[3], v[7])))
 }
 
-/// `BrdfTable::box_blend` in AVX2 with fused multiply-adds: the four coordinates' spline
-/// taps at once, then one register per row's partial sum.
+/// The box kernels in vector registers with fused multiply-adds: the four coordinates' spline
+/// taps at once (AVX2), then one register per row's partial sum, four lanes (AVX2, one
+/// slice) or eight (AVX-512: two slices, or two rows of one slice).
 #[cfg(target_arch = "x86_64")]
 mod simd {
+    use super::Taps;
     use glam::Vec2;
     use std::arch::x86_64::*;
 
@@ -490,12 +483,11 @@ mod simd {
         rsl_sphere::simd::level() >= rsl_sphere::simd::Level::Avx512
     }
 
-    /// The spline taps of the box `[p − s, p + s]²` on a padded table of width `n + 3`:
-    /// column weights (x1's four taps positive, then x0's negative), row weights likewise,
-    /// row offsets and the two column runs' first indices.
+    /// The spline taps of the box `[p − s, p + s]²` on a padded table of width `n + 3`, as
+    /// `BrdfTable::box_blend_portable` forms them.
     #[inline]
     #[target_feature(enable = "avx2,fma")]
-    fn taps(p: Vec2, s: f32, n: usize) -> ([f64; 8], [f64; 8], [usize; 8], [usize; 2]) {
+    fn taps(p: Vec2, s: f32, n: usize) -> Taps {
         let width = n + 3;
         // Lanes: x0, x1, y0, y1 (the box's edges), as `taps` in the portable path.
         let c = _mm256_cvtps_pd(_mm_setr_ps(p.x - s, p.x + s, p.y - s, p.y + s));
@@ -526,7 +518,7 @@ mod simd {
         let wy: [f64; 8] = std::array::from_fn(|d| if d < 4 { w[d][3] } else { -w[d - 4][2] });
         let first = first.map(|f| f as usize);
         let rows: [usize; 8] = std::array::from_fn(|r| if r < 4 { first[3] + r } else { first[2] + r - 4 } * width);
-        (wx, wy, rows, [first[1], first[0]])
+        Taps { rows, wy, cols: [first[1], first[0]], wx }
     }
 
     /// `Σ_slices w ·` the box `[p − s, p + s]²` of each slice's padded `(n+3)²` table.
@@ -534,7 +526,7 @@ mod simd {
     #[allow(unsafe_code)]
     pub(super) fn box_blend(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], p: Vec2, s: f32, n: usize) -> [f64; 4] {
         let width = n + 3;
-        let (wx, wy, rows, cols) = taps(p, s, n);
+        let Taps { rows, wy, cols, wx } = taps(p, s, n);
         let wx = wx.map(|w| _mm256_set1_pd(w));
         let mut out = _mm256_setzero_pd();
         for &(k, weight) in slices {
@@ -570,7 +562,7 @@ mod simd {
     pub(super) fn box_pair(pair: &[super::Pair], w: [f32; 2], p: Vec2, s: f32, n: usize) -> [f64; 4] {
         let width = n + 3;
         assert_eq!(pair.len(), width * width, "a padded table of (n+3)² entries");
-        let (wx, wy, rows, cols) = taps(p, s, n);
+        let Taps { rows, wy, cols, wx } = taps(p, s, n);
         let wx = wx.map(|w| _mm512_set1_pd(w));
         let mut lines = [_mm512_setzero_pd(); 8];
         for (line, &row) in lines.iter_mut().zip(&rows) {
@@ -601,7 +593,7 @@ mod simd {
     pub(super) fn box_rows(rows_paired: &[super::Pair], p: Vec2, s: f32, n: usize) -> [f64; 4] {
         let width = n + 3;
         assert_eq!(rows_paired.len(), width * width, "a padded table of (n+3)² entries");
-        let (wx, wy, rows, cols) = taps(p, s, n);
+        let Taps { rows, wy, cols, wx } = taps(p, s, n);
         let wx = wx.map(|w| _mm512_set1_pd(w));
         // Lines q = 0..4 hold rows 2q and 2q + 1 (each run of four rows is consecutive).
         let mut lines = [_mm512_setzero_pd(); 4];

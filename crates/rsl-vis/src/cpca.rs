@@ -32,7 +32,7 @@ pub struct Cpca {
     /// Whether the coefficients are half-precision values (stored as f16).
     pub f16: bool,
     /// Per cluster `c` and component `j`, the `k` basis values of that component in
-    /// [`Lanes`] of eight (zero-padded), at `(c·d + j)·L` with `L = ⌈k/8⌉`: what a
+    /// [`Lane`]s of eight (zero-padded), at `(c·d + j)·L` with `L = ⌈k/8⌉`: what a
     /// single-component lookup reads, each lane within one cache line. Derived from `bases`
     /// by [`Cpca::with_lookup`].
     pub(crate) rows: Vec<Lane>,
@@ -43,10 +43,10 @@ pub struct Cpca {
 /// Eight `f32` on a 32-byte boundary: one vector register, never split across cache lines.
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(32))]
-pub struct Lane(pub [f32; 8]);
+pub(crate) struct Lane(pub(crate) [f32; 8]);
 
 /// Lanes of eight that hold `k` values.
-pub fn lanes_for(k: usize) -> usize {
+pub(crate) fn lanes_for(k: usize) -> usize {
     k.div_ceil(8)
 }
 
@@ -95,8 +95,8 @@ impl CpcaVector<'_> {
     }
 
     /// Adds `Σ_c w_c·(coefficients ⊙ row_c)` to the lanes of `acc` and returns `Σ_c w_c·mean_c`:
-    /// the bilinear blend of four cells, before its lanes are summed. The same order of
-    /// operations everywhere, so every path that blends cells agrees to the bit.
+    /// the bilinear blend of four cells, before its lanes are summed (the portable form of
+    /// `simd::blend!`, which fuses the multiply-adds).
     #[inline(always)]
     pub(crate) fn blend_into(&self, acc: &mut [f32; 8], cells: [usize; 4], w: [f32; 4]) -> f32 {
         let l = self.lanes();
@@ -371,6 +371,12 @@ impl Cpca {
                 }
             }
         }
+        self.with_coefficient_lanes()
+    }
+
+    /// Builds the coefficients' lanes from `coeffs` (the rows depend on the bases alone).
+    fn with_coefficient_lanes(mut self) -> Self {
+        let (k, l) = (self.k, lanes_for(self.k));
         self.coeff_lanes = vec![Lane::default(); self.assignment.len() * l];
         for (i, co) in self.coeffs.chunks_exact(k.max(1)).enumerate().take(self.assignment.len()) {
             for (t, &a) in co.iter().enumerate().take(k) {
@@ -470,7 +476,7 @@ impl Cpca {
             f16: true,
             ..self.clone()
         }
-        .with_lookup()
+        .with_coefficient_lanes()
     }
 
     /// Bytes as stored: f16 or f32 coefficients.

@@ -90,6 +90,10 @@ pub struct Ovdf {
     /// Each cube texel's sample frame, `Frame::from_normal(−u)` (computed once: lookups read
     /// eight of them).
     frames: Vec<Frame>,
+    /// Whether every segment holds `n²` means and rows and `n ≥ 2`, so that the vector
+    /// kernel may read them without bounds checks: true of every field built or read here
+    /// (a field that is not takes the portable path).
+    whole: bool,
     /// Bytes uncompressed, f32, f16; RMS distance error.
     pub raw_bytes: usize,
     /// Compressed bytes with f32 coefficients.
@@ -229,12 +233,15 @@ impl Ovdf {
         let ([raw_bytes, bytes_f32, bytes_f16], [rms_distance_error, rms_coverage_error]) = (bytes, errors);
         let grid = CubeGrid::new(params.m);
         let frames = (0..grid.len()).map(|t| Frame::from_normal(-grid.texel_dir(t))).collect();
+        let d = params.n * params.n;
+        let whole = params.n >= 2 && segments.iter().all(|c| c.vector(0).is_whole(d));
         Ok(Self {
             centre,
             radius,
             params,
             segments,
             frames,
+            whole,
             raw_bytes,
             bytes_f32,
             bytes_f16,
@@ -322,17 +329,14 @@ impl Ovdf {
         // The outer shell's samples repeat the inner ones (with zero weight) when unused.
         let outer = if shells == 2 { 1 } else { 0 };
         let (w_inner, w_outer) = if shells == 2 { (1.0 - w, w) } else { (1.0, 0.0) };
-        let mut whole = true;
-        let mut sample = |k: usize| {
+        let sample = |k: usize| {
             let t = k % 4;
             let (segment, index) = at.places[t];
             let (s, weight) = if k < 4 { (at.shell, w_inner) } else { (at.shell + outer, w_outer) };
-            let v = self.segments[s * 24 + segment as usize].vector(index as usize);
-            whole &= v.is_whole(n * n);
-            (v, weight * at.weights[t])
+            (self.segments[s * 24 + segment as usize].vector(index as usize), weight * at.weights[t])
         };
         let samples = [sample(0), sample(1), sample(2), sample(3), sample(4), sample(5), sample(6), sample(7)];
-        OvdfLookup { n, shells, axes, samples, whole }
+        OvdfLookup { n, shells, axes, samples, whole: self.whole }
     }
 
     /// The signed distance (visible > 0) to this object's shadow boundary for light from
@@ -370,9 +374,8 @@ pub struct OvdfLookup<'a> {
     axes: [[f32; 4]; 9],
     /// Inner shell's four texels, then the outer shell's, each with its trilinear weight.
     samples: [(CpcaVector<'a>, f32); 8],
-    /// Whether every sample holds `n²` means and rows (what the vector kernel reads
-    /// without bounds checks); fields are built so, and a lookup that is not takes the
-    /// portable path.
+    /// The field's [`Ovdf`] `whole`: the vector kernel may read its samples without bounds
+    /// checks.
     whole: bool,
 }
 
@@ -400,7 +403,7 @@ impl OvdfLookup<'_> {
 /// [`OvdfLookup::distance`]: AVX2 and FMA where the processor has them.
 fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
     #[cfg(target_arch = "x86_64")]
-    if at.whole && at.n >= 2 && crate::cpca::simd::available() {
+    if at.whole && crate::cpca::simd::available() {
         #[allow(unsafe_code)]
         // SAFETY: the processor has AVX2 and FMA (checked at run time just above).
         return unsafe { lookup_distance_avx2(at, dir) };
@@ -495,7 +498,7 @@ mod tests {
     use super::*;
     use rsl_sphere::sampling::Pcg32;
 
-    /// A field of random segments (no geometry): 2 shells of 6×4×4 samples with 8×8 tables,
+    /// A field of random segments (no geometry): 3 shells of 6×4×4 samples with 8×8 tables,
     /// `k` vectors per segment.
     fn random_field(k: usize, seed: u64) -> Ovdf {
         let params = OvdfParams { shells: 3, m: 4, n: 8, supersample: 1, vectors: k };
