@@ -6,15 +6,15 @@
 //! the first run builds the paper-resolution fields (about a minute and a half on 2 cores).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rsl::engine::{Engine, EngineOptions};
-use rsl::scene::Scene;
+use rsl_engine::{Engine, EngineOptions};
+use rsl_engine::scene::Scene;
 use rsl_shade::Terms;
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/bench.toml");
     let scene = Scene::load(&path).expect("bench scene");
-    let options = EngineOptions { cache_dir: rsl::cache::default_dir(), progress: true, ..Default::default() };
+    let options = EngineOptions { cache_dir: rsl_engine::cache::default_dir(), ..Default::default() };
     let engine = Engine::new(&scene, options).expect("prepared");
     let (vertices, _) = scene.counts();
     let t = 1.0;

@@ -2,7 +2,7 @@
 //! files from `rsl render --vertex-out`) or over the pixels objects cover (two EXR files from
 //! `rsl render`; their alpha marks coverage), with an optional false-colour heatmap.
 
-use crate::{output, ply};
+use rsl_engine::{output, ply};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use rsl_scene::Scene;

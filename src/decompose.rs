@@ -126,11 +126,11 @@ pub fn run(args: &DecomposeArgs) -> Result<()> {
                 })
                 .collect(),
         };
-        crate::output::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+        rsl_engine::output::write_atomic(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     if let Some(path) = &args.png {
         let (w, h, rgb) = rsl_env::visualise::render_figure(&loaded.map, &d, args.rsl)?;
-        crate::output::write_png(path, w, h, rgb)?;
+        rsl_engine::output::write_png(path, w, h, rgb)?;
     }
     Ok(())
 }

@@ -1,12 +1,10 @@
-//! `rsl precompute`, `rsl render` and `rsl demo`.
+//! `rsl precompute`, `rsl render` and `rsl demo`: loops over rsl-engine's [`Method`]s.
 
-use crate::engine::{Engine, EngineOptions, ShadedFrame};
-use crate::gpu::GpuRenderer;
-use crate::{output, ply};
 use anyhow::{Context, Result, bail};
-use glam::Vec3;
+use rsl_engine::method::{CpuRsl, Frame, GpuRsl, Method, Request, Truth, exposure_for};
+use rsl_engine::{Engine, EngineOptions, GpuRenderer, Layers, output, ply};
 use rsl_scene::{Material, Preset, Scene};
-use rsl_shade::{Image, RasterMesh, tonemap};
+use rsl_shade::tonemap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -77,10 +75,11 @@ impl PrepareArgs {
     /// The engine options these arguments ask for (progress shown).
     pub fn options(&self) -> EngineOptions {
         EngineOptions {
-            cache_dir: if self.no_cache { None } else { self.cache.clone().or_else(crate::cache::default_dir) },
+            cache_dir: if self.no_cache { None } else { self.cache.clone().or_else(rsl_engine::cache::default_dir) },
             rsl_count: self.rsl,
             quality: self.quality,
-            progress: true,
+            progress: crate::progress::bars(),
+            ..EngineOptions::default()
         }
     }
 }
@@ -109,8 +108,8 @@ pub struct RenderArgs {
     pub timings: bool,
     /// How radiance is computed: `rsl` (the renderer) or `truth` (Monte Carlo reference:
     /// per pixel through the camera, and per vertex for --vertex-out).
-    #[arg(long, value_enum, default_value_t = Method::Rsl)]
-    pub method: Method,
+    #[arg(long, value_enum, default_value_t = MethodArg::Rsl)]
+    pub method: MethodArg,
     /// Samples per pixel and per vertex of `--method truth` (each sample traces up to two
     /// shadow rays: one toward the environment, one along the BRDF).
     #[arg(long, default_value_t = 64)]
@@ -174,64 +173,24 @@ fn numbered(path: &Path, k: u32) -> PathBuf {
     path.with_file_name(format!("{stem}_{k:04}{ext}"))
 }
 
-/// The automatic exposure of an image: keyed on the pixels objects cover (the background
-/// alone when none do).
-pub fn exposure_for(image: &Image) -> f32 {
-    let objects: Vec<_> = image.pixels.iter().zip(&image.covered).filter(|p| *p.1).map(|p| *p.0).collect();
-    tonemap::auto_exposure(if objects.is_empty() { &image.pixels } else { &objects })
-}
-
-/// Rasterises a shaded frame with the environment behind it.
-pub fn rasterise(engine: &Engine, scene: &Scene, frame: &ShadedFrame) -> Image {
-    let meshes: Vec<RasterMesh<'_>> = scene
-        .objects
-        .iter()
-        .enumerate()
-        .map(|(i, o)| RasterMesh {
-            positions: &frame.positions[i],
-            indices: &o.mesh.indices,
-            radiance: &frame.radiance[i],
-        })
-        .collect();
-    rsl_shade::rasterise(&scene.camera, &meshes, |d| engine.background(&frame.state, d))
-}
-
-/// Per object, per vertex: world positions, world normals, radiance toward the eye.
-struct Vertices {
-    positions: Vec<Vec<Vec3>>,
-    normals: Vec<Vec<Vec3>>,
-    radiance: Vec<Vec<Vec3>>,
-}
-
-fn write_vertices(path: &Path, scene: &Scene, v: &Vertices) -> Result<()> {
+fn write_vertices(path: &Path, scene: &Scene, f: &Frame) -> Result<()> {
     let objects: Vec<ply::PlyObject<'_>> = scene
         .objects
         .iter()
         .enumerate()
         .map(|(i, o)| ply::PlyObject {
-            positions: &v.positions[i],
-            normals: &v.normals[i],
-            radiance: &v.radiance[i],
+            positions: &f.positions[i],
+            normals: &f.normals[i],
+            radiance: &f.radiance[i],
             indices: &o.mesh.indices,
         })
         .collect();
     ply::write(path, &objects)
 }
 
-/// `‖standard error‖₂ / ‖mean‖₂` over the estimates: the relative L2 error the truth
-/// itself carries.
-fn relative_error<'a>(est: impl Iterator<Item = &'a rsl_truth::Estimate>) -> f64 {
-    let (mut se, mut m) = (0.0f64, 0.0f64);
-    for e in est {
-        se += f64::from(e.std_error.length_squared());
-        m += f64::from(e.mean.length_squared());
-    }
-    if m > 0.0 { (se / m).sqrt() } else { 0.0 }
-}
-
 /// How a frame is computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Method {
+pub enum MethodArg {
     /// Rotatable square lights and the multiple product approximation.
     Rsl,
     /// The Monte Carlo ground truth (multiple importance sampling, shadow rays).
@@ -242,22 +201,71 @@ fn print_preparation(engine: &Engine) {
     let t = engine.timings();
     let c = engine.cache_stats();
     let (preset, q) = engine.settings();
+    let m = engine.memory();
+    use rsl_engine::engine::stage;
     eprintln!(
         "prepared ({} quality, {} RSLs, tables {}×{}): environment {:.0} ms, BRDF tables {:.0} ms, \
-         self-visibility {:.0} ms, occluder fields {:.0} ms; cache: {} hits ({} from disk), {} computed, {} rejected",
+         self-visibility {:.0} ms, occluder fields {:.0} ms; cache: {} hits ({} from disk), {} computed, {} rejected; \
+         {:.1} MB in memory",
         preset.name(),
         engine.rsls().len(),
         q.table_resolution,
         q.table_resolution,
-        t.environment_ms,
-        t.tables_ms,
-        t.svdf_ms,
-        t.ovdf_ms,
+        t.ms(stage::ENVIRONMENT),
+        t.ms(stage::TABLES),
+        t.ms(stage::SVDF),
+        t.ms(stage::OVDF),
         c.hits(),
         c.disk_hits,
         c.misses,
-        c.rejected
+        c.rejected,
+        m.resident_bytes as f64 / 1e6
     );
+}
+
+/// The method `kind` asks for on `device` (the RSL path) for `engine`.
+fn method_for(kind: MethodArg, device: Device, engine: &Engine, spp: u32, seed: u64) -> Result<Box<dyn Method>> {
+    Ok(match kind {
+        MethodArg::Truth => {
+            let mut t = Truth::new(engine, spp, seed)?;
+            t.progress = crate::progress::bars();
+            Box::new(t)
+        }
+        MethodArg::Rsl => match select_device(device)? {
+            Some(renderer) => Box::new(GpuRsl { renderer }),
+            None => Box::new(CpuRsl),
+        },
+    })
+}
+
+/// Says what a Monte Carlo frame's own error is, or that one sample cannot tell.
+fn print_self_error(frame: &Frame, spp: u32, secs: f64) {
+    let rays = frame.shadow_rays;
+    eprintln!("truth: {spp} spp, {rays} shadow rays in {secs:.1} s ({:.2} M rays/s)", rays as f64 / secs / 1e6);
+    match frame.self_error {
+        Some(e) => {
+            if let Some(p) = e.pixels {
+                eprintln!("truth: per-pixel standard error {:.3}% of the covered pixels' radiance (relative L2)", 100.0 * p);
+            }
+            if let Some(v) = e.vertices {
+                eprintln!("truth: per-vertex standard error {:.3}% of the radiance (relative L2)", 100.0 * v);
+            }
+        }
+        None => eprintln!(
+            "truth: standard error not estimated: one sample per point cannot measure its own spread (use --spp 2 or more)"
+        ),
+    }
+}
+
+/// Encodes a frame's image for display at `exposure` (set from the first frame when `None`):
+/// the device's encoding where it made one at that exposure, else the CPU tonemapper.
+fn display_rgb(frame: &mut Frame, exposure: &mut Option<f32>) -> Result<Vec<u8>> {
+    let image = frame.image.as_ref().context("the method made no image")?;
+    let e = *exposure.get_or_insert_with(|| frame.encoded.as_ref().map_or_else(|| exposure_for(image), |x| x.exposure));
+    Ok(match frame.encoded.take() {
+        Some(enc) if enc.exposure == e => enc.rgb,
+        _ => tonemap::encode_all(&image.pixels, e),
+    })
 }
 
 /// `rsl precompute SCENE`.
@@ -286,14 +294,14 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     {
         bail!("--exposure must be a positive number, got {e}");
     }
-    if args.method == Method::Truth && args.device == Device::Gpu {
+    if args.method == MethodArg::Truth && args.device == Device::Gpu {
         bail!("--method truth runs on the CPU only; drop --device gpu");
     }
-    if args.method == Method::Truth && args.spp == 0 {
+    if args.method == MethodArg::Truth && args.spp == 0 {
         bail!("--spp must be at least 1");
     }
     let scene = Scene::load(&args.scene)?;
-    if args.method == Method::Truth && scene.objects.is_empty() {
+    if args.method == MethodArg::Truth && scene.objects.is_empty() {
         bail!("{}: the scene has no objects; there is nothing to estimate", args.scene.display());
     }
     let times: Vec<(Option<u32>, f32)> = match (args.frames, args.time) {
@@ -306,122 +314,37 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             vec![(None, t)]
         }
     };
-    let engine = match args.method {
-        Method::Rsl => {
-            let e = Engine::new(&scene, args.prepare.options())?;
-            print_preparation(&e);
-            Some(e)
-        }
-        Method::Truth => None,
-    };
-    let truth = match args.method {
-        Method::Truth => Some((crate::truth::env_light(&scene)?, crate::truth::vertex_frames(&scene))),
-        Method::Rsl => None,
-    };
-    let mut gpu = match (&engine, args.method) {
-        (Some(_), Method::Rsl) => select_device(args.device)?,
-        _ => None,
-    };
+    let layers = Layers { rsl: args.method == MethodArg::Rsl };
+    let engine = Engine::new(&scene, EngineOptions { layers, ..args.prepare.options() })?;
+    if layers.rsl {
+        print_preparation(&engine);
+    }
+    let mut method = method_for(args.method, args.device, &engine, args.spp, args.seed)?;
     let mut exposure = args.exposure;
     let mut gif_frames = Vec::new();
-    let (mut shade_ms, mut raster_ms) = (0.0, 0.0);
+    let mut spent = rsl_engine::Timings::default();
     for &(k, t) in &times {
         let start = Instant::now();
-        let mut encoded = None;
-        let (image, vertices) = if let (Some(engine), Some(gpu)) = (&engine, gpu.as_mut()) {
-            let frame = gpu.render(engine, &scene, t, exposure, exposure_for)?;
-            let g = frame.timings;
-            shade_ms += g.shade.gpu_ms.unwrap_or(g.shade.wall_ms);
-            raster_ms += g.draw.gpu_ms.unwrap_or(g.draw.wall_ms);
-            if args.timings {
-                let ms = |p: rsl_gpu::shade::PassTime| match p.gpu_ms {
-                    Some(m) => format!("{m:.3} ms (GPU), {:.1} ms wall", p.wall_ms),
-                    None => format!("{:.1} ms wall", p.wall_ms),
-                };
-                eprintln!(
-                    "t = {t:.3} s: shading {}; draw {}; image readback {:.1} ms; tonemap + readback {:.1} ms",
-                    ms(g.shade),
-                    ms(g.draw),
-                    g.readback_ms,
-                    g.tonemap.wall_ms
-                );
-            }
-            exposure = Some(frame.exposure);
-            encoded = Some(frame.rgb);
-            let vertices = if args.vertex_out.is_some() {
-                // The frame just drawn, read back (not shaded again).
-                let ShadedFrame { positions, normals, radiance, .. } = gpu.read_frame(engine, &scene, t)?;
-                Vertices { positions, normals, radiance }
-            } else {
-                Vertices { positions: Vec::new(), normals: Vec::new(), radiance: Vec::new() }
-            };
-            (frame.image, vertices)
-        } else if let Some(engine) = &engine {
-            let frame = engine.shade(&scene, t)?;
-            shade_ms += frame.shade_ms;
-            let start = Instant::now();
-            let image = rasterise(engine, &scene, &frame);
-            let ms = start.elapsed().as_secs_f64() * 1e3;
-            raster_ms += ms;
-            if args.timings {
-                eprintln!("t = {t:.3} s: shading {:.1} ms (CPU); rasterising {ms:.1} ms (CPU)", frame.shade_ms);
-            }
-            let ShadedFrame { positions, normals, radiance, .. } = frame;
-            (image, Vertices { positions, normals, radiance })
-        } else {
-            let (env, frames) = truth.as_ref().expect("truth inputs for --method truth");
-            let ts = crate::truth::truth_scene(&scene, frames, env.clone(), t)?;
-            let bar = crate::engine::progress_bar(true, format!("truth, {} spp, pixels", args.spp));
-            let report = crate::engine::report_to(&bar);
-            let (px, covered, stats) = ts.pixels_with_progress(&scene.camera, args.spp, args.seed, &report)?;
-            bar.finish_and_clear();
-            let rel_se = relative_error(px.iter().zip(&covered).filter(|(_, c)| **c).map(|(e, _)| e));
-            let image = Image {
-                width: scene.camera.width,
-                height: scene.camera.height,
-                pixels: px.iter().map(|e| e.mean).collect(),
-                covered,
-            };
-            let mut rays = stats.shadow_rays;
-            let vertices = if args.vertex_out.is_some() {
-                let bar = crate::engine::progress_bar(true, format!("truth, {} spp, vertices", args.spp));
-                let report = crate::engine::report_to(&bar);
-                let (est, vstats) = ts.vertices_with_progress(scene.camera.eye, args.spp, args.seed, &report)?;
-                bar.finish_and_clear();
-                eprintln!(
-                    "truth: per-vertex standard error {:.3}% of the radiance (relative L2)",
-                    100.0 * relative_error(est.iter().flatten())
-                );
-                rays += vstats.shadow_rays;
-                let n = scene.objects.len();
-                Vertices {
-                    positions: (0..n).map(|i| ts.positions(i).to_vec()).collect(),
-                    normals: (0..n).map(|i| (0..est[i].len()).map(|v| ts.frame(i, v).n).collect()).collect(),
-                    radiance: est.iter().map(|o| o.iter().map(|e| e.mean).collect()).collect(),
-                }
-            } else {
-                Vertices { positions: Vec::new(), normals: Vec::new(), radiance: Vec::new() }
-            };
-            let secs = start.elapsed().as_secs_f64();
-            shade_ms += secs * 1e3;
-            eprintln!(
-                "truth: {} spp, {rays} shadow rays in {secs:.1} s ({:.2} M rays/s); per-pixel standard error \
-                 {:.3}% of the covered pixels' radiance (relative L2)",
-                args.spp,
-                rays as f64 / secs / 1e6,
-                100.0 * rel_se
-            );
-            (image, vertices)
-        };
+        let request = Request { time: t, image: true, vertices: args.vertex_out.is_some(), exposure };
+        let mut frame = method.render(&engine, &scene, &request)?;
+        for s in &frame.timings.stages {
+            spent.add(s.name, s.wall_ms, s.gpu_ms);
+        }
+        if args.timings {
+            eprintln!("t = {t:.3} s: {}", frame.timings.describe());
+        }
+        if args.method == MethodArg::Truth {
+            print_self_error(&frame, args.spp, start.elapsed().as_secs_f64());
+        }
+        let rgb = display_rgb(&mut frame, &mut exposure)?;
+        let image = frame.image.as_ref().context("the method made no image")?;
         let out = k.map_or_else(|| args.out.clone(), |k| numbered(&args.out, k));
-        let e = *exposure.get_or_insert_with(|| exposure_for(&image));
-        let rgb = encoded.unwrap_or_else(|| tonemap::encode_all(&image.pixels, e));
         match format {
             Format::Png => output::write_png(&out, image.width, image.height, rgb.clone())?,
             Format::Exr => output::write_exr(&out, image.width, image.height, &image.pixels, &image.covered)?,
         }
         if let Some(p) = &args.vertex_out {
-            write_vertices(&k.map_or_else(|| p.clone(), |k| numbered(p, k)), &scene, &vertices)?;
+            write_vertices(&k.map_or_else(|| p.clone(), |k| numbered(p, k)), &scene, &frame)?;
         }
         if k.is_some() {
             gif_frames.push(rgb);
@@ -434,12 +357,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         eprintln!("wrote {}", gif.display());
     }
     let n = times.len() as f64;
-    eprintln!(
-        "{} frame(s): shading (or estimating) {:.1} ms/frame, drawing {:.1} ms/frame",
-        times.len(),
-        shade_ms / n,
-        raster_ms / n
-    );
+    let per_frame: Vec<String> = spent.stages.iter().map(|s| format!("{} {:.1} ms/frame", s.name, s.ms() / n)).collect();
+    eprintln!("{} frame(s) by {}: {}", times.len(), method.describe(), per_frame.join(", "));
     Ok(())
 }
 
@@ -494,11 +413,8 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
     let mut engine = Engine::new(&scene, args.prepare.options())?;
     let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
     print_preparation(&engine);
-    let mut gpu = select_device(args.device)?;
-    let device = match &gpu {
-        Some(g) => format!("GPU: {}", g.describe()),
-        None => format!("CPU, {} threads", rayon::current_num_threads()),
-    };
+    let mut method = method_for(MethodArg::Rsl, args.device, &engine, 1, 1)?;
+    let device = method.describe();
     let frames = (args.seconds * args.fps).round().max(1.0) as u32;
     let swap_at = frames / 2;
     let swapped = &scene.objects[1].name.clone();
@@ -518,33 +434,15 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
             swap_ms = s.elapsed().as_secs_f64() * 1e3;
         }
         let t = k as f32 / args.fps;
-        let rgb = if let Some(gpu) = gpu.as_mut() {
-            let frame = gpu.render(&engine, &scene, t, exposure, exposure_for)?;
-            shade.push(frame.timings.shade.gpu_ms.unwrap_or(frame.timings.shade.wall_ms));
-            raster += frame.timings.draw.gpu_ms.unwrap_or(frame.timings.draw.wall_ms);
-            exposure = Some(frame.exposure);
-            let s = Instant::now();
-            output::write_png(
-                &args.out.join(format!("frame_{k:04}.png")),
-                frame.image.width,
-                frame.image.height,
-                frame.rgb.clone(),
-            )?;
-            encode += s.elapsed().as_secs_f64() * 1e3;
-            frame.rgb
-        } else {
-            let frame = engine.shade(&scene, t)?;
-            shade.push(frame.shade_ms);
-            let s = Instant::now();
-            let image = rasterise(&engine, &scene, &frame);
-            raster += s.elapsed().as_secs_f64() * 1e3;
-            let s = Instant::now();
-            let e = *exposure.get_or_insert_with(|| exposure_for(&image));
-            let rgb = tonemap::encode_all(&image.pixels, e);
-            output::write_png(&args.out.join(format!("frame_{k:04}.png")), image.width, image.height, rgb.clone())?;
-            encode += s.elapsed().as_secs_f64() * 1e3;
-            rgb
-        };
+        let request = Request { time: t, image: true, vertices: false, exposure };
+        let mut frame = method.render(&engine, &scene, &request)?;
+        shade.push(frame.timings.ms("shade"));
+        raster += frame.timings.ms("draw");
+        let s = Instant::now();
+        let rgb = display_rgb(&mut frame, &mut exposure)?;
+        let image = frame.image.as_ref().context("the method made no image")?;
+        output::write_png(&args.out.join(format!("frame_{k:04}.png")), image.width, image.height, rgb.clone())?;
+        encode += s.elapsed().as_secs_f64() * 1e3;
         gif_frames.push(rgb);
         bar.inc(1);
     }

@@ -109,6 +109,12 @@ pub struct Decomposition {
 }
 
 impl Decomposition {
+    /// Bytes held in memory: the merge tree and its per-step sums.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice())
+            + 8 * (self.fit_sum.len() + self.penalised_sum.len() + self.variance_sum.len())
+    }
+
     /// Decomposes `env` all the way to one region.
     pub fn new(env: &CubeEnv) -> Self {
         let grid = env.grid;

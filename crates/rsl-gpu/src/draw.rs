@@ -72,6 +72,10 @@ pub enum Backdrop<'a> {
 const NEAR: f32 = 1e-3;
 const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The format of display images ([`GpuDraw::tonemap_into`]): 8-bit, holding sRGB-encoded
+/// values (sample it through an `Rgba8UnormSrgb` view or as-is where the consumer expects
+/// encoded values).
+pub const DISPLAY: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
 struct Target {
     width: u32,
@@ -88,6 +92,8 @@ pub struct GpuDraw {
     objects: wgpu::RenderPipeline,
     tonemap: wgpu::ComputePipeline,
     tone_layout: wgpu::BindGroupLayout,
+    tonemap_texture: wgpu::ComputePipeline,
+    tone_texture_layout: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     tone_params: wgpu::Buffer,
     texels: wgpu::Buffer,
@@ -164,6 +170,42 @@ impl GpuDraw {
             immediate_size: 0,
         });
         let tonemap = ctx.compute_pipeline_with_layout(&shaders::TONEMAP, &[], Some(&layout))?;
+        let tone_texture_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("tonemap into a texture"),
+            entries: &[
+                entry(
+                    0,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                ),
+                entry(
+                    1,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                ),
+                entry(
+                    2,
+                    wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: DISPLAY,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                    },
+                ),
+            ],
+        });
+        let texture_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tonemap into a texture"),
+            bind_group_layouts: &[Some(&tone_texture_layout)],
+            immediate_size: 0,
+        });
+        let tonemap_texture =
+            ctx.compute_pipeline_with_layout(&shaders::TONEMAP_TEXTURE, &[], Some(&texture_layout))?;
         let buffer = |label, size, usage| {
             d.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
         };
@@ -177,6 +219,8 @@ impl GpuDraw {
             objects,
             tonemap,
             tone_layout,
+            tonemap_texture,
+            tone_texture_layout,
             params,
             tone_params,
             texels,
@@ -447,6 +491,117 @@ impl GpuDraw {
         }
         let rgb = words.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
         Ok((rgb, PassTime { gpu_ms: None, wall_ms }))
+    }
+}
+
+impl GpuDraw {
+    /// The size of the last drawn image, if any.
+    pub fn size(&self) -> Option<(u32, u32)> {
+        self.target.as_ref().map(|t| (t.width, t.height))
+    }
+
+    /// A texture the size of the last drawn image that [`GpuDraw::tonemap_into`] can write
+    /// and a shader can sample ([`DISPLAY`], storage and texture binding, copy source).
+    pub fn display_texture(&self) -> Result<wgpu::Texture, GpuError> {
+        let (width, height) = self.size().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
+        Ok(self.ctx.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("display image"),
+            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DISPLAY,
+            usage: wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[wgpu::TextureFormat::Rgba8UnormSrgb],
+        }))
+    }
+
+    /// Tonemaps the last drawn image at `exposure` into `target` (a [`DISPLAY`] storage
+    /// texture of the image's size, such as [`GpuDraw::display_texture`]), on the GPU with no
+    /// readback: the same 8-bit sRGB values [`GpuDraw::tonemap`] returns, alpha 1.
+    pub fn tonemap_into(&mut self, exposure: f32, target: &wgpu::Texture) -> Result<PassTime, GpuError> {
+        self.ctx.check_alive()?;
+        let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
+        if target.format() != DISPLAY || (target.width(), target.height()) != (t.width, t.height) {
+            return Err(GpuError::Scene(format!(
+                "tonemap target is {:?} {}×{}; the image needs {DISPLAY:?} {}×{}",
+                target.format(),
+                target.width(),
+                target.height(),
+                t.width,
+                t.height
+            )));
+        }
+        let params = ToneParams { exposure, width: t.width, height: t.height, pad: 0 };
+        self.ctx.queue.write_buffer(&self.tone_params, 0, bytemuck::bytes_of(&params));
+        let view = t.color.create_view(&wgpu::TextureViewDescriptor::default());
+        let out = target.create_view(&wgpu::TextureViewDescriptor::default());
+        let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("tonemap into a texture"),
+            layout: &self.tone_texture_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.tone_params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&out) },
+            ],
+        });
+        let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut enc = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("tonemap into a texture") });
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("tonemap into a texture"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&self.tonemap_texture);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(t.width.div_ceil(8), t.height.div_ceil(8), 1);
+        }
+        let start = Instant::now();
+        self.ctx.queue.submit([enc.finish()]);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Operation { operation: "tonemap into a texture", message: e.to_string() });
+        }
+        Ok(PassTime { gpu_ms: None, wall_ms: start.elapsed().as_secs_f64() * 1e3 })
+    }
+
+    /// Reads a [`DISPLAY`] texture back as interleaved 8-bit RGB (for tests and screenshots).
+    pub fn read_display(&self, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
+        let (w, h) = (texture.width(), texture.height());
+        let row = u64::from(w) * 4;
+        let padded = row.next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
+        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("display readback"),
+            size: padded * u64::from(h),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut enc =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("display") });
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded as u32),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+        );
+        self.ctx.queue.submit([enc.finish()]);
+        let bytes = self.ctx.read_buffer(&staging, padded * u64::from(h))?;
+        Ok(bytes.chunks_exact(padded as usize).flat_map(|r| r[..row as usize].chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]])).collect())
     }
 }
 

@@ -118,6 +118,16 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
+        Ok(Self::from_device(adapter, device, queue))
+    }
+
+    /// A context on a device someone else opened (a viewer passes its window's device and
+    /// queue). The device must have what the passes ask for: eight storage buffers per stage
+    /// and buffer limits large enough for the scene's fields (loading reports what is too
+    /// large). Lost-device and uncaptured-error handlers are installed on it, so failures
+    /// are [`GpuError`]s here as on a device of our own.
+    pub fn from_device(adapter: wgpu::Adapter, device: wgpu::Device, queue: wgpu::Queue) -> Self {
+        let info = adapter.get_info();
         let lost = Arc::new(AtomicBool::new(false));
         let flag = Arc::clone(&lost);
         device.set_device_lost_callback(move |reason, msg| {
@@ -133,7 +143,7 @@ impl GpuContext {
                 s.get_or_insert_with(|| e.to_string());
             }
         }));
-        Ok(Self { adapter, device, queue, info, lost, uncaptured })
+        Self { adapter, device, queue, info, lost, uncaptured }
     }
 
     /// One line describing the adapter: name, type, backend, driver.

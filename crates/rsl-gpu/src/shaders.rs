@@ -36,6 +36,7 @@ const HEMI: (&str, &str) = ("common/hemi.wgsl", include_str!("../../../shaders/c
 const FRAME: (&str, &str) = ("common/frame.wgsl", include_str!("../../../shaders/common/frame.wgsl"));
 const COVERAGE: (&str, &str) = ("common/coverage.wgsl", include_str!("../../../shaders/common/coverage.wgsl"));
 const BRDF: (&str, &str) = ("common/brdf.wgsl", include_str!("../../../shaders/common/brdf.wgsl"));
+const TONE: (&str, &str) = ("common/tone.wgsl", include_str!("../../../shaders/common/tone.wgsl"));
 const VISIBILITY: (&str, &str) = ("common/visibility.wgsl", include_str!("../../../shaders/common/visibility.wgsl"));
 
 /// GPU smoke test: the hemisphere map and its inverse over an array of directions.
@@ -78,13 +79,22 @@ pub const DRAW_OBJECTS: Shader = Shader {
 pub const TONEMAP: Shader = Shader {
     name: "draw/tonemap",
     path: "draw/tonemap.wgsl",
-    common: &[],
+    common: &[TONE],
     text: include_str!("../../../shaders/draw/tonemap.wgsl"),
     entry_points: &["tonemap"],
 };
 
+/// The same encoding into an RGBA8 storage texture that stays on the GPU (for a viewer).
+pub const TONEMAP_TEXTURE: Shader = Shader {
+    name: "draw/tonemap_texture",
+    path: "draw/tonemap_texture.wgsl",
+    common: &[TONE],
+    text: include_str!("../../../shaders/draw/tonemap_texture.wgsl"),
+    entry_points: &["tonemap_texture"],
+};
+
 /// Every registered shader.
-pub const ALL: &[Shader] = &[HEMI_MAP, SHADE_VERTICES, DRAW_BACKGROUND, DRAW_OBJECTS, TONEMAP];
+pub const ALL: &[Shader] = &[HEMI_MAP, SHADE_VERTICES, DRAW_BACKGROUND, DRAW_OBJECTS, TONEMAP, TONEMAP_TEXTURE];
 
 /// Looks a shader up by name.
 pub fn by_name(name: &str) -> Option<&'static Shader> {

@@ -197,6 +197,11 @@ impl Ovdf {
         .map_err(VisError::Mesh)
     }
 
+    /// Bytes held as stored: every segment's PCA and the texel frames.
+    pub fn bytes(&self) -> usize {
+        self.segments.iter().map(Cpca::stored_bytes).sum::<usize>() + std::mem::size_of_val(self.frames.as_slice())
+    }
+
     /// Resolutions the field was built with.
     pub fn params(&self) -> &OvdfParams {
         &self.params

@@ -104,6 +104,15 @@ fn convex(mesh: &TriMesh, tolerance: f32, budget: usize) -> Option<bool> {
 }
 
 impl Svdf {
+    /// Bytes held as stored (CPCA means, bases and coefficients; nothing for a convex
+    /// object).
+    pub fn bytes(&self) -> usize {
+        match self {
+            Svdf::Convex { .. } => 0,
+            Svdf::Field { cpca, .. } => cpca.stored_bytes(),
+        }
+    }
+
     /// Traces and compresses the self-visibility of every vertex of `mesh` (object space).
     pub fn build(mesh: &TriMesh, params: &SvdfParams) -> Result<Self, VisError> {
         Self::build_with_progress(mesh, params, &|_, _| {})

@@ -1,5 +1,6 @@
-//! The precomputation cache (DESIGN.md): results keyed by a hash of their inputs, their
-//! parameters and a format version, held in memory for the session and on disk between runs.
+//! The disk side of the precomputation cache, and the content keys every cached item is
+//! found by: a hash of its inputs, its parameters and a format version (never an address or
+//! debug text). In memory, prepared data lives in the engine's [`crate::store::Store`].
 //!
 //! On disk, visibility fields use rsl-vis's checksummed format (`svdf-<key>.bin`,
 //! `ovdf-<key>.bin`) and RSL sets this module's (`rsl-<key>.bin`): magic, version, payload
@@ -26,7 +27,7 @@ pub fn default_dir() -> Option<PathBuf> {
         .or_else(|| var("HOME").map(|d| d.join(".cache").join("rsl")))
 }
 
-/// How lookups went since the engine started.
+/// How lookups went since the engine started (tables, fields, light sets).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CacheStats {
     /// Found in memory.
@@ -76,22 +77,30 @@ impl KeyHasher {
     pub fn f32s(self, v: &[f32]) -> Self {
         v.iter().fold(self, |h, x| h.bytes(&x.to_le_bytes()))
     }
+    /// Mixes in 32-bit words a word at a time (for bulk data such as meshes): a multiply by
+    /// the golden-ratio constant and a fold of the high half into the low half per word.
+    pub fn words(mut self, v: &[u32]) -> Self {
+        self = self.u64(v.len() as u64);
+        for &w in v {
+            let h = (self.0 ^ u64::from(w)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            self.0 = h ^ (h >> 32);
+        }
+        self
+    }
     /// The hash.
     pub fn finish(self) -> u64 {
         self.0
     }
 }
 
-/// The key of a mesh: its positions, normals and triangles.
+/// The content key of a mesh: its positions, normals, tangents and triangles, bit for bit.
 pub fn mesh_key(mesh: &rsl_sphere::mesh::TriMesh) -> u64 {
-    let mut h = KeyHasher::default().str("mesh").u64(mesh.positions.len() as u64);
-    for (p, n) in mesh.positions.iter().zip(&mesh.normals) {
-        h = h.f32s(&p.to_array()).f32s(&n.to_array());
+    let bits = |v: &[glam::Vec3]| v.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
+    let mut h = KeyHasher::default().str("mesh").words(&bits(&mesh.positions)).words(&bits(&mesh.normals));
+    if let Some(t) = &mesh.tangents {
+        h = h.str("tangents").words(&t.iter().flat_map(|t| t.to_array().map(f32::to_bits)).collect::<Vec<u32>>());
     }
-    for &i in &mesh.indices {
-        h = h.bytes(&i.to_le_bytes());
-    }
-    h.finish()
+    h.words(&mesh.indices).finish()
 }
 
 const RSL_MAGIC: [u8; 8] = *b"RSLLIGHT";
@@ -192,5 +201,9 @@ mod tests {
         let b = KeyHasher::default().str("a").str("bc").finish();
         assert_ne!(a, b);
         assert_ne!(KeyHasher::default().f32s(&[0.0]).finish(), KeyHasher::default().f32s(&[-0.0]).finish());
+        let w = |v: &[u32]| KeyHasher::default().words(v).finish();
+        assert_ne!(w(&[1, 2]), w(&[2, 1]));
+        assert_ne!(w(&[0]), w(&[0, 0]), "lengths count");
+        assert_ne!(w(&[1 << 31]), w(&[1 << 30]), "high bits count");
     }
 }

@@ -1,5 +1,6 @@
-//! The Monte Carlo truth of a scene at a time: rsl-truth's estimator on the same vertices,
-//! shading frames and views as the RSL path.
+//! The Monte Carlo truth of a scene at a time without an engine: rsl-truth's estimator on the
+//! same vertices, shading frames and views as the RSL path (for tests and scripts; the
+//! [`crate::method::Truth`] method shares the engine's prepared data instead).
 
 use crate::engine::brdf_of;
 use anyhow::{Context, Result};

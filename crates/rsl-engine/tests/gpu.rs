@@ -3,14 +3,14 @@
 //! tests print "skipped: no adapter", and fail under RSL_REQUIRE_GPU=1.
 
 use glam::{Quat, Vec3};
-use rsl::engine::{Engine, EngineOptions, ShadedFrame};
-use rsl::gpu::GpuRenderer;
-use rsl::scene::{Material, Scene};
+use rsl_engine::scene::{Material, Scene};
+use rsl_engine::{Engine, EngineOptions, GpuRenderer, ShadedFrame};
 use std::path::PathBuf;
 use std::sync::Arc;
 
+/// The repository root (the bundled data lives there).
 fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 fn default_scene() -> Scene {
@@ -189,9 +189,9 @@ fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
     let scene = default_scene();
     let engine = engine(&scene);
     let t = 1.7;
-    let frame = gpu.render(&engine, &scene, t, None, rsl::render::exposure_for).unwrap();
+    let frame = gpu.render(&engine, &scene, t, None, rsl_engine::method::exposure_for).unwrap();
     let cpu_frame = engine.shade(&scene, t).unwrap();
-    let cpu = rsl::render::rasterise(&engine, &scene, &cpu_frame);
+    let cpu = rsl_engine::method::rasterise(&engine, &scene, &cpu_frame.state, &cpu_frame.positions, &cpu_frame.radiance);
     let g = &frame.image;
     assert_eq!((g.width, g.height), (cpu.width, cpu.height));
     let n = g.pixels.len();
@@ -273,55 +273,6 @@ fn shading_objects_that_were_not_loaded_is_an_error() {
     // Fewer objects than loaded: refused, not read out of bounds.
     let e = shading.shade(&objects[..2], &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap_err();
     assert!(e.to_string().contains("load_geometry"), "{e}");
-}
-
-fn run(args: &[&str]) -> anyhow::Result<()> {
-    use clap::Parser;
-    rsl::cli::run(rsl::cli::Cli::try_parse_from(std::iter::once("rsl").chain(args.iter().copied()))?)
-}
-
-#[test]
-fn render_on_the_gpu_writes_the_same_outputs() {
-    if rsl_gpu::testing::context_or_skip("render_on_the_gpu_writes_the_same_outputs").is_none() {
-        return;
-    }
-    let dir = std::env::temp_dir().join(format!("rsl-gpu-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let out = |n: &str| dir.join(n).to_str().unwrap().to_string();
-    let scene = root().join("data/scenes/default.toml");
-    let scene = scene.to_str().unwrap();
-    let cache = std::env::temp_dir().join(format!("rsl-gpu-test-{}", std::process::id()));
-    let cache = cache.to_str().unwrap();
-    let common = ["--time", "1.0", "--cache", cache, "--timings"];
-    run(&[&["render", scene, "--device", "gpu", "--out", &out("g.exr"), "--vertex-out", &out("g.ply")], &common[..]]
-        .concat())
-    .unwrap();
-    run(&[&["render", scene, "--device", "gpu", "--out", &out("g.png")], &common[..]].concat()).unwrap();
-    run(&[&["render", scene, "--device", "cpu", "--out", &out("c.exr"), "--vertex-out", &out("c.ply")], &common[..]]
-        .concat())
-    .unwrap();
-    let img = image::open(dir.join("g.png")).unwrap();
-    assert_eq!((img.width(), img.height()), (640, 480));
-    // Per-vertex radiance of the two devices' PLY files agrees (as in the tests above).
-    let g = rsl::ply::read(&std::fs::read(dir.join("g.ply")).unwrap()).unwrap();
-    let c = rsl::ply::read(&std::fs::read(dir.join("c.ply")).unwrap()).unwrap();
-    assert_eq!((g.vertices.len(), g.faces.len()), (c.vertices.len(), c.faces.len()));
-    for (a, b) in g.vertices.iter().zip(&c.vertices) {
-        for k in 0..9 {
-            assert!((a[k] - b[k]).abs() <= 1e-3 * b[k].abs().max(1e-2), "{a:?} vs {b:?}");
-        }
-    }
-    // The EXR files: same size, coverage alpha, finite.
-    let (gw, gh, gp, gm) = rsl::output::read_exr(&dir.join("g.exr")).unwrap();
-    let (cw, ch, _, cm) = rsl::output::read_exr(&dir.join("c.exr")).unwrap();
-    assert_eq!((gw, gh), (cw, ch));
-    assert!(gp.iter().all(|p| p.is_finite()));
-    let (gm, cm) = (gm.expect("coverage alpha"), cm.expect("coverage alpha"));
-    assert!(gm.iter().zip(&cm).filter(|(a, b)| a != b).count() * 1000 <= gm.len());
-    // The Monte Carlo truth has no GPU path: asking for one is a clear error.
-    let e = run(&["render", scene, "--method", "truth", "--device", "gpu", "--out", &out("t.png")]).unwrap_err();
-    assert!(e.to_string().contains("CPU only"), "{e}");
-    assert!(!dir.join("t.png").exists());
 }
 
 #[test]

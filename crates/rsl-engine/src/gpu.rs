@@ -8,36 +8,45 @@
 use crate::engine::{Engine, ShadedFrame};
 use anyhow::{Context, Result};
 use glam::Mat3;
-use rsl_gpu::draw::GpuDraw;
+use crate::engine::EnvRadiance;
+use rsl_gpu::draw::{Backdrop, GpuDraw};
 use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
 use rsl_gpu::{GpuContext, GpuError};
 use rsl_scene::Scene;
 use rsl_shade::Image;
-use rsl_shade::{FrameStats, Pose, ShadeObject, Terms};
+use rsl_shade::{FrameStats, Pose, Terms};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Identity of what is loaded: the engine, and per object its mesh and fields (geometry) or
-/// its table. The engine keeps every prepared item alive, so addresses identify them.
-type Key = (u64, Vec<usize>);
+/// Identity of what is loaded: per object, the content keys of its geometry and fields
+/// (or of its table). Equal keys mean equal data, so an item evicted from the engine and
+/// rebuilt matches what is uploaded, and a different item never does.
+type Key = Vec<u64>;
 
-fn geometry_key(engine: &Engine, objects: &[ShadeObject<'_>]) -> Key {
-    let ptrs = objects
-        .iter()
-        .flat_map(|o| {
-            [
-                std::ptr::from_ref(o.mesh) as usize,
-                std::ptr::from_ref(o.frames) as usize,
-                std::ptr::from_ref(o.svdf) as usize,
-                o.ovdf.map_or(0, |f| std::ptr::from_ref(f) as usize),
-            ]
+fn geometry_key(engine: &Engine) -> Key {
+    (0..engine.object_count())
+        .flat_map(|i| {
+            let k = engine.keys(i);
+            [k.mesh, k.frames, k.svdf, k.ovdf]
         })
-        .collect();
-    (engine.id(), ptrs)
+        .collect()
 }
 
-fn table_key(engine: &Engine, objects: &[ShadeObject<'_>]) -> Key {
-    (engine.id(), objects.iter().map(|o| std::ptr::from_ref(o.table) as usize).collect())
+fn table_key(engine: &Engine) -> Key {
+    (0..engine.object_count()).map(|i| engine.keys(i).table).collect()
+}
+
+/// The environment as the GPU draw pass shows it behind the objects.
+pub fn backdrop(engine: &Engine) -> Backdrop<'_> {
+    match engine.environment() {
+        EnvRadiance::Map(m) => Backdrop::Map {
+            width: m.width() as u32,
+            height: m.height() as u32,
+            texels: m.texels(),
+            intensity: engine.intensity(),
+        },
+        EnvRadiance::Constant(c) => Backdrop::Constant(*c * engine.intensity()),
+    }
 }
 
 /// Shades an engine's scene on the GPU and draws it.
@@ -46,8 +55,8 @@ pub struct GpuRenderer {
     draw: GpuDraw,
     geometry: Option<Key>,
     tables: Option<Key>,
-    /// The engine whose environment the draw pass holds.
-    backdrop: Option<u64>,
+    /// The environment (content key, intensity bits) the draw pass holds.
+    backdrop: Option<(u64, u32)>,
     last: PassTime,
 }
 
@@ -78,6 +87,16 @@ pub struct GpuTimings {
 }
 
 impl GpuRenderer {
+    /// The draw pass (its targets feed a viewer).
+    pub fn draw(&self) -> &GpuDraw {
+        &self.draw
+    }
+
+    /// The draw pass, to tonemap into a texture.
+    pub fn draw_mut(&mut self) -> &mut GpuDraw {
+        &mut self.draw
+    }
+
     /// Opens the best adapter and builds the shading pipeline.
     pub fn new() -> Result<Self, GpuError> {
         Self::with_context(Arc::new(GpuContext::new()?))
@@ -111,9 +130,11 @@ impl GpuRenderer {
         auto_exposure: impl Fn(&Image) -> f32,
     ) -> Result<GpuImage> {
         let shade = self.dispatch(engine, scene, t, Terms::default())?;
-        if self.backdrop != Some(engine.id()) {
-            self.draw.set_backdrop(&engine.backdrop()).context("uploading the environment map")?;
-            self.backdrop = Some(engine.id());
+        let env = (engine.environment_key(), engine.intensity().to_bits());
+        if self.backdrop != Some(env) {
+            self.backdrop = None;
+            self.draw.set_backdrop(&backdrop(engine)).context("uploading the environment map")?;
+            self.backdrop = Some(env);
         }
         let state = scene.at(t);
         let env_from_world = Mat3::from_quat(state.world_from_env.inverse());
@@ -183,7 +204,7 @@ impl GpuRenderer {
     pub fn dispatch(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms) -> Result<PassTime> {
         let state = scene.at(t);
         let objects = engine.objects(scene, &state)?;
-        let g = geometry_key(engine, &objects);
+        let g = geometry_key(engine);
         if self.geometry.as_ref() != Some(&g) {
             let start = Instant::now();
             self.geometry = None;
@@ -191,7 +212,7 @@ impl GpuRenderer {
             tracing::info!("GPU: geometry and fields uploaded in {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
             self.geometry = Some(g);
         }
-        let k = table_key(engine, &objects);
+        let k = table_key(engine);
         if self.tables.as_ref() != Some(&k) {
             self.tables = None;
             self.shading.load_tables(&objects).context("uploading BRDF tables")?;

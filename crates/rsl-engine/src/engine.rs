@@ -1,0 +1,802 @@
+//! The engine: a scene → its prepared data → what every method shades frames from.
+//!
+//! Prepared data comes in two layers under content keys ([`crate::cache::KeyHasher`]: the
+//! values that define a result, never addresses or debug text):
+//!
+//! - the **method-neutral layer**: meshes (keyed by their contents), per-vertex frames,
+//!   BRDF descriptions, the environment's radiance;
+//! - the **RSL layer** ([`Layers::rsl`]): the light set (a cut of the environment's merge
+//!   tree), one BRDF table per distinct material, and the visibility fields — the
+//!   self-visibility field per distinct non-convex mesh and the occluder field per distinct
+//!   mesh that casts shadows.
+//!
+//! Preparation builds only what the scene needs. Nothing depends on where objects are:
+//! moving, rotating or scaling them never triggers precomputation, rotating the environment
+//! never re-decomposes it, and changing a material rebuilds only its table
+//! ([`Engine::sync`]). Everything prepared is held in a memory [`Store`] under a byte budget
+//! with least-recently-used eviction (what the current scene uses is never evicted), and the
+//! visibility fields and light sets also in the disk cache.
+
+use crate::cache::{self, CacheStats, KeyHasher};
+use crate::progress::{Progress, Timings};
+use crate::store::{DEFAULT_BUDGET, Store};
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+use rsl_brdf::{Brdf, BrdfTable, Resolution};
+use rsl_env::{CubeEnv, Decomposition, Rsl};
+use rsl_scene::{EnvironmentSource, Material, Preset, QualitySettings, Scene, SceneState};
+use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, VertexFrames};
+use rsl_sphere::latlong::LatLongMap;
+use rsl_sphere::mesh::TriMesh;
+use rsl_vis::store::FieldFileError;
+use rsl_vis::{Ovdf, OvdfParams, Svdf, SvdfParams};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Which layers of prepared data an engine builds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layers {
+    /// The RSL path's data: light set, BRDF tables, visibility fields. Without it only the
+    /// method-neutral layer is prepared (what the Monte Carlo truth needs).
+    pub rsl: bool,
+}
+
+impl Default for Layers {
+    fn default() -> Self {
+        Self { rsl: true }
+    }
+}
+
+/// How the engine prepares a scene.
+#[derive(Clone, Debug, Default)]
+pub struct EngineOptions {
+    /// Disk cache folder; `None`: memory only.
+    pub cache_dir: Option<PathBuf>,
+    /// Overrides the scene's RSL count.
+    pub rsl_count: Option<u32>,
+    /// Overrides the scene's quality preset (the scene's own knob overrides are dropped).
+    pub quality: Option<Preset>,
+    /// Where long steps (decomposition, field builds) report their progress.
+    pub progress: Progress,
+    /// Bytes of rebuildable prepared data kept in memory beyond what the scene uses
+    /// (`None`: [`DEFAULT_BUDGET`]).
+    pub memory_budget: Option<usize>,
+    /// The layers to prepare.
+    pub layers: Layers,
+}
+
+/// The scene material as the BRDF model it names.
+pub fn brdf_of(m: &Material) -> Brdf {
+    let v = Vec3::from_array;
+    match *m {
+        Material::Lambert { albedo } => Brdf::Lambert { albedo: v(albedo) },
+        Material::Phong { exponent, specular, diffuse } => {
+            Brdf::Phong { exponent, specular: v(specular), diffuse: v(diffuse) }
+        }
+        Material::BlinnPhong { exponent, specular, diffuse } => {
+            Brdf::BlinnPhong { exponent, specular: v(specular), diffuse: v(diffuse) }
+        }
+        Material::CookTorrance { alpha, specular, diffuse } => {
+            Brdf::CookTorrance { alpha, specular: v(specular), diffuse: v(diffuse) }
+        }
+        Material::Ward { alpha, alpha_x, alpha_y, specular, diffuse } => {
+            // The scene file holds `alpha` or both of `alpha_x`, `alpha_y`; a missing value
+            // would fail the table's parameter check by name.
+            Brdf::Ward {
+                alpha_x: alpha_x.or(alpha).unwrap_or(f32::NAN),
+                alpha_y: alpha_y.or(alpha).unwrap_or(f32::NAN),
+                specular: v(specular),
+                diffuse: v(diffuse),
+            }
+        }
+        Material::Ggx { alpha, specular, diffuse } => Brdf::Ggx { alpha, specular: v(specular), diffuse: v(diffuse) },
+        Material::Beckmann { alpha, specular, diffuse } => {
+            Brdf::Beckmann { alpha, specular: v(specular), diffuse: v(diffuse) }
+        }
+    }
+}
+
+/// The content key of a BRDF: its model and every parameter, bit for bit.
+pub fn brdf_key(b: &Brdf) -> u64 {
+    let h = KeyHasher::default().str("brdf");
+    let v = |v: &Vec3| v.to_array();
+    match b {
+        Brdf::Lambert { albedo } => h.str("lambert").f32s(&v(albedo)),
+        Brdf::Phong { exponent, specular, diffuse } => {
+            h.str("phong").f32s(&[*exponent]).f32s(&v(specular)).f32s(&v(diffuse))
+        }
+        Brdf::BlinnPhong { exponent, specular, diffuse } => {
+            h.str("blinn_phong").f32s(&[*exponent]).f32s(&v(specular)).f32s(&v(diffuse))
+        }
+        Brdf::CookTorrance { alpha, specular, diffuse } => {
+            h.str("cook_torrance").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse))
+        }
+        Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
+            h.str("ward").f32s(&[*alpha_x, *alpha_y]).f32s(&v(specular)).f32s(&v(diffuse))
+        }
+        Brdf::Ggx { alpha, specular, diffuse } => h.str("ggx").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse)),
+        Brdf::Beckmann { alpha, specular, diffuse } => {
+            h.str("beckmann").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse))
+        }
+    }
+    .finish()
+}
+
+/// The self-visibility resolution of a quality setting.
+pub fn svdf_params(preset: Preset, q: &QualitySettings) -> SvdfParams {
+    let base = match preset {
+        Preset::Draft => SvdfParams::DRAFT,
+        Preset::Paper => SvdfParams::PAPER,
+        Preset::High => SvdfParams::HIGH,
+    };
+    SvdfParams {
+        n: q.table_resolution as usize,
+        clusters: q.cpca_clusters as usize,
+        vectors: q.cpca_vectors as usize,
+        ..base
+    }
+}
+
+/// The occluder-field resolution of a quality setting.
+pub fn ovdf_params(q: &QualitySettings) -> OvdfParams {
+    OvdfParams {
+        shells: q.ovdf_shells as usize,
+        m: q.ovdf_directions as usize,
+        n: q.table_resolution as usize,
+        supersample: 2,
+        vectors: q.ovdf_vectors as usize,
+    }
+}
+
+/// The BRDF table resolution of a quality setting.
+pub fn table_resolution(q: &QualitySettings) -> Resolution {
+    Resolution { n: q.table_resolution as usize, views: (q.view_samples as usize).max(2) }
+}
+
+/// The environment's radiance, before its intensity.
+#[derive(Clone, Debug)]
+pub enum EnvRadiance {
+    /// A lat-long map.
+    Map(Arc<LatLongMap>),
+    /// A constant.
+    Constant(Vec3),
+}
+
+/// What the environment needs at run time.
+struct PreparedEnv {
+    radiance: EnvRadiance,
+    intensity: f32,
+    /// The RSLs in environment space, before `intensity` (RSL layer; empty without it).
+    rsls: Arc<Vec<Rsl>>,
+    /// Key of the radiance (decoded texels or constant) and grid: RSL sets key on it.
+    key: u64,
+    /// Key of the light set in use.
+    rsl_key: u64,
+}
+
+/// The RSL layer of one object.
+struct RslObject {
+    table: Arc<BrdfTable>,
+    table_key: u64,
+    svdf: Arc<Svdf>,
+    svdf_key: u64,
+    ovdf: Option<(Arc<Ovdf>, u64)>,
+}
+
+/// One object's prepared data.
+struct PreparedObject {
+    mesh: Arc<TriMesh>,
+    mesh_key: u64,
+    frames: Arc<VertexFrames>,
+    frames_key: u64,
+    material: Material,
+    brdf: Brdf,
+    rsl: Option<RslObject>,
+}
+
+/// The content keys of one object's prepared data: equal keys, equal data.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ObjectKeys {
+    /// The mesh's contents.
+    pub mesh: u64,
+    /// The vertex frames.
+    pub frames: u64,
+    /// The BRDF table (0 without the RSL layer).
+    pub table: u64,
+    /// The self-visibility field (0 without the RSL layer).
+    pub svdf: u64,
+    /// The occluder field (0 when the object casts no shadow or without the RSL layer).
+    pub ovdf: u64,
+}
+
+/// Memory the engine holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoryStats {
+    /// Bytes of prepared data held (in use or cached for reuse).
+    pub resident_bytes: usize,
+    /// The budget for data not in use.
+    pub budget_bytes: usize,
+    /// Items evicted so far.
+    pub evictions: u64,
+    /// Items held.
+    pub items: usize,
+}
+
+/// A shaded frame of the CPU RSL path: per object, per vertex.
+#[derive(Clone, Debug)]
+pub struct ShadedFrame {
+    /// Transforms and environment rotation.
+    pub state: SceneState,
+    /// Per object, per vertex: world position.
+    pub positions: Vec<Vec<Vec3>>,
+    /// Per object, per vertex: world normal.
+    pub normals: Vec<Vec<Vec3>>,
+    /// Per object, per vertex: radiance toward the eye.
+    pub radiance: Vec<Vec<Vec3>>,
+    /// Lookup counts.
+    pub stats: FrameStats,
+    /// Wall time of the shading, ms.
+    pub shade_ms: f64,
+}
+
+/// The scene's prepared data and the caches it came from.
+pub struct Engine {
+    options: EngineOptions,
+    preset: Preset,
+    settings: QualitySettings,
+    rsl_count: usize,
+    env: PreparedEnv,
+    objects: Vec<PreparedObject>,
+    store: Store,
+    stats: CacheStats,
+    timings: Timings,
+}
+
+/// Format version of everything this engine caches (bump when any computation changes).
+const CACHE_VERSION: u64 = 2;
+
+/// Stage names of [`Engine::timings`].
+pub mod stage {
+    /// Loading the map, resampling and decomposing it (or reading the RSLs).
+    pub const ENVIRONMENT: &str = "environment";
+    /// BRDF tables.
+    pub const TABLES: &str = "BRDF tables";
+    /// Self-visibility fields.
+    pub const SVDF: &str = "self-visibility";
+    /// Occluder fields.
+    pub const OVDF: &str = "occluder fields";
+}
+
+impl Engine {
+    /// Prepares `scene`: from the caches where possible, computing the rest.
+    pub fn new(scene: &Scene, options: EngineOptions) -> Result<Self> {
+        let quality = match options.quality {
+            Some(p) => rsl_scene::Quality::from_preset(p),
+            None => scene.quality,
+        };
+        let rsl_count = options.rsl_count.unwrap_or(scene.environment.rsl_count) as usize;
+        if rsl_count == 0 {
+            bail!("the RSL count must be at least 1");
+        }
+        let budget = options.memory_budget.unwrap_or(DEFAULT_BUDGET);
+        let mut engine = Self {
+            options,
+            preset: quality.preset,
+            settings: quality.settings,
+            rsl_count,
+            env: PreparedEnv {
+                radiance: EnvRadiance::Constant(Vec3::ZERO),
+                intensity: 1.0,
+                rsls: Arc::new(Vec::new()),
+                key: 0,
+                rsl_key: 0,
+            },
+            objects: Vec::new(),
+            store: Store::new(budget),
+            stats: CacheStats::default(),
+            timings: Timings::default(),
+        };
+        engine.prepare_environment(scene)?;
+        engine.sync(scene)?;
+        Ok(engine)
+    }
+
+    /// The cache's counters.
+    pub fn cache_stats(&self) -> CacheStats {
+        self.stats
+    }
+
+    /// Memory held by prepared data.
+    pub fn memory(&self) -> MemoryStats {
+        MemoryStats {
+            resident_bytes: self.store.resident_bytes(),
+            budget_bytes: self.store.budget(),
+            evictions: self.store.evictions(),
+            items: self.store.len(),
+        }
+    }
+
+    /// Time spent preparing so far, by stage ([`stage`]).
+    pub fn timings(&self) -> &Timings {
+        &self.timings
+    }
+
+    /// The quality settings in use.
+    pub fn settings(&self) -> (Preset, QualitySettings) {
+        (self.preset, self.settings)
+    }
+
+    /// The layers this engine prepares.
+    pub fn layers(&self) -> Layers {
+        self.options.layers
+    }
+
+    /// The RSLs in environment space (before intensity); empty without the RSL layer.
+    pub fn rsls(&self) -> &[Rsl] {
+        &self.env.rsls
+    }
+
+    /// The environment's radiance (before intensity).
+    pub fn environment(&self) -> &EnvRadiance {
+        &self.env.radiance
+    }
+
+    /// The environment's intensity multiplier.
+    pub fn intensity(&self) -> f32 {
+        self.env.intensity
+    }
+
+    /// The environment's radiance (with intensity) toward world direction `d` at `state`.
+    pub fn background(&self, state: &SceneState, d: Vec3) -> Vec3 {
+        let e = state.world_from_env.inverse() * d;
+        let l = match &self.env.radiance {
+            EnvRadiance::Map(m) => m.lookup(e),
+            EnvRadiance::Constant(c) => *c,
+        };
+        l * self.env.intensity
+    }
+
+    /// The content key of the environment's radiance and resampling grid.
+    pub fn environment_key(&self) -> u64 {
+        self.env.key
+    }
+
+    fn prepare_environment(&mut self, scene: &Scene) -> Result<()> {
+        let start = Instant::now();
+        let env = &scene.environment;
+        let grid = self.settings.env_grid as usize;
+        let (radiance, key) = match &env.source {
+            EnvironmentSource::Map { written, path } => {
+                let loaded = rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?;
+                if loaded.clamped_negative > 0 {
+                    tracing::warn!(
+                        "{}: {} negative values clamped to 0 (most negative {})",
+                        path.display(),
+                        loaded.clamped_negative,
+                        loaded.most_negative
+                    );
+                }
+                // Keyed by the decoded radiance (the file is read once).
+                let m = &loaded.map;
+                let key = m
+                    .texels()
+                    .iter()
+                    .fold(KeyHasher::default().str("map").u64(m.width() as u64).u64(m.height() as u64), |h, t| {
+                        h.f32s(&t.to_array())
+                    })
+                    .finish();
+                (EnvRadiance::Map(Arc::new(loaded.map)), key)
+            }
+            EnvironmentSource::Constant(c) => {
+                (EnvRadiance::Constant(*c), KeyHasher::default().str("constant").f32s(&c.to_array()).finish())
+            }
+        };
+        let key = KeyHasher::default().u64(key).u64(grid as u64).u64(CACHE_VERSION).finish();
+        self.env = PreparedEnv { radiance, intensity: env.intensity, rsls: Arc::new(Vec::new()), key, rsl_key: 0 };
+        if self.options.layers.rsl {
+            let (rsls, rsl_key) = self.rsl_set(self.rsl_count)?;
+            self.env.rsls = rsls;
+            self.env.rsl_key = rsl_key;
+        }
+        self.timings.add(stage::ENVIRONMENT, start.elapsed().as_secs_f64() * 1e3, None);
+        Ok(())
+    }
+
+    fn decomposition_key(&self) -> u64 {
+        KeyHasher::default().u64(self.env.key).str("decomposition").finish()
+    }
+
+    /// The RSL set of `n` lights for the prepared environment and its key: memory, disk, or
+    /// a decomposition (itself kept in memory, so other counts cost only the cut).
+    fn rsl_set(&mut self, n: usize) -> Result<(Arc<Vec<Rsl>>, u64)> {
+        let key = KeyHasher::default().u64(self.env.key).str("rsl").u64(n as u64).finish();
+        if let Some(s) = self.store.get::<Vec<Rsl>>(key) {
+            self.stats.memory_hits += 1;
+            return Ok((s, key));
+        }
+        let file = self.options.cache_dir.as_ref().map(|d| d.join(format!("rsl-{key:016x}.bin")));
+        if let Some(f) = &file
+            && let Ok(bytes) = std::fs::read(f)
+        {
+            match cache::rsls_from_bytes(&bytes) {
+                Ok(s) if s.len() <= n && !s.is_empty() => {
+                    self.stats.disk_hits += 1;
+                    let s = Arc::new(s);
+                    self.store.insert(key, s.clone(), rsl_bytes(&s));
+                    return Ok((s, key));
+                }
+                Ok(_) => reject(&mut self.stats, f, "holds the wrong number of lights"),
+                Err(e) => reject(&mut self.stats, f, &e),
+            }
+        }
+        self.stats.misses += 1;
+        let grid = self.settings.env_grid as usize;
+        let dkey = self.decomposition_key();
+        let decomposition = match self.store.get::<Decomposition>(dkey) {
+            Some(d) => d,
+            None => {
+                let task = format!("decomposing the environment (6×{grid}×{grid})");
+                let radiance = self.env.radiance.clone();
+                let d = Arc::new(self.options.progress.task(&task, |_| {
+                    let cube = match &radiance {
+                        EnvRadiance::Map(m) => CubeEnv::from_latlong(m, grid),
+                        EnvRadiance::Constant(c) => CubeEnv::constant(grid, *c),
+                    };
+                    Decomposition::new(&cube)
+                }));
+                self.store.insert(dkey, d.clone(), d.bytes());
+                d
+            }
+        };
+        let n = n.min(decomposition.max_rsls());
+        let set: Vec<Rsl> = decomposition.rsls(n)?.into_iter().map(|i| i.rsl).collect();
+        if let Some(f) = &file
+            && let Err(e) = cache::write(f, &cache::rsls_to_bytes(&set))
+        {
+            tracing::warn!("cannot cache the light set: {e}");
+        }
+        let set = Arc::new(set);
+        self.store.insert(key, set.clone(), rsl_bytes(&set));
+        Ok((set, key))
+    }
+
+    /// Changes the number of RSLs (a cut of the same decomposition: no new decomposition).
+    pub fn set_rsl_count(&mut self, n: usize) -> Result<()> {
+        if n == 0 {
+            bail!("the RSL count must be at least 1");
+        }
+        if !self.options.layers.rsl {
+            bail!("this engine prepares no RSL layer");
+        }
+        self.rsl_count = n;
+        self.store.pin_more([self.decomposition_key()]);
+        let (rsls, key) = self.rsl_set(n)?;
+        self.env.rsls = rsls;
+        self.env.rsl_key = key;
+        self.pin_in_use();
+        Ok(())
+    }
+
+    /// Brings the prepared data in line with `scene` (same environment; objects, materials
+    /// and motion may have changed): every object's resources are looked up by content key,
+    /// and only what is missing is computed. Moving objects changes no key.
+    pub fn sync(&mut self, scene: &Scene) -> Result<()> {
+        let mut objects = Vec::with_capacity(scene.objects.len());
+        // What the scene needs stays while the rest is built.
+        self.store.pin_more([self.env.rsl_key, self.decomposition_key()]);
+        for o in &scene.objects {
+            let mesh_key = cache::mesh_key(&o.mesh);
+            let brdf = brdf_of(&o.material);
+            let anisotropic = brdf.is_anisotropic();
+            let frames_key = KeyHasher::default().str("frames").u64(mesh_key).u64(u64::from(anisotropic)).finish();
+            let frames = match self.store.get::<VertexFrames>(frames_key) {
+                Some(f) => f,
+                None => {
+                    let f = Arc::new(VertexFrames::new(&o.mesh, anisotropic));
+                    self.store.insert(frames_key, f.clone(), frames_bytes(&f));
+                    f
+                }
+            };
+            self.store.pin_more([frames_key]);
+            let rsl = if self.options.layers.rsl {
+                let (table, table_key) = self.table(&o.name, &brdf)?;
+                let (svdf, svdf_key) = self.svdf(&o.name, &o.mesh, mesh_key)?;
+                let ovdf = if o.casts_shadows { Some(self.ovdf(&o.name, &o.mesh, mesh_key)?) } else { None };
+                Some(RslObject { table, table_key, svdf, svdf_key, ovdf })
+            } else {
+                None
+            };
+            objects.push(PreparedObject {
+                mesh: o.mesh.clone(),
+                mesh_key,
+                frames,
+                frames_key,
+                material: o.material.clone(),
+                brdf,
+                rsl,
+            });
+        }
+        self.objects = objects;
+        self.pin_in_use();
+        Ok(())
+    }
+
+    /// Pins exactly what the current scene uses; the rest becomes evictable.
+    fn pin_in_use(&mut self) {
+        let mut keys = vec![self.env.rsl_key, self.decomposition_key()];
+        for o in &self.objects {
+            let k = o.keys();
+            keys.extend([k.frames, k.table, k.svdf, k.ovdf]);
+        }
+        self.store.pin(keys);
+    }
+
+    fn table(&mut self, name: &str, brdf: &Brdf) -> Result<(Arc<BrdfTable>, u64)> {
+        let res = table_resolution(&self.settings);
+        let key = KeyHasher::default()
+            .str("table")
+            .u64(brdf_key(brdf))
+            .u64(res.n as u64)
+            .u64(res.views as u64)
+            .u64(CACHE_VERSION)
+            .finish();
+        self.store.pin_more([key]);
+        if let Some(t) = self.store.get::<BrdfTable>(key) {
+            self.stats.memory_hits += 1;
+            return Ok((t, key));
+        }
+        self.stats.misses += 1;
+        let start = Instant::now();
+        let t = Arc::new(BrdfTable::build(brdf, res).with_context(|| format!("object {name}: material"))?);
+        self.timings.add(stage::TABLES, start.elapsed().as_secs_f64() * 1e3, None);
+        self.store.insert(key, t.clone(), t.bytes());
+        Ok((t, key))
+    }
+
+    fn svdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Svdf>, u64)> {
+        let p = svdf_params(self.preset, &self.settings);
+        let key = field_key("svdf", mesh_key, &[p.n, p.supersample, p.clusters, p.vectors, p.iterations]);
+        let vertices = mesh.vertex_count();
+        let io = FieldIo {
+            prefix: "svdf",
+            load: rsl_vis::store::load_svdf,
+            save: rsl_vis::store::save_svdf,
+            check: &|f: &Svdf| {
+                (field_vertices(f) == vertices).then_some(()).ok_or("vertex count differs from the mesh")
+            },
+            build: &|report| {
+                Svdf::build_with_progress(mesh, &p, report)
+                    .with_context(|| format!("object {name}: self-visibility field"))
+            },
+            bytes: Svdf::bytes,
+            stage: stage::SVDF,
+            message: format!("self-visibility of {name} ({vertices} vertices, {}×{} per vertex)", p.n, p.n),
+        };
+        self.cached(key, io).map(|f| (f, key))
+    }
+
+    fn ovdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Ovdf>, u64)> {
+        let p = ovdf_params(&self.settings);
+        p.check().map_err(anyhow::Error::msg).context("quality settings")?;
+        let key = field_key("ovdf", mesh_key, &[p.shells, p.m, p.n, p.supersample, p.vectors]);
+        let io = FieldIo {
+            prefix: "ovdf",
+            load: rsl_vis::store::load_ovdf,
+            save: rsl_vis::store::save_ovdf,
+            check: &|f: &Ovdf| (f.params() == &p).then_some(()).ok_or("resolution differs"),
+            build: &|report| {
+                Ovdf::build_with_progress(mesh, &p, report).with_context(|| format!("object {name}: occluder field"))
+            },
+            bytes: Ovdf::bytes,
+            stage: stage::OVDF,
+            message: format!("occluder field of {name} ({} shells × 6×{}×{} samples)", p.shells, p.m, p.m),
+        };
+        self.cached(key, io).map(|f| (f, key))
+    }
+
+    /// A field from memory, else from disk (checked; a bad file is rejected), else built (and
+    /// written to disk).
+    fn cached<T: Send + Sync + 'static>(&mut self, key: u64, io: FieldIo<'_, T>) -> Result<Arc<T>> {
+        self.store.pin_more([key]);
+        if let Some(f) = self.store.get::<T>(key) {
+            self.stats.memory_hits += 1;
+            return Ok(f);
+        }
+        let file = self.options.cache_dir.as_ref().map(|d| d.join(format!("{}-{key:016x}.bin", io.prefix)));
+        if let Some(path) = &file
+            && path.exists()
+        {
+            match (io.load)(path)
+                .map_err(|e| e.to_string())
+                .and_then(|f| (io.check)(&f).map(|()| f).map_err(String::from))
+            {
+                Ok(f) => {
+                    self.stats.disk_hits += 1;
+                    let f = Arc::new(f);
+                    self.store.insert(key, f.clone(), (io.bytes)(&f));
+                    return Ok(f);
+                }
+                Err(why) => reject(&mut self.stats, path, &why),
+            }
+        }
+        self.stats.misses += 1;
+        let start = Instant::now();
+        let f = self.options.progress.task(&io.message, |report| (io.build)(report))?;
+        self.timings.add(io.stage, start.elapsed().as_secs_f64() * 1e3, None);
+        if let Some(path) = &file
+            && let Err(e) = std::fs::create_dir_all(path.parent().unwrap_or(path))
+                .map_err(|e| e.to_string())
+                .and_then(|()| (io.save)(&f, path).map_err(|e| e.to_string()))
+        {
+            tracing::warn!("cannot cache {}: {e}", io.message);
+        }
+        let f = Arc::new(f);
+        self.store.insert(key, f.clone(), (io.bytes)(&f));
+        Ok(f)
+    }
+
+    /// The RSLs at `state`, in world space, with the environment's intensity.
+    pub fn lights(&self, state: &SceneState) -> Vec<Light> {
+        self.env
+            .rsls
+            .iter()
+            .map(|r| Light {
+                dir: (state.world_from_env * r.centre).normalize(),
+                half_diagonal: r.half_diagonal,
+                radiance: r.intensity * self.env.intensity,
+            })
+            .collect()
+    }
+
+    /// Fails unless `scene` has the objects and materials this engine was last synced to.
+    pub fn check(&self, scene: &Scene) -> Result<()> {
+        if scene.objects.len() != self.objects.len()
+            || scene
+                .objects
+                .iter()
+                .zip(&self.objects)
+                .any(|(o, p)| !(Arc::ptr_eq(&o.mesh, &p.mesh) || *o.mesh == *p.mesh) || o.material != p.material)
+        {
+            bail!("the scene changed since it was prepared: call Engine::sync first");
+        }
+        Ok(())
+    }
+
+    /// The number of prepared objects.
+    pub fn object_count(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// Object `i`'s mesh (object space).
+    pub fn mesh(&self, i: usize) -> &Arc<TriMesh> {
+        &self.objects[i].mesh
+    }
+
+    /// Object `i`'s per-vertex frames (object space).
+    pub fn frames(&self, i: usize) -> &Arc<VertexFrames> {
+        &self.objects[i].frames
+    }
+
+    /// Object `i`'s BRDF.
+    pub fn brdf(&self, i: usize) -> &Brdf {
+        &self.objects[i].brdf
+    }
+
+    /// Object `i`'s content keys.
+    pub fn keys(&self, i: usize) -> ObjectKeys {
+        self.objects[i].keys()
+    }
+
+    /// The prepared objects of `scene` at `state` (what the RSL path evaluates).
+    pub fn objects(&self, scene: &Scene, state: &SceneState) -> Result<Vec<ShadeObject<'_>>> {
+        self.check(scene)?;
+        self.objects
+            .iter()
+            .zip(&state.objects)
+            .map(|(p, &transform)| {
+                let r = p.rsl.as_ref().context("this engine prepares no RSL layer (tables and fields)")?;
+                Ok(ShadeObject {
+                    mesh: &p.mesh,
+                    frames: &p.frames,
+                    table: &r.table,
+                    svdf: &r.svdf,
+                    ovdf: r.ovdf.as_ref().map(|(f, _)| &**f),
+                    transform,
+                })
+            })
+            .collect()
+    }
+
+    /// The shading inputs of `scene` at `state`, seen from `eye`.
+    pub fn setup(&self, scene: &Scene, state: &SceneState, eye: Vec3, terms: Terms) -> Result<FrameSetup<'_>> {
+        let objects = self.objects(scene, state)?;
+        Ok(FrameSetup::new(&objects, &self.lights(state), eye, terms))
+    }
+
+    /// Shades every vertex of `scene` at time `t` (the CPU fast path), seen from the camera.
+    pub fn shade(&self, scene: &Scene, t: f32) -> Result<ShadedFrame> {
+        self.shade_with(scene, t, Terms::default())
+    }
+
+    /// [`Engine::shade`] with a choice of terms.
+    pub fn shade_with(&self, scene: &Scene, t: f32, terms: Terms) -> Result<ShadedFrame> {
+        let state = scene.at(t);
+        let setup = self.setup(scene, &state, scene.camera.eye, terms)?;
+        let start = Instant::now();
+        let (radiance, stats) = rsl_shade::shade(&setup);
+        let shade_ms = start.elapsed().as_secs_f64() * 1e3;
+        let positions =
+            (0..self.objects.len()).map(|i| (0..radiance[i].len()).map(|v| setup.position(i, v)).collect()).collect();
+        let normals =
+            (0..self.objects.len()).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
+        Ok(ShadedFrame { state, positions, normals, radiance, stats, shade_ms })
+    }
+}
+
+impl PreparedObject {
+    fn keys(&self) -> ObjectKeys {
+        let r = self.rsl.as_ref();
+        ObjectKeys {
+            mesh: self.mesh_key,
+            frames: self.frames_key,
+            table: r.map_or(0, |r| r.table_key),
+            svdf: r.map_or(0, |r| r.svdf_key),
+            ovdf: r.and_then(|r| r.ovdf.as_ref()).map_or(0, |(_, k)| *k),
+        }
+    }
+}
+
+fn rsl_bytes(s: &[Rsl]) -> usize {
+    std::mem::size_of_val(s)
+}
+
+fn frames_bytes(f: &VertexFrames) -> usize {
+    std::mem::size_of_val(f.visibility.as_slice()) + f.tangent.as_ref().map_or(0, |t| std::mem::size_of_val(t.as_slice()))
+}
+
+/// Counts a rejected cache file, says why, and removes it.
+fn reject(stats: &mut CacheStats, file: &Path, why: &str) {
+    stats.rejected += 1;
+    tracing::warn!("cache file {} rejected ({why}); recomputing", file.display());
+    let _ = std::fs::remove_file(file);
+}
+
+/// The key of a visibility field of a mesh at some parameters.
+fn field_key(kind: &str, mesh_key: u64, params: &[usize]) -> u64 {
+    params
+        .iter()
+        .fold(
+            KeyHasher::default().str(kind).u64(mesh_key).u64(CACHE_VERSION).u64(rsl_vis::store::VERSION.into()),
+            |h, &p| h.u64(p as u64),
+        )
+        .finish()
+}
+
+/// A progress callback: `(done, total)`.
+type Report<'p> = dyn Fn(usize, usize) + Sync + 'p;
+
+/// How to read, check, build, measure and write one kind of visibility field.
+struct FieldIo<'a, T> {
+    /// File name prefix (`<prefix>-<key>.bin`).
+    prefix: &'static str,
+    load: fn(&Path) -> Result<T, FieldFileError>,
+    save: fn(&T, &Path) -> Result<(), FieldFileError>,
+    /// Whether a loaded field fits what is asked for (and why not).
+    check: &'a dyn Fn(&T) -> Result<(), &'static str>,
+    /// Builds the field, reporting `(done, total)`.
+    build: &'a dyn Fn(&Report<'_>) -> Result<T>,
+    /// Bytes the field holds.
+    bytes: fn(&T) -> usize,
+    /// The timing stage its builds count in.
+    stage: &'static str,
+    /// What the progress report says while building.
+    message: String,
+}
+
+fn field_vertices(f: &Svdf) -> usize {
+    match f {
+        Svdf::Convex { vertices } => *vertices,
+        Svdf::Field { cpca, .. } => cpca.assignment.len(),
+    }
+}

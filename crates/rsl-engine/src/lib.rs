@@ -1,0 +1,28 @@
+//! rsl-engine: scene → prepared scene → frames, as a library under every front end (the
+//! `rsl` command line, the viewer, the benchmark).
+//!
+//! - [`Engine`] prepares a scene in two layers of content-keyed data (method-neutral, and
+//!   per method), from a memory store with a byte budget and a checksummed disk cache.
+//! - [`Method`] is the one renderer interface: [`CpuRsl`], [`GpuRsl`] and [`Truth`] each turn
+//!   the prepared scene and a [`Request`] into a [`Frame`].
+//! - [`Progress`] and [`Timings`] are the one way long work reports itself and what stages
+//!   cost; nothing here draws on the terminal.
+//! - [`output`] writes result files atomically, [`ply`] the per-vertex export.
+
+pub mod cache;
+pub mod engine;
+pub mod gpu;
+pub mod method;
+pub mod output;
+pub mod ply;
+pub mod progress;
+pub mod store;
+pub mod truth;
+
+pub use engine::{Engine, EngineOptions, Layers, ShadedFrame};
+pub use gpu::GpuRenderer;
+pub use method::{CpuRsl, Frame, GpuRsl, Method, Request, Truth};
+pub use progress::{Event, Progress, Timings};
+pub use rsl_env as env;
+pub use rsl_scene as scene;
+pub use rsl_sphere as sphere;

@@ -1,0 +1,341 @@
+//! One renderer interface: every way of computing a frame — the CPU RSL path, the GPU RSL
+//! path, the Monte Carlo truth — takes the prepared scene and a frame request and returns
+//! one [`Frame`] type.
+
+use crate::engine::Engine;
+use crate::gpu::GpuRenderer;
+use crate::progress::{Progress, Timings};
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+use rsl_scene::{Scene, SceneState};
+use rsl_shade::{FrameStats, Image, RasterMesh, tonemap};
+use rsl_truth::{EnvLight, Estimate, TruthObject, TruthScene};
+use std::time::Instant;
+
+/// What a frame should hold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Request {
+    /// Scene time, seconds.
+    pub time: f32,
+    /// Draw an image through the scene's camera.
+    pub image: bool,
+    /// Per-vertex radiance (the RSL paths always have it; the truth estimates it only when
+    /// asked, as it costs as much again).
+    pub vertices: bool,
+    /// Exposure for methods that tonemap on the device (`None`: automatic, from the image).
+    pub exposure: Option<f32>,
+}
+
+impl Request {
+    /// An image and the vertices at time `t`, automatic exposure.
+    pub fn at(t: f32) -> Self {
+        Self { time: t, image: true, vertices: true, exposure: None }
+    }
+}
+
+/// The image tonemapped on the device, with the exposure used.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Encoded {
+    /// Interleaved 8-bit sRGB.
+    pub rgb: Vec<u8>,
+    /// The exposure it was made at.
+    pub exposure: f32,
+}
+
+/// The error a Monte Carlo frame carries, as relative L2 (‖standard error‖₂ / ‖mean‖₂).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SelfError {
+    /// Over the vertices, when they were estimated.
+    pub vertices: Option<f64>,
+    /// Over the pixels objects cover, when an image was made.
+    pub pixels: Option<f64>,
+}
+
+/// One frame of any method.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Transforms and environment rotation.
+    pub state: SceneState,
+    /// Per object, per vertex: world position (empty when vertices were not asked for and
+    /// the method did not make them).
+    pub positions: Vec<Vec<Vec3>>,
+    /// Per object, per vertex: world normal.
+    pub normals: Vec<Vec<Vec3>>,
+    /// Per object, per vertex: radiance toward the eye.
+    pub radiance: Vec<Vec<Vec3>>,
+    /// Per object, per vertex: the standard error of `radiance` (Monte Carlo methods).
+    pub std_error: Option<Vec<Vec<Vec3>>>,
+    /// The linear image with coverage, when asked for.
+    pub image: Option<Image>,
+    /// The image tonemapped on the device, where the method does that.
+    pub encoded: Option<Encoded>,
+    /// The method's own error, where it can estimate it (`None` inside: could not, such as
+    /// with one sample).
+    pub self_error: Option<SelfError>,
+    /// Lookup counts (RSL paths; the truth fills in `vertices` only).
+    pub stats: FrameStats,
+    /// Shadow rays traced (Monte Carlo methods).
+    pub shadow_rays: u64,
+    /// What each stage cost.
+    pub timings: Timings,
+}
+
+impl Frame {
+    /// Whether the frame holds per-vertex radiance.
+    pub fn has_vertices(&self) -> bool {
+        !self.radiance.is_empty()
+    }
+}
+
+/// A way of computing frames from a prepared scene.
+pub trait Method {
+    /// What it is, in words (for logs and reports).
+    fn describe(&self) -> String;
+
+    /// The frame of `scene` (which `engine` was last synced to) for `request`.
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame>;
+}
+
+/// The automatic exposure of an image: keyed on the pixels objects cover (the background
+/// alone when none do).
+pub fn exposure_for(image: &Image) -> f32 {
+    let objects: Vec<_> = image.pixels.iter().zip(&image.covered).filter(|p| *p.1).map(|p| *p.0).collect();
+    tonemap::auto_exposure(if objects.is_empty() { &image.pixels } else { &objects })
+}
+
+/// Rasterises per-vertex radiance with the environment behind it (the CPU rasteriser).
+pub fn rasterise(
+    engine: &Engine,
+    scene: &Scene,
+    state: &SceneState,
+    positions: &[Vec<Vec3>],
+    radiance: &[Vec<Vec3>],
+) -> Image {
+    let meshes: Vec<RasterMesh<'_>> = scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| RasterMesh { positions: &positions[i], indices: &o.mesh.indices, radiance: &radiance[i] })
+        .collect();
+    rsl_shade::rasterise(&scene.camera, &meshes, |d| engine.background(state, d))
+}
+
+/// The CPU RSL path: the rayon fast path of the multiple product approximation and the CPU
+/// rasteriser.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CpuRsl;
+
+impl Method for CpuRsl {
+    fn describe(&self) -> String {
+        format!("RSL on the CPU ({} threads)", rayon::current_num_threads())
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        let f = engine.shade(scene, request.time)?;
+        let mut timings = Timings::default();
+        timings.add("shade", f.shade_ms, None);
+        let image =
+            request.image.then(|| timings.time("draw", || rasterise(engine, scene, &f.state, &f.positions, &f.radiance)));
+        Ok(Frame {
+            state: f.state,
+            positions: f.positions,
+            normals: f.normals,
+            radiance: f.radiance,
+            std_error: None,
+            image,
+            encoded: None,
+            self_error: None,
+            stats: f.stats,
+            shadow_rays: 0,
+            timings,
+        })
+    }
+}
+
+/// The GPU RSL path: the wgpu compute pass and draw pass.
+pub struct GpuRsl {
+    /// The renderer (uploads follow the engine's content keys).
+    pub renderer: GpuRenderer,
+}
+
+impl Method for GpuRsl {
+    fn describe(&self) -> String {
+        format!("RSL on the GPU ({})", self.renderer.describe())
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        let mut timings = Timings::default();
+        let (image, encoded) = if request.image {
+            let g = self.renderer.render(engine, scene, request.time, request.exposure, exposure_for)?;
+            let t = g.timings;
+            timings.add("shade", t.shade.wall_ms, t.shade.gpu_ms);
+            timings.add("draw", t.draw.wall_ms, t.draw.gpu_ms);
+            timings.add("image readback", t.readback_ms, None);
+            timings.add("tonemap", t.tonemap.wall_ms, t.tonemap.gpu_ms);
+            (Some(g.image), Some(Encoded { rgb: g.rgb, exposure: g.exposure }))
+        } else {
+            let p = self.renderer.dispatch(engine, scene, request.time, rsl_shade::Terms::default())?;
+            timings.add("shade", p.wall_ms, p.gpu_ms);
+            (None, None)
+        };
+        let f = if request.vertices || !request.image {
+            // The frame just shaded, read back (not shaded again).
+            let start = Instant::now();
+            let f = self.renderer.read_frame(engine, scene, request.time)?;
+            timings.add("vertex readback", start.elapsed().as_secs_f64() * 1e3, None);
+            f
+        } else {
+            crate::ShadedFrame {
+                state: scene.at(request.time),
+                positions: Vec::new(),
+                normals: Vec::new(),
+                radiance: Vec::new(),
+                stats: FrameStats::default(),
+                shade_ms: 0.0,
+            }
+        };
+        Ok(Frame {
+            state: f.state,
+            positions: f.positions,
+            normals: f.normals,
+            radiance: f.radiance,
+            std_error: None,
+            image,
+            encoded,
+            self_error: None,
+            stats: f.stats,
+            shadow_rays: 0,
+            timings,
+        })
+    }
+}
+
+/// The Monte Carlo ground truth (rsl-truth): multiple importance sampling of the environment
+/// and the BRDF with shadow rays, on the same vertices, frames and views as the RSL path, and
+/// per pixel through the camera. Needs only the engine's method-neutral layer.
+pub struct Truth {
+    /// Samples per vertex and per pixel.
+    pub spp: u32,
+    /// Seed (the result is deterministic for a seed).
+    pub seed: u64,
+    /// Where the estimation reports its progress.
+    pub progress: Progress,
+    env: EnvLight,
+    env_key: u64,
+}
+
+impl Truth {
+    /// The truth of `engine`'s environment at `spp` samples (at least 1).
+    pub fn new(engine: &Engine, spp: u32, seed: u64) -> Result<Self> {
+        if spp == 0 {
+            bail!("--spp must be at least 1");
+        }
+        Ok(Self { spp, seed, progress: Progress::none(), env: env_light(engine), env_key: engine.environment_key() })
+    }
+
+    /// The truth scene (one BVH over every triangle) of `scene` at `state`.
+    pub fn scene(engine: &Engine, scene: &Scene, state: &SceneState, env: EnvLight) -> Result<TruthScene> {
+        engine.check(scene)?;
+        let objects: Vec<TruthObject<'_>> = (0..engine.object_count())
+            .map(|i| TruthObject {
+                mesh: engine.mesh(i),
+                frames: engine.frames(i),
+                brdf: *engine.brdf(i),
+                transform: state.objects[i],
+                casts_shadows: scene.objects[i].casts_shadows,
+            })
+            .collect();
+        Ok(TruthScene::new(&objects, env, state.world_from_env)?)
+    }
+}
+
+/// The environment of `engine` as a light to sample (shares the engine's map).
+pub fn env_light(engine: &Engine) -> EnvLight {
+    match engine.environment() {
+        crate::engine::EnvRadiance::Map(m) => EnvLight::map(m.clone(), engine.intensity()),
+        crate::engine::EnvRadiance::Constant(c) => EnvLight::Constant(*c * engine.intensity()),
+    }
+}
+
+/// `‖standard error‖₂ / ‖mean‖₂` over the estimates: the relative L2 error they carry.
+pub fn relative_std_error<'a>(est: impl Iterator<Item = &'a Estimate>) -> f64 {
+    let (mut se, mut m) = (0.0f64, 0.0f64);
+    for e in est {
+        se += f64::from(e.std_error.length_squared());
+        m += f64::from(e.mean.length_squared());
+    }
+    if m > 0.0 { (se / m).sqrt() } else { 0.0 }
+}
+
+impl Method for Truth {
+    fn describe(&self) -> String {
+        format!("Monte Carlo truth ({} spp, seed {})", self.spp, self.seed)
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        if engine.environment_key() != self.env_key {
+            self.env = env_light(engine);
+            self.env_key = engine.environment_key();
+        }
+        if scene.objects.is_empty() {
+            bail!("{}: the scene has no objects; there is nothing to estimate", scene.path.display());
+        }
+        let state = scene.at(request.time);
+        let mut timings = Timings::default();
+        let ts = timings.time("scene", || Self::scene(engine, scene, &state, self.env.clone()))?;
+        let estimable = self.spp >= 2;
+        let mut self_error = SelfError::default();
+        let mut stats = FrameStats::default();
+        let mut shadow_rays = 0;
+        let image = if request.image {
+            let task = format!("truth, {} spp, pixels", self.spp);
+            let start = Instant::now();
+            let (px, covered, s) = self
+                .progress
+                .task(&task, |report| ts.pixels_with_progress(&scene.camera, self.spp, self.seed, report))?;
+            timings.add("pixels", start.elapsed().as_secs_f64() * 1e3, None);
+            shadow_rays += s.shadow_rays;
+            self_error.pixels = estimable
+                .then(|| relative_std_error(px.iter().zip(&covered).filter(|(_, c)| **c).map(|(e, _)| e)));
+            Some(Image {
+                width: scene.camera.width,
+                height: scene.camera.height,
+                pixels: px.iter().map(|e| e.mean).collect(),
+                covered,
+            })
+        } else {
+            None
+        };
+        let (mut positions, mut normals, mut radiance, mut std_error) = (Vec::new(), Vec::new(), Vec::new(), None);
+        if request.vertices {
+            let task = format!("truth, {} spp, vertices", self.spp);
+            let start = Instant::now();
+            let (est, s) = self
+                .progress
+                .task(&task, |report| ts.vertices_with_progress(scene.camera.eye, self.spp, self.seed, report))
+                .context("estimating the vertices")?;
+            timings.add("vertices", start.elapsed().as_secs_f64() * 1e3, None);
+            shadow_rays += s.shadow_rays;
+            stats.vertices = s.points;
+            self_error.vertices = estimable.then(|| relative_std_error(est.iter().flatten()));
+            let n = scene.objects.len();
+            positions = (0..n).map(|i| ts.positions(i).to_vec()).collect();
+            normals = (0..n).map(|i| (0..est[i].len()).map(|v| ts.frame(i, v).n).collect()).collect();
+            radiance = est.iter().map(|o| o.iter().map(|e| e.mean).collect()).collect();
+            std_error = Some(est.iter().map(|o| o.iter().map(|e| e.std_error).collect()).collect());
+        }
+        Ok(Frame {
+            state,
+            positions,
+            normals,
+            radiance,
+            std_error,
+            image,
+            encoded: None,
+            self_error: estimable.then_some(self_error),
+            stats,
+            shadow_rays,
+            timings,
+        })
+    }
+}

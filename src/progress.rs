@@ -1,0 +1,37 @@
+//! Progress bars on standard error for the library's [`Progress`] reports: a percentage and
+//! a time estimate per task, hidden when standard error is not a terminal.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use rsl_engine::{Event, Progress};
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+/// A [`Progress`] that draws one bar per running task on standard error.
+pub fn bars() -> Progress {
+    let running: Mutex<HashMap<String, ProgressBar>> = Mutex::new(HashMap::new());
+    Progress::new(move |e| {
+        let Ok(mut running) = running.lock() else { return };
+        match *e {
+            Event::Started { task } => {
+                let bar = ProgressBar::new(0).with_message(task.to_string());
+                bar.set_style(
+                    ProgressStyle::with_template("{msg} {wide_bar} {percent:>3}% [{elapsed} / ~{duration}]")
+                        .expect("valid template"),
+                );
+                bar.enable_steady_tick(std::time::Duration::from_millis(250));
+                running.insert(task.to_string(), bar);
+            }
+            Event::Advanced { task, done, total } => {
+                if let Some(bar) = running.get(task) {
+                    bar.set_length(total as u64);
+                    bar.set_position(done as u64);
+                }
+            }
+            Event::Finished { task } => {
+                if let Some(bar) = running.remove(task) {
+                    bar.finish_and_clear();
+                }
+            }
+        }
+    })
+}
