@@ -7,9 +7,9 @@
 //! Precomputation comes from the disk cache (`RSL_CACHE_DIR`, else the user cache folder).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rsl_engine::{Engine, EngineOptions};
 use rsl_engine::GpuRenderer;
 use rsl_engine::scene::Scene;
+use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Terms;
 use std::hint::black_box;
 

@@ -6,8 +6,8 @@
 //! the first run builds the paper-resolution fields (about a minute and a half on 2 cores).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rsl_engine::{Engine, EngineOptions};
 use rsl_engine::scene::Scene;
+use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Terms;
 use std::hint::black_box;
 

@@ -2,9 +2,9 @@
 //! files from `rsl render --vertex-out`) or over the pixels objects cover (two EXR files from
 //! `rsl render`; their alpha marks coverage), with an optional false-colour heatmap.
 
-use rsl_engine::{output, ply};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
+use rsl_engine::{output, ply};
 use rsl_scene::Scene;
 use rsl_truth::metrics::{self, false_colour, luminance_errors, with_legend};
 use std::path::{Path, PathBuf};

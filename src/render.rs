@@ -245,7 +245,10 @@ fn print_self_error(frame: &Frame, spp: u32, secs: f64) {
     match frame.self_error {
         Some(e) => {
             if let Some(p) = e.pixels {
-                eprintln!("truth: per-pixel standard error {:.3}% of the covered pixels' radiance (relative L2)", 100.0 * p);
+                eprintln!(
+                    "truth: per-pixel standard error {:.3}% of the covered pixels' radiance (relative L2)",
+                    100.0 * p
+                );
             }
             if let Some(v) = e.vertices {
                 eprintln!("truth: per-vertex standard error {:.3}% of the radiance (relative L2)", 100.0 * v);
@@ -357,7 +360,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         eprintln!("wrote {}", gif.display());
     }
     let n = times.len() as f64;
-    let per_frame: Vec<String> = spent.stages.iter().map(|s| format!("{} {:.1} ms/frame", s.name, s.ms() / n)).collect();
+    let per_frame: Vec<String> =
+        spent.stages.iter().map(|s| format!("{} {:.1} ms/frame", s.name, s.ms() / n)).collect();
     eprintln!("{} frame(s) by {}: {}", times.len(), method.describe(), per_frame.join(", "));
     Ok(())
 }

@@ -56,4 +56,3 @@ fn render_on_the_gpu_writes_the_same_outputs() {
     assert!(e.to_string().contains("CPU only"), "{e}");
     assert!(!dir.join("t.png").exists());
 }
-

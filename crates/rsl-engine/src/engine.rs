@@ -752,7 +752,8 @@ fn rsl_bytes(s: &[Rsl]) -> usize {
 }
 
 fn frames_bytes(f: &VertexFrames) -> usize {
-    std::mem::size_of_val(f.visibility.as_slice()) + f.tangent.as_ref().map_or(0, |t| std::mem::size_of_val(t.as_slice()))
+    std::mem::size_of_val(f.visibility.as_slice())
+        + f.tangent.as_ref().map_or(0, |t| std::mem::size_of_val(t.as_slice()))
 }
 
 /// Counts a rejected cache file, says why, and removes it.

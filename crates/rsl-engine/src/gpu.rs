@@ -5,10 +5,10 @@
 //! set of meshes or fields changes, BRDF tables when a material changes, and only poses and
 //! lights per frame.
 
+use crate::engine::EnvRadiance;
 use crate::engine::{Engine, ShadedFrame};
 use anyhow::{Context, Result};
 use glam::Mat3;
-use crate::engine::EnvRadiance;
 use rsl_gpu::draw::{Backdrop, GpuDraw};
 use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
 use rsl_gpu::{GpuContext, GpuError};

@@ -134,8 +134,9 @@ impl Method for CpuRsl {
         let f = engine.shade(scene, request.time)?;
         let mut timings = Timings::default();
         timings.add("shade", f.shade_ms, None);
-        let image =
-            request.image.then(|| timings.time("draw", || rasterise(engine, scene, &f.state, &f.positions, &f.radiance)));
+        let image = request
+            .image
+            .then(|| timings.time("draw", || rasterise(engine, scene, &f.state, &f.positions, &f.radiance)));
         Ok(Frame {
             state: f.state,
             positions: f.positions,
@@ -295,8 +296,8 @@ impl Method for Truth {
                 .task(&task, |report| ts.pixels_with_progress(&scene.camera, self.spp, self.seed, report))?;
             timings.add("pixels", start.elapsed().as_secs_f64() * 1e3, None);
             shadow_rays += s.shadow_rays;
-            self_error.pixels = estimable
-                .then(|| relative_std_error(px.iter().zip(&covered).filter(|(_, c)| **c).map(|(e, _)| e)));
+            self_error.pixels =
+                estimable.then(|| relative_std_error(px.iter().zip(&covered).filter(|(_, c)| **c).map(|(e, _)| e)));
             Some(Image {
                 width: scene.camera.width,
                 height: scene.camera.height,

@@ -33,7 +33,10 @@ pub enum Event<'a> {
 /// A progress callback, shared between threads (builds report from rayon workers). The
 /// default reports nowhere.
 #[derive(Clone, Default)]
-pub struct Progress(Option<Arc<dyn Fn(&Event<'_>) + Send + Sync>>);
+pub struct Progress(Option<Arc<Callback>>);
+
+/// What a [`Progress`] calls.
+type Callback = dyn Fn(&Event<'_>) + Send + Sync;
 
 impl std::fmt::Debug for Progress {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -166,10 +169,13 @@ mod tests {
         assert_eq!(v, 7);
         assert_eq!(*seen.lock().unwrap(), ["start build", "build 1/2", "build 2/2", "end build"]);
         // The silent default runs the work all the same.
-        assert_eq!(Progress::none().task("x", |a| {
-            a(0, 1);
+        assert_eq!(
+            Progress::none().task("x", |a| {
+                a(0, 1);
+                3
+            }),
             3
-        }), 3);
+        );
     }
 
     #[test]

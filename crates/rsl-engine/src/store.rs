@@ -31,14 +31,7 @@ pub struct Store {
 impl Store {
     /// An empty store holding at most `budget` bytes of unpinned data.
     pub fn new(budget: usize) -> Self {
-        Self {
-            entries: HashMap::new(),
-            pinned: HashSet::new(),
-            clock: 0,
-            budget,
-            resident: 0,
-            evictions: 0,
-        }
+        Self { entries: HashMap::new(), pinned: HashSet::new(), clock: 0, budget, resident: 0, evictions: 0 }
     }
 
     /// The item under `key` (marking it used), if it is held and of type `T`.
@@ -133,13 +126,17 @@ mod tests {
         s.insert(4, Arc::new(4u8), 10);
         assert!(!s.contains(2) && s.contains(1) && s.contains(3) && s.contains(4));
         assert_eq!((s.resident_bytes(), s.evictions()), (30, 1));
-        // Pinned items stay even over budget; unpinning lets them go.
+        // With everything else pinned, an unpinned newcomer is the one to go.
         s.pin([1, 3, 4]);
         s.insert(5, Arc::new(5u8), 25);
         assert!(s.contains(1) && s.contains(3) && s.contains(4) && !s.contains(5));
+        // Pinned items stay even over budget; unpinning lets them go.
+        s.pin_more([5]);
+        s.insert(5, Arc::new(5u8), 25);
+        assert_eq!(s.resident_bytes(), 55);
         s.pin([5]);
         assert_eq!(s.resident_bytes(), 25, "only the new pin is left");
-        assert!(s.contains(5));
+        assert!(s.contains(5) && s.len() == 1);
     }
 
     #[test]

@@ -364,4 +364,3 @@ fn the_rsl_path_converges_to_the_truth_as_lights_shrink() {
     assert!(last < 0.01, "{errors:?}");
     assert!(last < 0.5 * errors[0].1, "{errors:?}");
 }
-

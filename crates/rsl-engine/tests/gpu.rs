@@ -191,7 +191,8 @@ fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
     let t = 1.7;
     let frame = gpu.render(&engine, &scene, t, None, rsl_engine::method::exposure_for).unwrap();
     let cpu_frame = engine.shade(&scene, t).unwrap();
-    let cpu = rsl_engine::method::rasterise(&engine, &scene, &cpu_frame.state, &cpu_frame.positions, &cpu_frame.radiance);
+    let cpu =
+        rsl_engine::method::rasterise(&engine, &scene, &cpu_frame.state, &cpu_frame.positions, &cpu_frame.radiance);
     let g = &frame.image;
     assert_eq!((g.width, g.height), (cpu.width, cpu.height));
     let n = g.pixels.len();

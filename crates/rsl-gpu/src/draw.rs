@@ -601,7 +601,10 @@ impl GpuDraw {
         );
         self.ctx.queue.submit([enc.finish()]);
         let bytes = self.ctx.read_buffer(&staging, padded * u64::from(h))?;
-        Ok(bytes.chunks_exact(padded as usize).flat_map(|r| r[..row as usize].chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]])).collect())
+        Ok(bytes
+            .chunks_exact(padded as usize)
+            .flat_map(|r| r[..row as usize].chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]))
+            .collect())
     }
 }
 
