@@ -14,7 +14,11 @@ use std::hint::black_box;
 fn bench(c: &mut Criterion) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/bench.toml");
     let scene = Scene::load(&path).expect("bench scene");
-    let options = EngineOptions { cache_dir: rsl_engine::cache::default_dir(), ..Default::default() };
+    let options = EngineOptions {
+        cache_dir: rsl_engine::cache::default_dir(),
+        progress: rsl::progress::bars(),
+        ..Default::default()
+    };
     let engine = Engine::new(&scene, options).expect("prepared");
     let (vertices, _) = scene.counts();
     let t = 1.0;

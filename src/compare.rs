@@ -63,7 +63,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         }
         let rad = |d: &ply::PlyData| d.vertices.iter().map(|v| Vec3::new(v[6], v[7], v[8])).collect::<Vec<_>>();
         let (ra, rb) = (rad(&a), rad(&b));
-        let m = metrics::compare(&ra, &rb, None).map_err(anyhow::Error::msg)?;
+        let m = metrics::compare(&ra, &rb, None)?;
         println!("vertices: {m}");
         if let Some(h) = &args.heatmap {
             let Some(scene) = &args.scene else { bail!("--heatmap with PLY inputs needs --scene for the camera") };
@@ -84,7 +84,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             bail!("{} is {wa}×{ha}, {} is {wb}×{hb}", args.a.display(), args.b.display());
         }
         let mask = if args.all_pixels { None } else { mask };
-        let m = metrics::compare(&pa, &pb, mask.as_deref()).map_err(anyhow::Error::msg)?;
+        let m = metrics::compare(&pa, &pb, mask.as_deref())?;
         println!("{}: {m}", if mask.is_some() { "covered pixels" } else { "pixels" });
         if let Some(h) = &args.heatmap {
             let err = luminance_errors(&pa, &pb);

@@ -2,7 +2,7 @@
 //! §4.2).
 //!
 //! BRDF data lives apart from objects: swapping a material or dragging its parameters only
-//! rebuilds its table ([`BrdfTable::build`]). The tabulated quantity is `ρ·cos θ` (DESIGN.md);
+//! rebuilds its table ([`BrdfTable::build`]). The tabulated quantity is `ρ·cos θ` (docs/conventions.md, BRDF tables);
 //! a square's integral is returned with its average over the square and its solid angle.
 //!
 //! `unsafe` is confined to `table`'s vector kernels (AVX2/FMA and AVX-512, detected at run

@@ -20,7 +20,7 @@
 //!
 //! Summed-area tables are built and stored in f64 (the prefix sums of `N²` cell integrals
 //! keep ~15 significant digits, so the four-lookup difference of a near-delta lobe's box is
-//! exact to far below the table's own error; DESIGN.md, Numerics). A box is evaluated through
+//! exact to far below the table's own error; docs/conventions.md, Numerics). A box is evaluated through
 //! the prefix function `F(x, y)`, the integral over `[−1, x]×[−1, y]`, known exactly at cell
 //! corners and interpolated between them by Catmull–Rom splines (a bilinear `F`, i.e. a
 //! density uniform per cell, errs by several 10⁻³ for boxes of two cells even for Lambert);

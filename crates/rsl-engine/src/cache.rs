@@ -163,12 +163,14 @@ pub fn rsls_from_bytes(b: &[u8]) -> Result<Vec<Rsl>, String> {
     Ok(rsls)
 }
 
-/// Writes `bytes` atomically into the cache (temporary file, then rename).
-pub fn write(path: &Path, bytes: &[u8]) -> Result<(), String> {
+/// Writes `bytes` atomically into the cache (temporary file, then rename), creating the
+/// cache folder if needed.
+pub fn write(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create cache folder {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create cache folder {}: {e}", dir.display()))?;
     }
-    crate::output::write_atomic(path, bytes).map_err(|e| format!("{e:#}"))
+    crate::output::write_atomic(path, bytes)
 }
 
 #[cfg(test)]

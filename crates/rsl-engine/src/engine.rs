@@ -454,7 +454,7 @@ impl Engine {
         if let Some(f) = &file
             && let Err(e) = cache::write(f, &cache::rsls_to_bytes(&set))
         {
-            tracing::warn!("cannot cache the light set: {e}");
+            tracing::warn!("cannot cache the light set: {e:#}");
         }
         let set = Arc::new(set);
         self.store.insert(key, set.clone(), rsl_bytes(&set));

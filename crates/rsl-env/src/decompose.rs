@@ -19,7 +19,7 @@ use serde::Serialize;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-/// A rotatable square light ⟨c, r, I⟩ (DESIGN.md): unit centre direction in environment
+/// A rotatable square light ⟨c, r, I⟩ (docs/conventions.md): unit centre direction in environment
 /// space, half-diagonal in the hemisphere plane (solid angle `4r²`), uniform RGB radiance.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Rsl {

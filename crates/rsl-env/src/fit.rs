@@ -2,7 +2,7 @@
 //! §4.1.1).
 //!
 //! A region `S` (a set of cube texels) is fitted in the equal-area plane centred on the
-//! RSL's centre `c` (the hemisphere map with `c` as its pole, DESIGN.md): the square of
+//! RSL's centre `c` (the hemisphere map with `c` as its pole, docs/conventions.md): the square of
 //! half-diagonal `r` has plane area `2r²`, i.e. solid angle `4r²`, and its intensity is set
 //! by exact energy preservation, `I = ∫_S L dω / 4r²`. The fitting error of eq. 7,
 //!

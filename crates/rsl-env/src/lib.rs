@@ -7,7 +7,7 @@
 //! - [`decompose`]: bottom-up merging into a merge tree with every region count (§4.1.2).
 //! - [`visualise`]: the paper's figure 6 as a PNG: map, region borders, fitted squares.
 //!
-//! Units (DESIGN.md): an RSL's square has solid angle `4r²`, and `I·4r² = ∫_S L dω` per
+//! Units (docs/conventions.md, Rotatable square lights): an RSL's square has solid angle `4r²`, and `I·4r² = ∫_S L dω` per
 //! channel exactly.
 
 pub mod cube_env;

@@ -1,4 +1,4 @@
-//! Quality presets (DESIGN.md): every knob of precomputation in one place, each overridable.
+//! Quality presets (docs/conventions.md, Quality presets): every knob of precomputation in one place, each overridable.
 
 use serde::Deserialize;
 

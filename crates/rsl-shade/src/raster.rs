@@ -1,7 +1,7 @@
 //! The CPU rasteriser: z-buffered triangles with perspective-correct interpolation of vertex
 //! radiance, clipped against a near plane, and the environment behind them.
 //!
-//! The camera is a pinhole with a vertical field of view (DESIGN.md); pixel `(x, y)` has its
+//! The camera is a pinhole with a vertical field of view; pixel `(x, y)` has its
 //! centre at `(x + ½, y + ½)`, row 0 at the top. Triangles are drawn from both sides (a face
 //! seen from behind carries the radiance its vertices send toward the eye, which is zero for
 //! the one-sided BRDFs).

@@ -465,7 +465,10 @@ pub fn shade(setup: &FrameSetup<'_>) -> (Vec<Vec<Vec3>>, FrameStats) {
 }
 
 /// The reference: the formula as written, one vertex, RSL and occluder at a time, through
-/// the public lookups of rsl-brdf and rsl-vis, with nothing hoisted or skipped.
+/// the public lookups of rsl-brdf and rsl-vis, with nothing hoisted. It culls as the fast
+/// path does (an occluder outside its field's reach, or whose bounding sphere the light's
+/// cone misses, covers nothing), so the two agree on which lookups are made; the culling
+/// of an occluder beyond its field is checked to change nothing in rsl-engine's tests.
 pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
     let mut out = Vec::new();
     for (i, p) in setup.placed.iter().enumerate() {

@@ -1,7 +1,7 @@
 //! Unit directions and orthonormal local frames.
 //!
 //! A [`Frame`] has its normal along local +z, matching the hemisphere map's convention
-//! (DESIGN.md): `to_local(n) = (0, 0, 1)`.
+//! (docs/conventions.md, Local frames): `to_local(n) = (0, 0, 1)`.
 
 use glam::Vec3;
 

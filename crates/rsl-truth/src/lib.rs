@@ -11,4 +11,4 @@ pub mod estimate;
 pub mod metrics;
 
 pub use estimate::{EnvLight, Estimate, TruthError, TruthObject, TruthScene, TruthStats};
-pub use metrics::{Metrics, compare};
+pub use metrics::{CompareError, Metrics, compare};

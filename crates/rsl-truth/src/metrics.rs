@@ -36,15 +36,49 @@ impl std::fmt::Display for Metrics {
     }
 }
 
+/// Why two sets of values cannot be compared.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CompareError {
+    /// The two sets differ in length.
+    #[error("{test} values against {reference} in the reference")]
+    Length {
+        /// Values tested.
+        test: usize,
+        /// Values in the reference.
+        reference: usize,
+    },
+    /// The mask's length is not the values'.
+    #[error("mask of {mask} for {values} values")]
+    MaskLength {
+        /// Entries in the mask.
+        mask: usize,
+        /// Values.
+        values: usize,
+    },
+    /// A value is NaN or infinite.
+    #[error("value {index} is not finite ({test} against {reference})")]
+    NotFinite {
+        /// Its index.
+        index: usize,
+        /// The tested value.
+        test: Vec3,
+        /// The reference value.
+        reference: Vec3,
+    },
+    /// Nothing is left to compare.
+    #[error("no values to compare (empty input or nothing covered)")]
+    Empty,
+}
+
 /// Compares `test` with `reference` where `mask` (if any) is true.
-pub fn compare(test: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> Result<Metrics, String> {
+pub fn compare(test: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> Result<Metrics, CompareError> {
     if test.len() != reference.len() {
-        return Err(format!("{} values against {} in the reference", test.len(), reference.len()));
+        return Err(CompareError::Length { test: test.len(), reference: reference.len() });
     }
     if let Some(m) = mask
         && m.len() != reference.len()
     {
-        return Err(format!("mask of {} for {} values", m.len(), reference.len()));
+        return Err(CompareError::MaskLength { mask: m.len(), values: reference.len() });
     }
     let (mut diff2, mut ref2, mut max_abs, mut peak, mut points) = (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0usize);
     for (k, (a, b)) in test.iter().zip(reference).enumerate() {
@@ -52,7 +86,7 @@ pub fn compare(test: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> Resu
             continue;
         }
         if !a.is_finite() || !b.is_finite() {
-            return Err(format!("value {k} is not finite ({a} against {b})"));
+            return Err(CompareError::NotFinite { index: k, test: *a, reference: *b });
         }
         points += 1;
         for c in 0..3 {
@@ -64,7 +98,7 @@ pub fn compare(test: &[Vec3], reference: &[Vec3], mask: Option<&[bool]>) -> Resu
         }
     }
     if points == 0 {
-        return Err("no values to compare (empty input or nothing covered)".into());
+        return Err(CompareError::Empty);
     }
     let rmse = (diff2 / (3 * points) as f64).sqrt();
     Ok(Metrics {

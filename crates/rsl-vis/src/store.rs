@@ -1,6 +1,6 @@
-//! The on-disk form of visibility fields (SVDF and OVDF) (DESIGN.md, precomputation cache): a magic number,
-//! a format version, the payload's length and an FNV-1a 64 checksum, then the little-endian
-//! payload. A wrong magic, an unknown version, a short file or a checksum mismatch is an
+//! The on-disk form of visibility fields (SVDF and OVDF) (docs/conventions.md,
+//! Precomputation cache): a magic number, a format version, the payload's length and an
+//! FNV-1a 64 checksum, then the little-endian payload. A wrong magic, an unknown version, a short file or a checksum mismatch is an
 //! error, never a half-read field. Saving writes a temporary file and renames it.
 
 use crate::cpca::Cpca;
