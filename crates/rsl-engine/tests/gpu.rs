@@ -291,3 +291,43 @@ fn a_lost_device_is_an_error_not_a_panic() {
     assert!(chain.contains("lost") || chain.contains("GPU"), "{chain}");
     assert!(matches!(ctx.check_alive(), Err(rsl_gpu::GpuError::DeviceLost)), "{:?}", ctx.check_alive().err());
 }
+
+#[test]
+fn tonemapping_into_a_texture_matches_the_read_back_encoding() {
+    let Some(mut gpu) = renderer("tonemapping_into_a_texture_matches_the_read_back_encoding") else { return };
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let frame = gpu.render(&engine, &scene, 0.8, None, rsl_engine::method::exposure_for).unwrap();
+    let texture = gpu.draw().display_texture().unwrap();
+    gpu.draw_mut().tonemap_into(frame.exposure, &texture).unwrap();
+    let rgb = gpu.draw().read_display(&texture).unwrap();
+    assert_eq!(rgb.len(), frame.rgb.len());
+    let differ = rgb.iter().zip(&frame.rgb).filter(|(a, b)| a != b).count();
+    assert_eq!(differ, 0, "{differ} of {} bytes differ from the read-back encoding", rgb.len());
+    // A target of the wrong size is refused, not written out of bounds.
+    let small = gpu.shading().context().device.create_texture(&rsl_gpu::wgpu::TextureDescriptor {
+        label: None,
+        size: rsl_gpu::wgpu::Extent3d { width: 8, height: 8, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: rsl_gpu::wgpu::TextureDimension::D2,
+        format: rsl_gpu::draw::DISPLAY,
+        usage: rsl_gpu::wgpu::TextureUsages::STORAGE_BINDING,
+        view_formats: &[],
+    });
+    let e = gpu.draw_mut().tonemap_into(1.0, &small).unwrap_err();
+    assert!(e.to_string().contains("8×8"), "{e}");
+}
+
+#[test]
+fn a_context_on_a_device_opened_elsewhere_shades_the_same() {
+    let Some(own) = rsl_gpu::testing::context_or_skip("a_context_on_a_device_opened_elsewhere_shades_the_same") else {
+        return;
+    };
+    // As a viewer would: the adapter, device and queue of someone else's context.
+    let shared = rsl_gpu::GpuContext::from_device(own.adapter.clone(), own.device.clone(), own.queue.clone());
+    let mut gpu = GpuRenderer::with_context(Arc::new(shared)).expect("pipelines build on the shared device");
+    let scene = default_scene();
+    let engine = engine(&scene);
+    check("shared device", &engine.shade(&scene, 0.4).unwrap(), &gpu.shade(&engine, &scene, 0.4).unwrap());
+}
