@@ -103,3 +103,63 @@ fn unwritable_outputs_are_errors_and_leave_nothing() {
     assert!(!ok && err.contains("cannot write") && err.contains("out.json"), "{err}");
     assert!(!Path::new(&target).exists());
 }
+
+/// A small scene: one sphere in a constant environment.
+fn small_scene(dir: &Path) -> PathBuf {
+    let path = dir.join("small.toml");
+    std::fs::write(
+        &path,
+        "[environment]\nconstant = [1.0, 1.0, 1.0]\n[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
+         width = 64\nheight = 48\n[[objects]]\nname = \"ball\"\nprimitive = { kind = \"sphere\", radius = 1.0, resolution = 8 }\n\
+         material = { model = \"lambert\", albedo = [0.5, 0.5, 0.5] }\n",
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn the_truth_with_one_sample_says_it_cannot_estimate_its_error() {
+    let dir = out_dir("truth-spp1");
+    let scene = small_scene(&dir);
+    let args = |spp: &str, out: &str| {
+        let (scene, out) = (scene.to_str().unwrap().to_string(), dir.join(out).to_str().unwrap().to_string());
+        [
+            "render",
+            &scene,
+            "--method",
+            "truth",
+            "--spp",
+            spp,
+            "--out",
+            &out,
+            "--vertex-out",
+            &out.replace(".png", ".ply"),
+        ]
+        .map(String::from)
+    };
+    let (ok, _, err) = run(rsl().args(args("1", "one.png")));
+    assert!(ok, "{err}");
+    assert!(err.contains("standard error not estimated"), "{err}");
+    assert!(!err.contains("0.000%"), "{err}");
+    let (ok, _, err) = run(rsl().args(args("4", "four.png")));
+    assert!(ok, "{err}");
+    assert!(err.contains("per-pixel standard error") && err.contains("per-vertex standard error"), "{err}");
+}
+
+#[test]
+fn a_run_that_works_prints_no_error_without_a_runtime_dir() {
+    // Probing for a GPU loads the Vulkan driver, which complains on stderr when
+    // XDG_RUNTIME_DIR is missing; a successful run must not show the word "error".
+    let dir = out_dir("no-runtime-dir");
+    let scene = small_scene(&dir);
+    let out = dir.join("x.png");
+    let (ok, _, err) = run(rsl().env_remove("XDG_RUNTIME_DIR").args([
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--no-cache",
+    ]));
+    assert!(ok, "{err}");
+    assert!(!err.to_lowercase().contains("error"), "{err}");
+}
