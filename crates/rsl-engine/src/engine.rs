@@ -578,7 +578,7 @@ impl Engine {
 
     fn ovdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Ovdf>, u64)> {
         let p = ovdf_params(&self.settings);
-        p.check().map_err(anyhow::Error::msg).context("quality settings")?;
+        p.check().context("quality settings")?;
         let key = field_key("ovdf", mesh_key, &[p.shells, p.m, p.n, p.supersample, p.vectors]);
         let io = FieldIo {
             prefix: "ovdf",

@@ -63,9 +63,12 @@ impl OvdfParams {
     pub const PAPER: OvdfParams = OvdfParams { shells: 16, m: 32, n: 32, supersample: 2, vectors: 8 };
 
     /// Checks that the resolutions can make a field: even M ≥ 2, S ≥ 2, N ≥ 2.
-    pub fn check(&self) -> Result<(), String> {
+    pub fn check(&self) -> Result<(), VisError> {
         if self.m < 2 || !self.m.is_multiple_of(2) || self.shells < 2 || self.n < 2 {
-            return Err(format!("OVDF resolution needs even M ≥ 2, S ≥ 2, N ≥ 2; got {self:?}"));
+            return Err(VisError::Params(format!(
+                "occluder field resolution needs even M ≥ 2, S ≥ 2, N ≥ 2; got M = {}, S = {}, N = {}",
+                self.m, self.shells, self.n
+            )));
         }
         Ok(())
     }
@@ -121,7 +124,7 @@ impl Ovdf {
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Self, VisError> {
         mesh.validate().map_err(|e| VisError::Mesh(e.to_string()))?;
-        params.check().map_err(VisError::Mesh)?;
+        params.check()?;
         let occluder = Occluder::new(mesh)?;
         let (centre, radius) = mesh.bounding_sphere().unwrap_or_default();
         let radius = radius.max(1e-6);
@@ -194,7 +197,7 @@ impl Ovdf {
             [raw_bytes, bytes_f32, bytes_f16],
             [rms_distance_error, rms_coverage_error],
         )
-        .map_err(VisError::Mesh)
+        .map_err(VisError::Params)
     }
 
     /// Bytes held as stored: every segment's PCA and the texel frames.
@@ -222,7 +225,7 @@ impl Ovdf {
         errors: [f32; 2],
     ) -> Result<Self, String> {
         let half = params.m / 2;
-        params.check()?;
+        params.check().map_err(|e| e.to_string())?;
         if segments.len() != params.shells * 24 {
             return Err(format!("{} segments for {} shells", segments.len(), params.shells));
         }

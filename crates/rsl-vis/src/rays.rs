@@ -24,6 +24,9 @@ pub enum VisError {
     /// Indices out of range or ragged.
     #[error("{0}")]
     Mesh(String),
+    /// Resolutions that cannot make a field, or parts of a field that do not fit together.
+    #[error("{0}")]
+    Params(String),
 }
 
 /// An object's triangles in a BVH, for any-hit shadow rays.
