@@ -2,7 +2,7 @@
 //! path, the Monte Carlo truth — takes the prepared scene and a frame request and returns
 //! one [`Frame`] type.
 
-use crate::engine::Engine;
+use crate::engine::{Engine, ShadedFrame};
 use crate::gpu::GpuRenderer;
 use crate::progress::{Progress, Timings};
 use anyhow::{Context, Result, bail};
@@ -81,6 +81,23 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// A frame of an RSL path: its shaded vertices, and the image where one was made.
+    fn rsl(f: ShadedFrame, image: Option<Image>, encoded: Option<Encoded>, timings: Timings) -> Self {
+        Frame {
+            state: f.state,
+            positions: f.positions,
+            normals: f.normals,
+            radiance: f.radiance,
+            std_error: None,
+            image,
+            encoded,
+            self_error: None,
+            stats: f.stats,
+            shadow_rays: 0,
+            timings,
+        }
+    }
+
     /// Whether the frame holds per-vertex radiance.
     pub fn has_vertices(&self) -> bool {
         !self.radiance.is_empty()
@@ -186,7 +203,7 @@ impl Method for GpuRsl {
             timings.add("vertex readback", start.elapsed().as_secs_f64() * 1e3, None);
             f
         } else {
-            crate::ShadedFrame {
+            ShadedFrame {
                 state: scene.at(request.time),
                 positions: Vec::new(),
                 normals: Vec::new(),
@@ -195,19 +212,7 @@ impl Method for GpuRsl {
                 shade_ms: 0.0,
             }
         };
-        Ok(Frame {
-            state: f.state,
-            positions: f.positions,
-            normals: f.normals,
-            radiance: f.radiance,
-            std_error: None,
-            image,
-            encoded,
-            self_error: None,
-            stats: f.stats,
-            shadow_rays: 0,
-            timings,
-        })
+        Ok(Frame::rsl(f, image, encoded, timings))
     }
 }
 

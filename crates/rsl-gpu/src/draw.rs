@@ -129,83 +129,26 @@ impl GpuDraw {
             },
         ];
         let objects = render_pipeline(&ctx, &shaders::DRAW_OBJECTS, &buffers, true)?;
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty,
-            count: None,
-        };
-        let tone_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("tonemap"),
-            entries: &[
-                entry(
-                    0,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                ),
-                entry(
-                    1,
-                    wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                ),
-                entry(
-                    2,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Storage { read_only: false },
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                ),
-            ],
-        });
-        let layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("tonemap"),
-            bind_group_layouts: &[Some(&tone_layout)],
-            immediate_size: 0,
-        });
-        let tonemap = ctx.compute_pipeline_with_layout(&shaders::TONEMAP, &[], Some(&layout))?;
-        let tone_texture_layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("tonemap into a texture"),
-            entries: &[
-                entry(
-                    0,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                ),
-                entry(
-                    1,
-                    wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                ),
-                entry(
-                    2,
-                    wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: DISPLAY,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                ),
-            ],
-        });
-        let texture_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("tonemap into a texture"),
-            bind_group_layouts: &[Some(&tone_texture_layout)],
-            immediate_size: 0,
-        });
-        let tonemap_texture =
-            ctx.compute_pipeline_with_layout(&shaders::TONEMAP_TEXTURE, &[], Some(&texture_layout))?;
+        // Both tonemap passes read the parameters and the linear image; they differ in
+        // where the encoded pixels go (a storage buffer read back, or a storage texture).
+        let (tone_layout, tonemap) = tone_pipeline(
+            &ctx,
+            &shaders::TONEMAP,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+        )?;
+        let (tone_texture_layout, tonemap_texture) = tone_pipeline(
+            &ctx,
+            &shaders::TONEMAP_TEXTURE,
+            wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format: DISPLAY,
+                view_dimension: wgpu::TextureViewDimension::D2,
+            },
+        )?;
         let buffer = |label, size, usage| {
             d.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
         };
@@ -458,43 +401,66 @@ impl GpuDraw {
     /// Tonemaps the last drawn image at `exposure` on the GPU and reads it back as
     /// interleaved 8-bit sRGB.
     pub fn tonemap(&mut self, exposure: f32) -> Result<(Vec<u8>, PassTime), GpuError> {
+        let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
+        let (encoded, size) = (t.encoded.clone(), u64::from(t.width) * u64::from(t.height) * 4);
+        let start = Instant::now();
+        self.run_tonemap(
+            "tonemap",
+            exposure,
+            false,
+            wgpu::BindingResource::Buffer(encoded.as_entire_buffer_binding()),
+        )?;
+        let words = self.ctx.read_buffer(&encoded, size)?;
+        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        let rgb = words.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        Ok((rgb, PassTime { gpu_ms: None, wall_ms }))
+    }
+
+    /// Runs a tonemap pass over the last drawn image at `exposure`, writing to `output`
+    /// (binding 2): the read-back buffer, or with `texture` a display texture.
+    fn run_tonemap(
+        &mut self,
+        operation: &'static str,
+        exposure: f32,
+        texture: bool,
+        output: wgpu::BindingResource<'_>,
+    ) -> Result<(), GpuError> {
         self.ctx.check_alive()?;
         let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
         let params = ToneParams { exposure, width: t.width, height: t.height, pad: 0 };
         self.ctx.queue.write_buffer(&self.tone_params, 0, bytemuck::bytes_of(&params));
         let view = t.color.create_view(&wgpu::TextureViewDescriptor::default());
+        let (layout, pipeline) = if texture {
+            (&self.tone_texture_layout, &self.tonemap_texture)
+        } else {
+            (&self.tone_layout, &self.tonemap)
+        };
         let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("tonemap"),
-            layout: &self.tone_layout,
+            label: Some(operation),
+            layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: self.tone_params.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
-                wgpu::BindGroupEntry { binding: 2, resource: t.encoded.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: output },
             ],
         });
         let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut enc =
-            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("tonemap") });
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(operation) });
         {
             let mut pass =
-                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("tonemap"), timestamp_writes: None });
-            pass.set_pipeline(&self.tonemap);
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(operation), timestamp_writes: None });
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
             pass.dispatch_workgroups(t.width.div_ceil(8), t.height.div_ceil(8), 1);
         }
-        let start = Instant::now();
         self.ctx.queue.submit([enc.finish()]);
-        let words = self.ctx.read_buffer(&t.encoded, u64::from(t.width) * u64::from(t.height) * 4)?;
-        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Operation { operation: "tonemap", message: e.to_string() });
+        match pollster::block_on(scope.pop()) {
+            Some(e) => Err(GpuError::Operation { operation, message: e.to_string() }),
+            None => Ok(()),
         }
-        let rgb = words.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-        Ok((rgb, PassTime { gpu_ms: None, wall_ms }))
     }
-}
 
-impl GpuDraw {
     /// The size of the last drawn image, if any.
     pub fn size(&self) -> Option<(u32, u32)> {
         self.target.as_ref().map(|t| (t.width, t.height))
@@ -522,50 +488,18 @@ impl GpuDraw {
     /// texture of the image's size, such as [`GpuDraw::display_texture`]), on the GPU with no
     /// readback: the same 8-bit sRGB values [`GpuDraw::tonemap`] returns, alpha 1.
     pub fn tonemap_into(&mut self, exposure: f32, target: &wgpu::Texture) -> Result<PassTime, GpuError> {
-        self.ctx.check_alive()?;
-        let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
-        if target.format() != DISPLAY || (target.width(), target.height()) != (t.width, t.height) {
+        let (width, height) = self.size().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
+        if target.format() != DISPLAY || (target.width(), target.height()) != (width, height) {
             return Err(GpuError::Scene(format!(
-                "tonemap target is {:?} {}×{}; the image needs {DISPLAY:?} {}×{}",
+                "tonemap target is {:?} {}×{}; the image needs {DISPLAY:?} {width}×{height}",
                 target.format(),
                 target.width(),
                 target.height(),
-                t.width,
-                t.height
             )));
         }
-        let params = ToneParams { exposure, width: t.width, height: t.height, pad: 0 };
-        self.ctx.queue.write_buffer(&self.tone_params, 0, bytemuck::bytes_of(&params));
-        let view = t.color.create_view(&wgpu::TextureViewDescriptor::default());
         let out = target.create_view(&wgpu::TextureViewDescriptor::default());
-        let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("tonemap into a texture"),
-            layout: &self.tone_texture_layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.tone_params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&view) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&out) },
-            ],
-        });
-        let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let mut enc = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("tonemap into a texture") });
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("tonemap into a texture"),
-                timestamp_writes: None,
-            });
-            pass.set_pipeline(&self.tonemap_texture);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(t.width.div_ceil(8), t.height.div_ceil(8), 1);
-        }
         let start = Instant::now();
-        self.ctx.queue.submit([enc.finish()]);
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Operation { operation: "tonemap into a texture", message: e.to_string() });
-        }
+        self.run_tonemap("tonemap into a texture", exposure, true, wgpu::BindingResource::TextureView(&out))?;
         Ok(PassTime { gpu_ms: None, wall_ms: start.elapsed().as_secs_f64() * 1e3 })
     }
 
@@ -606,6 +540,46 @@ impl GpuDraw {
             .flat_map(|r| r[..row as usize].chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]))
             .collect())
     }
+}
+
+/// The bind group layout and compute pipeline of a tonemap pass: parameters (0), the
+/// linear image (1) and `output` (2).
+fn tone_pipeline(
+    ctx: &GpuContext,
+    shader: &shaders::Shader,
+    output: wgpu::BindingType,
+) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
+    let entry =
+        |binding, ty| wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None };
+    let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(shader.name),
+        entries: &[
+            entry(
+                0,
+                wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+            ),
+            entry(
+                1,
+                wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+            ),
+            entry(2, output),
+        ],
+    });
+    let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(shader.name),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = ctx.compute_pipeline_with_layout(shader, &[], Some(&pipeline_layout))?;
+    Ok((layout, pipeline))
 }
 
 /// A render pipeline of a registered shader (entry points: vertex, fragment) drawing into
