@@ -43,6 +43,10 @@ pub enum Command {
     /// Render the bundled default scene as an animation (objects moving, the environment
     /// turning, a material swapped halfway) into a folder, and print timings.
     Demo(crate::render::DemoArgs),
+    /// The speed–accuracy study: sweep configurations (RSL count, quality preset, method,
+    /// any quality knob) over scenes against the Monte Carlo truth; writes CSV, a Markdown
+    /// report and SVG plots, and resumes where an earlier run stopped.
+    Bench(crate::bench::BenchArgs),
     /// Error metrics (relative L2, RMSE, max, PSNR) of A against the reference B: two PLY
     /// files (per vertex) or two EXR files (over the pixels objects cover), with an optional
     /// false-colour heatmap.
@@ -79,6 +83,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => crate::render::render(&args),
         Command::Demo(args) => crate::render::demo(&args),
         Command::Compare(args) => crate::compare::run(&args),
+        Command::Bench(args) => crate::bench::bench(&args),
     }
 }
 

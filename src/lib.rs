@@ -5,6 +5,7 @@
 //! printing over `rsl-engine`, which holds the engine, the methods and the outputs (see
 //! ARCHITECTURE.md).
 
+pub mod bench;
 pub mod cli;
 pub mod compare;
 pub mod decompose;

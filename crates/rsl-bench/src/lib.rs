@@ -1,0 +1,250 @@
+//! rsl-bench: the speed–accuracy study. For every configuration of a sweep (method, quality
+//! preset, RSL count, any quality knob) and every scene and time: what preparing it cost
+//! (ms, bytes), what a frame costs (median ms over several frames), and its error against
+//! the Monte Carlo truth per vertex — relative L2 for the scene and per object, the mean
+//! and 95th percentile of the per-vertex relative error — with the truth's own noise beside
+//! it. The truth is computed once per (scene contents, time, samples, seed) and cached;
+//! finished configurations are kept in `results.csv` and never measured again, so an
+//! interrupted bench resumes. Reports: CSV, Markdown and SVG plots ([`report`]).
+
+pub mod config;
+pub mod plot;
+pub mod report;
+pub mod truth;
+
+use anyhow::{Context, Result, bail};
+use config::{Config, MethodKind};
+use glam::Vec3;
+use rsl_engine::method::{CpuRsl, GpuRsl, Method, Request};
+use rsl_engine::{Engine, EngineOptions, GpuRenderer, Progress};
+use rsl_scene::Scene;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// What to measure and where to write it.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// The scene files.
+    pub scenes: Vec<PathBuf>,
+    /// The output folder (created if missing; results already there are kept and reused).
+    pub out: PathBuf,
+    /// The configurations.
+    pub configs: Vec<Config>,
+    /// Samples per vertex of the truth.
+    pub truth_spp: u32,
+    /// Seed of the truth.
+    pub seed: u64,
+    /// Scene times, seconds.
+    pub times: Vec<f32>,
+    /// Frames timed per configuration and time (the median is reported).
+    pub frames: usize,
+    /// Cache folder for prepared data and truths (`None`: memory only, nothing reused
+    /// between runs but the results).
+    pub cache_dir: Option<PathBuf>,
+    /// Progress of long steps.
+    pub progress: Progress,
+}
+
+/// One measured point: a configuration of a scene at a time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// The scene file, as given.
+    pub scene: String,
+    /// [`Config::id`].
+    pub config: String,
+    /// The configuration.
+    pub method: String,
+    /// Its quality preset (the preset the scene's quality starts from, when not swept).
+    pub quality: String,
+    /// RSLs in use (the count asked for, or fewer where the environment grid holds fewer).
+    pub rsl: u32,
+    /// Scene time, s.
+    pub time: f32,
+    /// Preparation wall time, ms, from an empty memory store (what the disk cache holds
+    /// counts as its reading time: a bench with a cold cache measures the builds).
+    pub prepare_ms: f64,
+    /// Bytes of prepared data held.
+    pub prepare_bytes: usize,
+    /// Median shading time per frame, ms.
+    pub ms_per_frame: f64,
+    /// Relative L2 against the truth over the scene's vertices.
+    pub relative_l2: f64,
+    /// Mean per-vertex relative error (vertices the truth sees lit).
+    pub mean_relative: f64,
+    /// 95th percentile of the per-vertex relative error.
+    pub p95_relative: f64,
+    /// The truth's own relative L2 noise (standard errors).
+    pub truth_noise: f64,
+    /// Samples per vertex of the truth.
+    pub truth_spp: u32,
+    /// Per object: name, relative L2, the truth's noise.
+    pub objects: Vec<(String, f64, f64)>,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Summary {
+    /// Every row of the results, old and new.
+    pub rows: Vec<Row>,
+    /// Rows measured in this run.
+    pub measured: usize,
+    /// Rows found in the results already (not measured again).
+    pub reused: usize,
+    /// Truths estimated in this run.
+    pub truths_estimated: usize,
+    /// Truths read from the cache.
+    pub truths_reused: usize,
+}
+
+/// The error of `test` against the truth: relative L2 over all vertices, and the mean and
+/// 95th percentile of the per-vertex relative error `|a − b|₂ / |b|₂` over the vertices the
+/// truth sees lit (the others reflect nothing in both).
+pub fn vertex_errors(test: &[Vec3], truth: &[Vec3]) -> Result<(f64, f64, f64)> {
+    let l2 = rsl_truth::compare(test, truth, None)?.relative_l2;
+    let mut rel: Vec<f64> = test
+        .iter()
+        .zip(truth)
+        .filter(|(_, b)| b.length_squared() > 0.0)
+        .map(|(a, b)| f64::from((*a - *b).length() / b.length()))
+        .collect();
+    if rel.is_empty() {
+        return Ok((l2, 0.0, 0.0));
+    }
+    rel.sort_by(f64::total_cmp);
+    let mean = rel.iter().sum::<f64>() / rel.len() as f64;
+    let p95 = rel[((rel.len() - 1) as f64 * 0.95).round() as usize];
+    Ok((l2, mean, p95))
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Runs the study: measures every (scene, configuration, time) not already in
+/// `out/results.csv`, writing the results after each, then the reports.
+pub fn run(options: &BenchOptions) -> Result<Summary> {
+    if options.scenes.is_empty() || options.configs.is_empty() || options.times.is_empty() {
+        bail!("nothing to measure: give at least one scene, configuration and time");
+    }
+    if options.frames == 0 || options.truth_spp < 2 {
+        bail!("--frames must be at least 1 and --truth-spp at least 2 (one sample cannot estimate its noise)");
+    }
+    std::fs::create_dir_all(&options.out).with_context(|| format!("cannot create {}", options.out.display()))?;
+    let results = options.out.join("results.csv");
+    let mut summary = Summary { rows: report::read_rows(&results)?, ..Summary::default() };
+    let mut cpu = CpuRsl;
+    let mut gpu: Option<GpuRsl> = None;
+    for scene_path in &options.scenes {
+        let name = scene_path.display().to_string();
+        let mut scene = Scene::load(scene_path)?;
+        let base = scene.quality;
+        let todo: Vec<(&Config, f32)> = options
+            .configs
+            .iter()
+            .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
+            .filter(|(c, t)| !summary.rows.iter().any(|r| r.scene == name && r.config == c.id() && r.time == *t))
+            .collect();
+        summary.reused += options.configs.len() * options.times.len() - todo.len();
+        if todo.is_empty() {
+            continue;
+        }
+        // The truths, once per time: only the method-neutral layer is needed for them.
+        let neutral = Engine::new(
+            &scene,
+            EngineOptions {
+                cache_dir: options.cache_dir.clone(),
+                layers: rsl_engine::Layers { rsl: false },
+                progress: options.progress.clone(),
+                ..EngineOptions::default()
+            },
+        )?;
+        let mut truths = Vec::new();
+        for &t in &options.times {
+            let (tr, cached) = truth::truth(
+                &neutral,
+                &scene,
+                t,
+                options.truth_spp,
+                options.seed,
+                options.cache_dir.as_deref(),
+                &options.progress,
+            )?;
+            if cached {
+                summary.truths_reused += 1;
+            } else {
+                summary.truths_estimated += 1;
+            }
+            truths.push((t, tr));
+        }
+        for (config, t) in todo {
+            let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
+            scene.quality = config.quality(base)?;
+            let start = Instant::now();
+            let engine = Engine::new(
+                &scene,
+                EngineOptions {
+                    cache_dir: options.cache_dir.clone(),
+                    rsl_count: config.rsl,
+                    progress: options.progress.clone(),
+                    ..EngineOptions::default()
+                },
+            )
+            .with_context(|| format!("{name}: {}", config.id()))?;
+            let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
+            let method: &mut dyn Method = match config.method {
+                MethodKind::Cpu => &mut cpu,
+                MethodKind::Gpu => {
+                    if gpu.is_none() {
+                        gpu = Some(GpuRsl { renderer: GpuRenderer::new().context("--sweep method=gpu")? });
+                    }
+                    gpu.as_mut().expect("opened above")
+                }
+            };
+            let request = Request { time: t, image: false, vertices: true, exposure: None };
+            let mut times = Vec::with_capacity(options.frames);
+            let mut frame = None;
+            for _ in 0..options.frames {
+                let f = method.render(&engine, &scene, &request)?;
+                times.push(f.timings.ms("shade"));
+                frame = Some(f);
+            }
+            let frame = frame.expect("at least one frame");
+            let (relative_l2, mean_relative, p95_relative) =
+                vertex_errors(&frame.radiance.concat(), &truth.mean.concat())?;
+            let objects = scene
+                .objects
+                .iter()
+                .enumerate()
+                .map(|(i, o)| {
+                    Ok((
+                        o.name.clone(),
+                        rsl_truth::compare(&frame.radiance[i], &truth.mean[i], None)?.relative_l2,
+                        truth.noise(Some(i)),
+                    ))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            summary.rows.push(Row {
+                scene: name.clone(),
+                config: config.id(),
+                method: config.method.name().into(),
+                quality: scene.quality.preset.name().into(),
+                rsl: engine.rsls().len() as u32,
+                time: t,
+                prepare_ms,
+                prepare_bytes: engine.memory().resident_bytes,
+                ms_per_frame: median(times),
+                relative_l2,
+                mean_relative,
+                p95_relative,
+                truth_noise: truth.noise(None),
+                truth_spp: truth.spp,
+                objects,
+            });
+            summary.measured += 1;
+            report::write_rows(&results, &summary.rows)?;
+        }
+    }
+    report::write_reports(&options.out, &summary.rows)?;
+    Ok(summary)
+}

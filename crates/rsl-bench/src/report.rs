@@ -1,0 +1,310 @@
+//! The bench's files: `results.csv` (one row per scene, configuration and time; read back to
+//! resume), `objects.csv` (per object), `report.md`, and per scene three SVG plots.
+
+use crate::Row;
+use crate::plot::{Plot, Series, pareto};
+use anyhow::{Context, Result, bail};
+use rsl_engine::output::write_atomic;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+const HEADER: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,ms_per_frame,relative_l2,\
+                      mean_relative,p95_relative,truth_noise,truth_spp,objects";
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
+}
+
+/// The fields of one CSV line (quotes doubled inside quoted fields).
+fn split(line: &str) -> Vec<String> {
+    let (mut out, mut cur, mut quoted, mut chars) = (Vec::new(), String::new(), false, line.chars().peekable());
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => out.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    out.push(cur);
+    out
+}
+
+/// Per object `name=relative_l2/noise`, joined by `;` (a field of its own).
+fn objects_field(r: &Row) -> String {
+    r.objects
+        .iter()
+        .map(|(n, e, s)| format!("{}={e}/{s}", n.replace([';', '=', '/'], "_")))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// Writes the rows (atomically) as `results.csv`, and `objects.csv` beside it.
+pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
+    let mut s = format!("{HEADER}\n");
+    let mut o = String::from("scene,config,time,object,relative_l2,truth_noise\n");
+    for r in rows {
+        s += &format!(
+            // Floats in their shortest exact form, so a resumed bench reads back what it wrote.
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            field(&r.scene),
+            field(&r.config),
+            r.method,
+            r.quality,
+            r.rsl,
+            r.time,
+            r.prepare_ms,
+            r.prepare_bytes,
+            r.ms_per_frame,
+            r.relative_l2,
+            r.mean_relative,
+            r.p95_relative,
+            r.truth_noise,
+            r.truth_spp,
+            field(&objects_field(r))
+        );
+        for (name, e, n) in &r.objects {
+            o += &format!("{},{},{},{},{e},{n}\n", field(&r.scene), field(&r.config), r.time, field(name));
+        }
+    }
+    write_atomic(path, s.as_bytes())?;
+    write_atomic(&path.with_file_name("objects.csv"), o.as_bytes())
+}
+
+/// Reads `results.csv` back (none when the file does not exist).
+pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+    };
+    let mut lines = text.lines();
+    if lines.next() != Some(HEADER) {
+        bail!("{}: not a results file of this version (header differs); move it away to start afresh", path.display());
+    }
+    lines
+        .enumerate()
+        .map(|(k, line)| {
+            let f = split(line);
+            let bad = || anyhow::anyhow!("{}: line {}: malformed row", path.display(), k + 2);
+            if f.len() != 15 {
+                return Err(bad());
+            }
+            let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
+            let objects = f[14]
+                .split(';')
+                .filter(|s| !s.is_empty())
+                .map(|o| {
+                    let (name, rest) = o.split_once('=').ok_or_else(bad)?;
+                    let (e, n) = rest.split_once('/').ok_or_else(bad)?;
+                    Ok((name.to_string(), e.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            Ok(Row {
+                scene: f[0].clone(),
+                config: f[1].clone(),
+                method: f[2].clone(),
+                quality: f[3].clone(),
+                rsl: f[4].parse().map_err(|_| bad())?,
+                time: f[5].parse().map_err(|_| bad())?,
+                prepare_ms: num(6)?,
+                prepare_bytes: f[7].parse().map_err(|_| bad())?,
+                ms_per_frame: num(8)?,
+                relative_l2: num(9)?,
+                mean_relative: num(10)?,
+                p95_relative: num(11)?,
+                truth_noise: num(12)?,
+                truth_spp: f[13].parse().map_err(|_| bad())?,
+                objects,
+            })
+        })
+        .collect()
+}
+
+/// A file-name-safe stem of a scene path.
+fn stem(scene: &str) -> String {
+    let s = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
+}
+
+/// The configuration without its RSL count: the series an RSL sweep draws as one line.
+fn series_of(config: &str) -> String {
+    config.split(' ').filter(|p| !p.starts_with("rsl=")).collect::<Vec<_>>().join(" ")
+}
+
+/// Writes `report.md` and the plots of every scene into `out`.
+pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
+    let mut by_scene: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
+    for r in rows {
+        by_scene.entry(&r.scene).or_default().push(r);
+    }
+    let mut md = String::from(
+        "# rsl bench\n\nPer scene and time: every configuration's preparation (wall ms from an empty memory \
+         store, bytes held), shading time per frame (median), and error per vertex against the Monte Carlo \
+         truth — relative L2 over the scene and per object, mean and 95th percentile of the per-vertex \
+         relative error — with the truth's own noise (relative L2 of its standard errors). ★ marks the \
+         Pareto front (no configuration is both faster and more accurate).\n",
+    );
+    for (scene, rows) in &by_scene {
+        let stem = stem(scene);
+        let mut times: Vec<f32> = rows.iter().map(|r| r.time).collect();
+        times.sort_by(f32::total_cmp);
+        times.dedup();
+        for t in &times {
+            let mut rs: Vec<&&Row> = rows.iter().filter(|r| r.time == *t).collect();
+            rs.sort_by(|a, b| a.ms_per_frame.total_cmp(&b.ms_per_frame));
+            let pts: Vec<(f64, f64)> = rs.iter().map(|r| (r.ms_per_frame, r.relative_l2)).collect();
+            let front = pareto(&pts);
+            let first = rs[0];
+            md += &format!(
+                "\n## {scene} at t = {t} s\n\nTruth: {} samples per vertex, its own noise {:.2}% ({}).\n\n",
+                first.truth_spp,
+                100.0 * first.truth_noise,
+                first.objects.iter().map(|(n, _, s)| format!("{n} {:.2}%", 100.0 * s)).collect::<Vec<_>>().join(", ")
+            );
+            let names: Vec<&str> = first.objects.iter().map(|o| o.0.as_str()).collect();
+            md += &format!(
+                "| configuration | ms/frame | prepare ms | MB | rel. L2 | mean rel. | p95 rel. | {} |\n|---|---|---|---|---|---|---|{}\n",
+                names.join(" | "),
+                "---|".repeat(names.len())
+            );
+            for (k, r) in rs.iter().enumerate() {
+                md += &format!(
+                    "| {}{} | {:.1} | {:.0} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {} |\n",
+                    if front.contains(&k) { "★ " } else { "" },
+                    r.config,
+                    r.ms_per_frame,
+                    r.prepare_ms,
+                    r.prepare_bytes as f64 / 1e6,
+                    100.0 * r.relative_l2,
+                    100.0 * r.mean_relative,
+                    100.0 * r.p95_relative,
+                    r.objects.iter().map(|o| format!("{:.2}%", 100.0 * o.1)).collect::<Vec<_>>().join(" | ")
+                );
+            }
+        }
+        let noise = rows.iter().map(|r| r.truth_noise).fold(0.0, f64::max);
+        let reference = vec![(100.0 * noise, format!("truth noise {:.2}%", 100.0 * noise))];
+        // Error against frame time, with the front.
+        let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.ms_per_frame, 100.0 * r.relative_l2)).collect();
+        let front: Vec<(f64, f64)> = pareto(&pts).into_iter().map(|i| pts[i]).collect();
+        let mut series =
+            group(rows, |r| format!("{} {}", r.method, r.quality), |r| (r.ms_per_frame, 100.0 * r.relative_l2), false);
+        series.push(Series { name: "Pareto front".into(), points: front, line: true });
+        let plots = [
+            (
+                "error_vs_ms",
+                Plot {
+                    title: format!("{scene}: error against frame time"),
+                    x_label: "shading time per frame (ms, median)".into(),
+                    y_label: "relative L2 against the truth (%)".into(),
+                    x_log: true,
+                    y_log: true,
+                    series,
+                    references: reference.clone(),
+                },
+            ),
+            (
+                "error_vs_rsl",
+                Plot {
+                    title: format!("{scene}: error against RSL count"),
+                    x_label: "RSLs".into(),
+                    y_label: "relative L2 against the truth (%)".into(),
+                    x_log: true,
+                    y_log: true,
+                    series: group(rows, |r| series_of(&r.config), |r| (f64::from(r.rsl), 100.0 * r.relative_l2), true),
+                    references: reference.clone(),
+                },
+            ),
+            (
+                "precompute_vs_error",
+                Plot {
+                    title: format!("{scene}: preparation against error"),
+                    x_label: "preparation (ms)".into(),
+                    y_label: "relative L2 against the truth (%)".into(),
+                    x_log: true,
+                    y_log: true,
+                    series: group(
+                        rows,
+                        |r| format!("{} {}", r.method, r.quality),
+                        |r| (r.prepare_ms.max(0.01), 100.0 * r.relative_l2),
+                        false,
+                    ),
+                    references: reference,
+                },
+            ),
+        ];
+        md += "\n";
+        for (name, plot) in plots {
+            let file = format!("{stem}_{name}.svg");
+            write_atomic(&out.join(&file), plot.svg().as_bytes())?;
+            md += &format!("![{}]({file})\n", plot.title);
+        }
+    }
+    write_atomic(&out.join("report.md"), md.as_bytes())
+}
+
+/// The rows grouped into series by `key`, points by `point` (sorted by x).
+fn group(rows: &[&Row], key: impl Fn(&Row) -> String, point: impl Fn(&Row) -> (f64, f64), line: bool) -> Vec<Series> {
+    let mut m: BTreeMap<String, Vec<(f64, f64)>> = BTreeMap::new();
+    for r in rows {
+        m.entry(key(r)).or_default().push(point(r));
+    }
+    m.into_iter()
+        .map(|(name, mut points)| {
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            Series { name, points, line }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(config: &str, ms: f64, err: f64) -> Row {
+        Row {
+            scene: "a, \"b\".toml".into(),
+            config: config.into(),
+            method: "cpu".into(),
+            quality: "draft".into(),
+            rsl: 30,
+            time: 1.5,
+            prepare_ms: 12.5,
+            prepare_bytes: 1000,
+            ms_per_frame: ms,
+            relative_l2: err,
+            mean_relative: 0.1,
+            p95_relative: 0.3,
+            truth_noise: 0.01,
+            truth_spp: 64,
+            objects: vec![("floor".into(), 0.05, 0.01), ("ball".into(), 0.5, 0.02)],
+        }
+    }
+
+    #[test]
+    fn rows_round_trip_through_csv() {
+        let dir = std::env::temp_dir().join(format!("rsl-bench-report-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let rows =
+            vec![row("method=cpu quality=draft rsl=30", 5.0, 0.25), row("method=cpu quality=paper rsl=30", 9.0, 0.125)];
+        let path = dir.join("results.csv");
+        write_rows(&path, &rows).unwrap();
+        assert_eq!(read_rows(&path).unwrap(), rows);
+        write_reports(&dir, &rows).unwrap();
+        let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        assert!(md.contains("★ method=cpu quality=draft rsl=30") && md.contains("★ method=cpu quality=paper rsl=30"));
+        assert!(
+            dir.join("a___b__error_vs_ms.svg").exists(),
+            "{:?}",
+            std::fs::read_dir(&dir).unwrap().collect::<Vec<_>>()
+        );
+        std::fs::write(&path, "something else\n").unwrap();
+        assert!(read_rows(&path).unwrap_err().to_string().contains("header"));
+        assert!(read_rows(&dir.join("missing.csv")).unwrap().is_empty());
+    }
+}

@@ -1,0 +1,207 @@
+//! The per-vertex truth of a scene at a time, computed once per (scene contents, time, spp,
+//! seed) and kept in a checksummed file in the cache folder.
+
+use anyhow::{Context, Result, bail};
+use glam::Vec3;
+use rsl_engine::cache::KeyHasher;
+use rsl_engine::engine::brdf_key;
+use rsl_engine::method::{Method, Request, Truth};
+use rsl_engine::{Engine, Progress};
+use rsl_scene::Scene;
+use rsl_vis::store::fnv1a64;
+use std::path::Path;
+
+const MAGIC: [u8; 8] = *b"RSLTRUTH";
+const VERSION: u32 = 1;
+
+/// Per object, per vertex: the mean radiance and its standard error.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexTruth {
+    /// Means.
+    pub mean: Vec<Vec<Vec3>>,
+    /// Standard errors.
+    pub std_error: Vec<Vec<Vec3>>,
+    /// Samples per vertex.
+    pub spp: u32,
+    /// Seconds it took to estimate (0 when read from the cache).
+    pub seconds: f64,
+}
+
+impl VertexTruth {
+    /// ‖standard error‖₂ / ‖mean‖₂ over objects `which` (all when `None`).
+    pub fn noise(&self, which: Option<usize>) -> f64 {
+        let (mut se, mut m) = (0.0f64, 0.0f64);
+        for (i, (means, errors)) in self.mean.iter().zip(&self.std_error).enumerate() {
+            if which.is_some_and(|w| w != i) {
+                continue;
+            }
+            se += errors.iter().map(|e| f64::from(e.length_squared())).sum::<f64>();
+            m += means.iter().map(|e| f64::from(e.length_squared())).sum::<f64>();
+        }
+        if m > 0.0 { (se / m).sqrt() } else { 0.0 }
+    }
+}
+
+/// The key of the truth of `scene` (as `engine` prepared it) at `time`: the environment's
+/// radiance, every object's mesh, material, pose and shadow flag, the eye, and the sampling.
+pub fn key(engine: &Engine, scene: &Scene, time: f32, spp: u32, seed: u64) -> u64 {
+    let state = scene.at(time);
+    let mut h = KeyHasher::default()
+        .str("truth")
+        .u64(u64::from(VERSION))
+        .u64(engine.environment_key())
+        .f32s(&[engine.intensity()])
+        .f32s(&state.world_from_env.to_array())
+        .f32s(&scene.camera.eye.to_array())
+        .u64(u64::from(spp))
+        .u64(seed)
+        .f32s(&[time]);
+    for (i, o) in scene.objects.iter().enumerate() {
+        let t = &state.objects[i];
+        h = h
+            .u64(engine.keys(i).mesh)
+            .u64(brdf_key(engine.brdf(i)))
+            .f32s(&t.translation.to_array())
+            .f32s(&t.rotation.to_array())
+            .f32s(&t.scale.to_array())
+            .u64(u64::from(o.casts_shadows));
+    }
+    h.finish()
+}
+
+/// The truth from `dir` (if given and there), else estimated (and written there). Returns it
+/// and whether it was read from the cache.
+pub fn truth(
+    engine: &Engine,
+    scene: &Scene,
+    time: f32,
+    spp: u32,
+    seed: u64,
+    dir: Option<&Path>,
+    progress: &Progress,
+) -> Result<(VertexTruth, bool)> {
+    let file = dir.map(|d| d.join(format!("truth-{:016x}.bin", key(engine, scene, time, spp, seed))));
+    if let Some(f) = &file
+        && let Ok(bytes) = std::fs::read(f)
+    {
+        match from_bytes(&bytes, spp) {
+            Ok(t) if t.mean.iter().map(Vec::len).eq(engine_counts(engine)) => return Ok((t, true)),
+            Ok(_) => eprintln!("warning: {}: vertex counts differ from the scene; estimating again", f.display()),
+            Err(e) => eprintln!("warning: {}: {e}; estimating again", f.display()),
+        }
+    }
+    let mut method = Truth::new(engine, spp, seed)?;
+    method.progress = progress.clone();
+    let start = std::time::Instant::now();
+    let frame = method.render(engine, scene, &Request { time, image: false, vertices: true, exposure: None })?;
+    let t = VertexTruth {
+        mean: frame.radiance,
+        std_error: frame.std_error.context("the truth gives standard errors")?,
+        spp,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    if let Some(f) = &file {
+        if let Some(d) = f.parent() {
+            std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
+        }
+        rsl_engine::output::write_atomic(f, &to_bytes(&t))?;
+    }
+    Ok((t, false))
+}
+
+fn engine_counts(engine: &Engine) -> impl Iterator<Item = usize> + '_ {
+    (0..engine.object_count()).map(|i| engine.mesh(i).vertex_count())
+}
+
+fn to_bytes(t: &VertexTruth) -> Vec<u8> {
+    let mut payload = Vec::new();
+    payload.extend_from_slice(&t.spp.to_le_bytes());
+    payload.extend_from_slice(&(t.mean.len() as u32).to_le_bytes());
+    for (m, e) in t.mean.iter().zip(&t.std_error) {
+        payload.extend_from_slice(&(m.len() as u32).to_le_bytes());
+        for v in m.iter().chain(e) {
+            for c in v.to_array() {
+                payload.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    let mut out = MAGIC.to_vec();
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    out
+}
+
+fn from_bytes(b: &[u8], spp: u32) -> Result<VertexTruth> {
+    if b.len() < 28 || b[..8] != MAGIC {
+        bail!("not a truth file (bad magic number)");
+    }
+    let word = |k: usize| u32::from_le_bytes(b[k..k + 4].try_into().expect("4 bytes"));
+    if word(8) != VERSION {
+        bail!("truth file version {}, this build reads {VERSION}", word(8));
+    }
+    let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
+    let payload = &b[28..];
+    if payload.len() as u64 != len {
+        bail!("truth file is truncated or padded");
+    }
+    if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
+        bail!("truth file is corrupt (checksum mismatch)");
+    }
+    let mut at = 0usize;
+    let mut next = |n: usize| -> Result<&[u8]> {
+        let s = payload.get(at..at + n).context("truth file is malformed (too short)")?;
+        at += n;
+        Ok(s)
+    };
+    let u = |s: &[u8]| u32::from_le_bytes(s.try_into().expect("4 bytes"));
+    if u(next(4)?) != spp {
+        bail!("truth file holds another sample count");
+    }
+    let objects = u(next(4)?) as usize;
+    let (mut mean, mut std_error) = (Vec::new(), Vec::new());
+    for _ in 0..objects.min(payload.len()) {
+        let n = u(next(4)?) as usize;
+        let bytes = next(n.checked_mul(24).context("truth file is malformed")?)?;
+        let vals: Vec<Vec3> = bytes
+            .chunks_exact(12)
+            .map(|c| {
+                let f = |k: usize| f32::from_le_bytes(c[k..k + 4].try_into().expect("4 bytes"));
+                Vec3::new(f(0), f(4), f(8))
+            })
+            .collect();
+        if vals.iter().any(|v| !v.is_finite()) {
+            bail!("truth file holds non-finite values");
+        }
+        mean.push(vals[..n].to_vec());
+        std_error.push(vals[n..].to_vec());
+    }
+    if mean.len() != objects || at != payload.len() {
+        bail!("truth file is malformed");
+    }
+    Ok(VertexTruth { mean, std_error, spp, seconds: 0.0 })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn truth_files_round_trip_and_damage_is_detected() {
+        let t = VertexTruth {
+            mean: vec![vec![Vec3::new(1.0, 2.0, 3.0)], vec![Vec3::ONE, Vec3::ZERO]],
+            std_error: vec![vec![Vec3::splat(0.1)], vec![Vec3::splat(0.2), Vec3::ZERO]],
+            spp: 64,
+            seconds: 0.0,
+        };
+        let b = to_bytes(&t);
+        assert_eq!(from_bytes(&b, 64).unwrap(), t);
+        assert!(from_bytes(&b, 32).unwrap_err().to_string().contains("sample count"));
+        let mut flipped = b.clone();
+        flipped[40] ^= 1;
+        assert!(from_bytes(&flipped, 64).unwrap_err().to_string().contains("checksum"));
+        assert!(from_bytes(&b[..b.len() - 1], 64).is_err());
+        assert!((t.noise(Some(0)) - (0.03f64 / 14.0).sqrt()).abs() < 1e-6);
+    }
+}

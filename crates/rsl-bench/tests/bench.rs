@@ -1,0 +1,108 @@
+//! The study end to end on a small scene: results, reuse of the truth, resuming.
+
+use rsl_bench::config::{Sweep, configs};
+use rsl_bench::{BenchOptions, run};
+use std::path::PathBuf;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rsl-bench-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A ball over a plane under the bundled studio map, at draft quality.
+fn scene(dir: &std::path::Path) -> PathBuf {
+    let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
+    let path = dir.join("small.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"
+            quality = "draft"
+            [environment]
+            map = "{}"
+            [camera]
+            eye = [0.0, 2.0, 3.0]
+            target = [0.0, 0.0, 0.0]
+            width = 64
+            height = 48
+            [[objects]]
+            name = "floor"
+            primitive = {{ kind = "plane", size = 3.0, resolution = 12 }}
+            material = {{ model = "lambert", albedo = [0.6, 0.6, 0.6] }}
+            casts_shadows = false
+            [[objects]]
+            name = "ball"
+            primitive = {{ kind = "sphere", radius = 0.4, resolution = 12 }}
+            translation = [0.0, 0.5, 0.0]
+            material = {{ model = "ggx", alpha = 0.3, specular = [0.9, 0.9, 0.9], diffuse = [0.2, 0.2, 0.2] }}
+            "#,
+            map.display()
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> BenchOptions {
+    let sweeps: Vec<Sweep> = sweeps.iter().map(|s| s.parse().unwrap()).collect();
+    BenchOptions {
+        scenes: vec![scene],
+        out,
+        configs: configs(&sweeps).unwrap(),
+        truth_spp: 16,
+        seed: 3,
+        times: vec![0.0],
+        frames: 2,
+        cache_dir: Some(cache),
+        progress: Default::default(),
+    }
+}
+
+#[test]
+fn a_bench_measures_reuses_its_truth_and_resumes() {
+    let d = dir("resume");
+    let (scene, out, cache) = (scene(&d), d.join("out"), d.join("cache"));
+    let first = run(&options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"])).unwrap();
+    assert_eq!((first.measured, first.reused, first.truths_estimated, first.truths_reused), (2, 0, 1, 0));
+    for f in [
+        "results.csv",
+        "objects.csv",
+        "report.md",
+        "small_error_vs_ms.svg",
+        "small_error_vs_rsl.svg",
+        "small_precompute_vs_error.svg",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let rows = &first.rows;
+    assert!(rows.iter().all(|r| r.relative_l2.is_finite() && r.relative_l2 > 0.0 && r.ms_per_frame > 0.0));
+    assert!(rows.iter().all(|r| r.truth_noise > 0.0 && r.objects.len() == 2));
+    // Run again: nothing is measured, and nothing else is estimated.
+    let again = run(&options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"])).unwrap();
+    assert_eq!((again.measured, again.reused, again.truths_estimated, again.truths_reused), (0, 2, 0, 0));
+    assert_eq!(again.rows, first.rows);
+    // A bench cut short after its first configuration resumes with the second; a new
+    // configuration reuses the cached truth.
+    let text = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    let cut: Vec<&str> = text.lines().take(2).collect();
+    std::fs::write(out.join("results.csv"), cut.join("\n") + "\n").unwrap();
+    let resumed = run(&options(scene, out, cache, &["rsl=2,8,32"])).unwrap();
+    assert_eq!((resumed.measured, resumed.reused, resumed.truths_estimated, resumed.truths_reused), (2, 1, 0, 1));
+    assert_eq!(resumed.rows.len(), 3);
+    let eight = |rows: &[rsl_bench::Row]| rows.iter().find(|r| r.rsl == 8).unwrap().relative_l2;
+    assert!((eight(&resumed.rows) - eight(&first.rows)).abs() < 1e-9, "the same configuration measures the same error");
+}
+
+#[test]
+fn bad_options_are_clear_errors() {
+    let d = dir("bad");
+    let scene = scene(&d);
+    let mut o = options(scene, d.join("out"), d.join("cache"), &["rsl=2"]);
+    o.truth_spp = 1;
+    assert!(run(&o).unwrap_err().to_string().contains("truth-spp"));
+    o.truth_spp = 4;
+    o.scenes = vec![d.join("missing.toml")];
+    assert!(format!("{:#}", run(&o).unwrap_err()).contains("missing.toml"));
+}
