@@ -67,7 +67,7 @@ fn the_bench_error_is_what_compare_says_of_the_same_renders() {
     }
     let csv = std::fs::read_to_string(dir.join("bench/results.csv")).unwrap();
     let row: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
-    let bench_l2: f64 = row[9].parse().unwrap();
+    let bench_l2: f64 = row[10].parse().unwrap();
     // The same configuration and the same truth, rendered and compared by hand.
     let common = ["--time", "0.5", "--device", "cpu", "--cache", cache];
     rsl(&[&["render", scene, "--rsl", "8", "--out", &p("a.exr"), "--vertex-out", &p("a.ply")], &common[..]].concat());
