@@ -80,6 +80,12 @@ pub struct Row {
     pub truth_noise: f64,
     /// Samples per vertex of the truth.
     pub truth_spp: u32,
+    /// Samples per vertex a Monte Carlo estimate needs to be as far from the truth as this
+    /// configuration ([`equal_error_spp`]); `None` where the configuration is within the
+    /// truth's own noise and the two cannot be told apart.
+    pub mc_spp: Option<f64>,
+    /// The time such an estimate takes on this machine, ms (the truth's time per sample).
+    pub mc_ms: Option<f64>,
     /// Per object: name, relative L2, the truth's noise.
     pub objects: Vec<(String, f64, f64)>,
 }
@@ -97,6 +103,15 @@ pub struct Summary {
     pub truths_estimated: usize,
     /// Truths read from the cache.
     pub truths_reused: usize,
+}
+
+/// Samples per vertex a Monte Carlo estimate needs to be `error` (relative L2) from a truth
+/// of `spp` samples whose own noise is `noise`, measured the same way: two independent
+/// estimates differ by the root sum of their noises, and an estimate's noise falls as
+/// 1/√samples (the truth's measured `noise` at `spp` sets the constant), so
+/// `noise² · spp / s + noise² = error²`. `None` when `error` is within the truth's noise.
+pub fn equal_error_spp(error: f64, noise: f64, spp: u32) -> Option<f64> {
+    (error > noise * 1.000_001 && noise > 0.0).then(|| f64::from(spp) * noise * noise / (error * error - noise * noise))
 }
 
 /// Vertices darker than this fraction of the mean radiance of the lit vertices are left out
@@ -234,6 +249,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     ))
                 })
                 .collect::<Result<Vec<_>>>()?;
+            let mc_spp = equal_error_spp(relative_l2, truth.noise(None), truth.spp);
+            let mc_ms = mc_spp.map(|s| s * truth.seconds * 1e3 / f64::from(truth.spp));
             summary.rows.push(Row {
                 scene: name.clone(),
                 config: config.id(),
@@ -250,6 +267,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 p95_relative,
                 truth_noise: truth.noise(None),
                 truth_spp: truth.spp,
+                mc_spp,
+                mc_ms,
                 objects,
             });
             summary.measured += 1;
@@ -274,5 +293,15 @@ mod tests {
         assert!((l2 - (num / (3.0 + 1e-12)).sqrt()).abs() < 1e-6, "{l2}");
         assert!((mean - 0.1).abs() < 1e-6, "mean of 0.1, 0.2 and 0: {mean}");
         assert!((p95 - 0.2).abs() < 1e-6, "{p95}");
+    }
+
+    #[test]
+    fn equal_error_samples_follow_the_square_root_law() {
+        // A truth of 256 samples with 4 % noise; an estimate 5 % away from it.
+        let s = equal_error_spp(0.05, 0.04, 256).unwrap();
+        // The estimate with s samples has noise 0.04·√(256/s) = 0.03, and √(0.03² + 0.04²) = 0.05.
+        assert!((0.04 * (256.0 / s).sqrt() - 0.03).abs() < 1e-12, "{s}");
+        assert_eq!(equal_error_spp(0.04, 0.04, 256), None);
+        assert_eq!(equal_error_spp(0.01, 0.04, 256), None);
     }
 }

@@ -119,7 +119,7 @@ impl Axis {
 fn label(v: f64) -> String {
     if v == 0.0 {
         "0".into()
-    } else if v.abs() >= 1000.0 || v.abs() < 0.01 {
+    } else if v.abs() >= 1e5 || v.abs() < 0.01 {
         format!("{v:.0e}")
     } else if v.fract() == 0.0 {
         format!("{v:.0}")

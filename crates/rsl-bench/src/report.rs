@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 const HEADER: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,ms_per_frame,relative_l2,\
-                      mean_relative,p95_relative,truth_noise,truth_spp,objects";
+                      mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,objects";
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break.
 fn field(s: &str) -> String {
@@ -50,7 +50,7 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     for r in rows {
         s += &format!(
             // Floats in their shortest exact form, so a resumed bench reads back what it wrote.
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             field(&r.scene),
             field(&r.config),
             r.method,
@@ -66,6 +66,8 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
             r.p95_relative,
             r.truth_noise,
             r.truth_spp,
+            r.mc_spp.map_or(String::new(), |v| v.to_string()),
+            r.mc_ms.map_or(String::new(), |v| v.to_string()),
             field(&objects_field(r))
         );
         for (name, e, n) in &r.objects {
@@ -92,11 +94,11 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
         .map(|(k, line)| {
             let f = split(line);
             let bad = || anyhow::anyhow!("{}: line {}: malformed row", path.display(), k + 2);
-            if f.len() != 16 {
+            if f.len() != 18 {
                 return Err(bad());
             }
             let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
-            let objects = f[15]
+            let objects = f[17]
                 .split(';')
                 .filter(|s| !s.is_empty())
                 .map(|o| {
@@ -121,6 +123,8 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
                 p95_relative: num(12)?,
                 truth_noise: num(13)?,
                 truth_spp: f[14].parse().map_err(|_| bad())?,
+                mc_spp: if f[15].is_empty() { None } else { Some(num(15)?) },
+                mc_ms: if f[16].is_empty() { None } else { Some(num(16)?) },
                 objects,
             })
         })
@@ -153,7 +157,9 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
          with the disk cache: \"built\" counts the items (light sets, tables, fields) built for the \
          configuration rather than read; the first configuration of a quality pays for its fields. \
          The per-vertex relative errors leave out vertices darker than 1% of the mean (they weigh \
-         in the relative L2).\n",
+         in the relative L2). \"MC spp at equal error\" is how many samples per vertex the Monte Carlo \
+         estimator needs to be as far from the truth, from the truth's measured noise and the 1/√samples \
+         law; \"× faster\" compares that estimate's time on this machine with the frame time.\n",
     );
     for (scene, rows) in &by_scene {
         let stem = stem(scene);
@@ -174,13 +180,13 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
             );
             let names: Vec<&str> = first.objects.iter().map(|o| o.0.as_str()).collect();
             md += &format!(
-                "| configuration | ms/frame | prepare ms | built | MB | rel. L2 | mean rel. | p95 rel. | {} |\n|---|---|---|---|---|---|---|---|{}\n",
+                "| configuration | ms/frame | prepare ms | built | MB | rel. L2 | mean rel. | p95 rel. | MC spp at equal error | × faster than MC | {} |\n|---|---|---|---|---|---|---|---|---|---|{}\n",
                 names.join(" | "),
                 "---|".repeat(names.len())
             );
             for (k, r) in rs.iter().enumerate() {
                 md += &format!(
-                    "| {}{} | {:.1} | {:.0} | {} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {} |\n",
+                    "| {}{} | {:.1} | {:.0} | {} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {} | {} | {} |\n",
                     if front.contains(&k) { "★ " } else { "" },
                     r.config,
                     r.ms_per_frame,
@@ -190,6 +196,8 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
                     100.0 * r.relative_l2,
                     100.0 * r.mean_relative,
                     100.0 * r.p95_relative,
+                    r.mc_spp.map_or_else(|| "— (within the truth's noise)".into(), |s| format!("{s:.1}")),
+                    r.mc_ms.map_or_else(|| "—".into(), |m| format!("{:.0}×", m / r.ms_per_frame)),
                     r.objects.iter().map(|o| format!("{:.2}%", 100.0 * o.1)).collect::<Vec<_>>().join(" | ")
                 );
             }
@@ -290,6 +298,8 @@ mod tests {
             p95_relative: 0.3,
             truth_noise: 0.01,
             truth_spp: 64,
+            mc_spp: Some(20.0),
+            mc_ms: None,
             objects: vec![("floor".into(), 0.05, 0.01), ("ball".into(), 0.5, 0.02)],
         }
     }

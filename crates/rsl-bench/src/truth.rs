@@ -12,7 +12,7 @@ use rsl_vis::store::fnv1a64;
 use std::path::Path;
 
 const MAGIC: [u8; 8] = *b"RSLTRUTH";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// Per object, per vertex: the mean radiance and its standard error.
 #[derive(Clone, Debug, PartialEq)]
@@ -23,7 +23,7 @@ pub struct VertexTruth {
     pub std_error: Vec<Vec<Vec3>>,
     /// Samples per vertex.
     pub spp: u32,
-    /// Seconds it took to estimate (0 when read from the cache).
+    /// Seconds the estimation of the vertices took (kept in the cache file with them).
     pub seconds: f64,
 }
 
@@ -116,6 +116,7 @@ fn engine_counts(engine: &Engine) -> impl Iterator<Item = usize> + '_ {
 fn to_bytes(t: &VertexTruth) -> Vec<u8> {
     let mut payload = Vec::new();
     payload.extend_from_slice(&t.spp.to_le_bytes());
+    payload.extend_from_slice(&t.seconds.to_le_bytes());
     payload.extend_from_slice(&(t.mean.len() as u32).to_le_bytes());
     for (m, e) in t.mean.iter().zip(&t.std_error) {
         payload.extend_from_slice(&(m.len() as u32).to_le_bytes());
@@ -159,6 +160,10 @@ fn from_bytes(b: &[u8], spp: u32) -> Result<VertexTruth> {
     if u(next(4)?) != spp {
         bail!("truth file holds another sample count");
     }
+    let seconds = f64::from_le_bytes(next(8)?.try_into().expect("8 bytes"));
+    if !(seconds.is_finite() && seconds >= 0.0) {
+        bail!("truth file holds a bad estimation time");
+    }
     let objects = u(next(4)?) as usize;
     let (mut mean, mut std_error) = (Vec::new(), Vec::new());
     for _ in 0..objects.min(payload.len()) {
@@ -180,7 +185,7 @@ fn from_bytes(b: &[u8], spp: u32) -> Result<VertexTruth> {
     if mean.len() != objects || at != payload.len() {
         bail!("truth file is malformed");
     }
-    Ok(VertexTruth { mean, std_error, spp, seconds: 0.0 })
+    Ok(VertexTruth { mean, std_error, spp, seconds })
 }
 
 #[cfg(test)]
@@ -193,7 +198,7 @@ mod tests {
             mean: vec![vec![Vec3::new(1.0, 2.0, 3.0)], vec![Vec3::ONE, Vec3::ZERO]],
             std_error: vec![vec![Vec3::splat(0.1)], vec![Vec3::splat(0.2), Vec3::ZERO]],
             spp: 64,
-            seconds: 0.0,
+            seconds: 2.5,
         };
         let b = to_bytes(&t);
         assert_eq!(from_bytes(&b, 64).unwrap(), t);
