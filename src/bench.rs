@@ -30,12 +30,31 @@ pub struct BenchArgs {
     /// Scene times in seconds, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1")]
     pub times: Vec<f32>,
+    /// The error to meet, as a fraction (0.05) or a percentage (5%): the cheapest measured
+    /// configuration (least frame time, then least preparation) whose relative L2 against
+    /// the truth is at most this at every time is printed and written as
+    /// `<scene>_target.toml`, a `[quality]` table the scene can use.
+    #[arg(long, value_parser = parse_error)]
+    pub target_error: Option<f64>,
     /// Frames timed per configuration (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
     /// Precomputation options (the cache also holds the truths).
     #[command(flatten)]
     pub prepare: crate::render::PrepareArgs,
+}
+
+fn parse_error(s: &str) -> Result<f64, String> {
+    let (v, scale) = match s.trim().strip_suffix('%') {
+        Some(p) => (p, 0.01),
+        None => (s.trim(), 1.0),
+    };
+    let x: f64 = v.parse().map_err(|_| format!("`{s}` is not an error such as 0.05 or 5%"))?;
+    let x = x * scale;
+    if !(x.is_finite() && x > 0.0) {
+        return Err(format!("`{s}`: the target error must be positive"));
+    }
+    Ok(x)
 }
 
 /// Most scene times one bench may hold.
@@ -67,7 +86,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     let options = BenchOptions {
         scenes: args.scenes.clone(),
         out: args.out.clone(),
-        configs,
+        configs: configs.clone(),
         truth_spp: args.truth_spp,
         seed: args.seed,
         times: args.times.clone(),
@@ -92,5 +111,28 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         s.truths_reused
     );
     println!("{}", std::fs::read_to_string(args.out.join("report.md"))?);
+    if let Some(x) = args.target_error {
+        for path in &args.scenes {
+            let name = path.display().to_string();
+            // Only this sweep's configurations: their settings are known.
+            let ids: Vec<String> = configs.iter().map(|c| c.id()).collect();
+            let rows: Vec<_> = s.rows.iter().filter(|r| ids.contains(&r.config)).cloned().collect();
+            let pick = rsl_bench::target::pick(&rows, &name, x)?;
+            let config = configs.iter().find(|c| c.id() == pick.config).expect("picked from this sweep");
+            let base = rsl_scene::Scene::load(path)?.quality;
+            let text = rsl_bench::target::fragment(&pick, config, base, args.truth_spp)?;
+            let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+            let file = args.out.join(format!("{stem}_target.toml"));
+            rsl_engine::output::write_atomic(&file, text.as_bytes())?;
+            println!(
+                "target {:.2}% on {name}: {} ({:.1} ms/frame, {:.2}%); wrote {}",
+                100.0 * x,
+                pick.config,
+                pick.ms_per_frame,
+                100.0 * pick.error,
+                file.display()
+            );
+        }
+    }
     Ok(())
 }

@@ -85,3 +85,80 @@ fn the_bench_error_is_what_compare_says_of_the_same_renders() {
         .unwrap_or_else(|| panic!("no relative L2 in {out}"));
     assert!((bench_l2 - compare_l2).abs() <= 1e-6, "bench {bench_l2} against compare {compare_l2}");
 }
+
+#[test]
+fn a_target_error_pick_meets_the_target_when_measured_afresh() {
+    let dir = std::env::temp_dir().join(format!("rsl-bench-target-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene_path = small_scene(&dir);
+    let scene = scene_path.to_str().unwrap();
+    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    let sweep = ["--sweep", "rsl=1,30", "--truth-spp", "32", "--times", "0", "--frames", "1"];
+    rsl(&[&["bench", scene, "--out", &p("a"), "--cache", &p("cache-a")], &sweep[..]].concat());
+    let errors: Vec<f64> = std::fs::read_to_string(dir.join("a/results.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(10).unwrap().parse().unwrap())
+        .collect();
+    let (one, thirty) = (errors[0], errors[1]);
+    assert!(one > 1.5 * thirty, "one light {one}, thirty {thirty}");
+    let target = (one + thirty) / 2.0;
+    let (out, _) = rsl(&[
+        &["bench", scene, "--out", &p("a"), "--cache", &p("cache-a"), "--target-error", &target.to_string()],
+        &sweep[..],
+    ]
+    .concat());
+    assert!(out.contains("method=cpu rsl=30"), "{out}");
+    let fragment = std::fs::read_to_string(dir.join("a/small_target.toml")).unwrap();
+    assert!(fragment.contains("rsl_count = 30") && fragment.contains("[quality]\npreset = \"draft\""), "{fragment}");
+    // The scene with the picked settings, measured afresh (another cache, another seed of
+    // the truth): it meets the target.
+    let text = std::fs::read_to_string(&scene_path).unwrap().replace("quality = \"draft\"\n", "");
+    let picked = dir.join("picked.toml");
+    std::fs::write(
+        &picked,
+        format!("{}{fragment}", text.replace("[environment]\n", "[environment]\nrsl_count = 30\n")),
+    )
+    .unwrap();
+    rsl(&[
+        "bench",
+        picked.to_str().unwrap(),
+        "--out",
+        &p("b"),
+        "--cache",
+        &p("cache-b"),
+        "--seed",
+        "2",
+        "--sweep",
+        "method=cpu",
+        "--truth-spp",
+        "32",
+        "--times",
+        "0",
+        "--frames",
+        "1",
+    ]);
+    let again: f64 = std::fs::read_to_string(dir.join("b/results.csv"))
+        .unwrap()
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .nth(10)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(again <= target, "re-measured {again} against the target {target}");
+    // Nothing meets an impossible target: a clear error.
+    let o = Command::new(env!("CARGO_BIN_EXE_rsl"))
+        .args(
+            [&["bench", scene, "--out", &p("a"), "--cache", &p("cache-a"), "--target-error", "0.01%"], &sweep[..]]
+                .concat(),
+        )
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no configuration meets"));
+}

@@ -10,6 +10,7 @@
 pub mod config;
 pub mod plot;
 pub mod report;
+pub mod target;
 pub mod truth;
 
 use anyhow::{Context, Result, bail};
