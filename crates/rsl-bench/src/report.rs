@@ -131,6 +131,11 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
         .collect()
 }
 
+/// A speed-up in two significant figures: `0.39×`, `3.0×`, `120×`.
+fn speedup(x: f64) -> String {
+    if x < 10.0 { format!("{x:.2}×") } else { format!("{x:.0}×") }
+}
+
 /// A file-name-safe stem of a scene path.
 fn stem(scene: &str) -> String {
     let s = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -159,7 +164,9 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
          The per-vertex relative errors leave out vertices darker than 1% of the mean (they weigh \
          in the relative L2). \"MC spp at equal error\" is how many samples per vertex the Monte Carlo \
          estimator needs to be as far from the truth, from the truth's measured noise and the 1/√samples \
-         law; \"× faster\" compares that estimate's time on this machine with the frame time.\n",
+         law; \"× faster\" compares that estimate's time on this machine (its samples only, not the \
+         rebuilding of its ray-tracing structures per frame) with the frame time; below 1× Monte \
+         Carlo is faster at equal error.\n",
     );
     for (scene, rows) in &by_scene {
         let stem = stem(scene);
@@ -197,7 +204,7 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
                     100.0 * r.mean_relative,
                     100.0 * r.p95_relative,
                     r.mc_spp.map_or_else(|| "— (within the truth's noise)".into(), |s| format!("{s:.1}")),
-                    r.mc_ms.map_or_else(|| "—".into(), |m| format!("{:.0}×", m / r.ms_per_frame)),
+                    r.mc_ms.map_or_else(|| "—".into(), |m| speedup(m / r.ms_per_frame)),
                     r.objects.iter().map(|o| format!("{:.2}%", 100.0 * o.1)).collect::<Vec<_>>().join(" | ")
                 );
             }
