@@ -36,6 +36,10 @@ pub struct BenchArgs {
     /// `<scene>_target.toml`, a `[quality]` table the scene can use.
     #[arg(long, value_parser = parse_error)]
     pub target_error: Option<f64>,
+    /// Samples per pixel of the per-pixel truth behind the image grid and the per-pixel
+    /// errors, at half the camera's resolution (0: no images).
+    #[arg(long, default_value_t = 256)]
+    pub grid_spp: u32,
     /// Frames timed per configuration (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
@@ -78,6 +82,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     if !(1..=MAX_FRAMES).contains(&args.frames) {
         bail!("--frames must be in 1..={MAX_FRAMES}");
     }
+    if args.grid_spp > MAX_SPP {
+        bail!("--grid-spp must be at most {MAX_SPP}");
+    }
     if !(2..=MAX_SPP).contains(&args.truth_spp) {
         bail!("--truth-spp must be in 2..={MAX_SPP} (one sample cannot measure the truth's noise)");
     }
@@ -91,6 +98,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         seed: args.seed,
         times: args.times.clone(),
         frames: args.frames,
+        grid_spp: args.grid_spp,
         cache_dir: args.prepare.options().cache_dir,
         progress: crate::progress::bars(),
     };

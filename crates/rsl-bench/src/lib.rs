@@ -8,6 +8,7 @@
 //! interrupted bench resumes. Reports: CSV, Markdown and SVG plots ([`report`]).
 
 pub mod config;
+pub mod grid;
 pub mod plot;
 pub mod report;
 pub mod target;
@@ -39,6 +40,9 @@ pub struct BenchOptions {
     pub times: Vec<f32>,
     /// Frames timed per configuration and time (the median is reported).
     pub frames: usize,
+    /// Samples per pixel of the per-pixel truth behind the image grids and per-pixel errors,
+    /// at half the camera's resolution (0: no images).
+    pub grid_spp: u32,
     /// Cache folder for prepared data and truths (`None`: memory only, nothing reused
     /// between runs but the results).
     pub cache_dir: Option<PathBuf>,
@@ -81,6 +85,9 @@ pub struct Row {
     pub truth_noise: f64,
     /// Samples per vertex of the truth.
     pub truth_spp: u32,
+    /// Relative L2 per pixel against the per-pixel truth over the pixels objects cover, at
+    /// half the camera's resolution, and that truth's own noise (`None` without images).
+    pub pixel_l2: Option<(f64, f64)>,
     /// Samples per vertex a Monte Carlo estimate needs to be as far from the truth as this
     /// configuration ([`equal_error_spp`]); `None` where the configuration is within the
     /// truth's own noise and the two cannot be told apart.
@@ -104,6 +111,83 @@ pub struct Summary {
     pub truths_estimated: usize,
     /// Truths read from the cache.
     pub truths_reused: usize,
+}
+
+/// Most configurations one grid shows.
+pub const GRID_ROWS: usize = 24;
+
+/// The image pass: per scene and time, the per-pixel truth (cached) at half resolution;
+/// every configuration of the sweep rendered there (prepared data comes from the cache);
+/// its per-pixel error filled into its row; and the grid `<scene>_grid_t<time>.png` of the
+/// first [`GRID_ROWS`] configurations.
+fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: &mut Option<GpuRsl>) -> Result<()> {
+    for scene_path in &options.scenes {
+        let name = scene_path.display().to_string();
+        let full = Scene::load(scene_path)?;
+        let base = full.quality;
+        let mut scene = grid::grid_scene(&full);
+        let neutral = Engine::new(
+            &scene,
+            EngineOptions {
+                cache_dir: options.cache_dir.clone(),
+                layers: rsl_engine::Layers { rsl: false },
+                progress: options.progress.clone(),
+                ..EngineOptions::default()
+            },
+        )?;
+        for &t in &options.times {
+            let (truth, pixel_noise, cached) = grid::truth_image(
+                &neutral,
+                &scene,
+                t,
+                options.grid_spp,
+                options.seed,
+                options.cache_dir.as_deref(),
+                &options.progress,
+            )?;
+            if cached {
+                summary.truths_reused += 1;
+            } else {
+                summary.truths_estimated += 1;
+            }
+            let mut renders = Vec::new();
+            for config in &options.configs {
+                scene.quality = config.quality(base)?;
+                let engine = Engine::new(
+                    &scene,
+                    EngineOptions {
+                        cache_dir: options.cache_dir.clone(),
+                        rsl_count: config.rsl,
+                        progress: options.progress.clone(),
+                        ..EngineOptions::default()
+                    },
+                )?;
+                let method: &mut dyn Method = match config.method {
+                    MethodKind::Cpu => cpu,
+                    MethodKind::Gpu => gpu.as_mut().context("the GPU was opened while measuring")?,
+                };
+                let request = Request { time: t, image: true, vertices: false, exposure: None };
+                let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
+                let err = grid::pixel_error(&image, &truth)?;
+                if let Some(r) =
+                    summary.rows.iter_mut().find(|r| r.scene == name && r.config == config.id() && r.time == t)
+                {
+                    r.pixel_l2 = Some((err, pixel_noise));
+                }
+                renders.push((format!("{} {:.2}%", config.id(), 100.0 * err), image));
+            }
+            let rows: Vec<grid::GridRow<'_>> = renders
+                .iter()
+                .take(GRID_ROWS)
+                .map(|(label, image)| grid::GridRow { label: label.clone(), image })
+                .collect();
+            let label = format!("truth {} spp, noise {:.2}%", options.grid_spp, 100.0 * pixel_noise);
+            let (rgb, w, h) = grid::grid(&truth, &label, &rows);
+            let file = options.out.join(format!("{}_grid_t{t}.png", report::stem(&name)));
+            rsl_engine::output::write_png(&file, w, h, rgb)?;
+        }
+    }
+    Ok(())
 }
 
 /// Samples per vertex a Monte Carlo estimate needs to be `error` (relative L2) from a truth
@@ -270,11 +354,16 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 truth_spp: truth.spp,
                 mc_spp,
                 mc_ms,
+                pixel_l2: None,
                 objects,
             });
             summary.measured += 1;
             report::write_rows(&results, &summary.rows)?;
         }
+    }
+    if options.grid_spp > 0 {
+        images(options, &mut summary, &mut cpu, &mut gpu)?;
+        report::write_rows(&results, &summary.rows)?;
     }
     report::write_reports(&options.out, &summary.rows)?;
     Ok(summary)

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 const HEADER: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,ms_per_frame,relative_l2,\
-                      mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,objects";
+                      mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,pixel_l2,pixel_truth_noise,objects";
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break.
 fn field(s: &str) -> String {
@@ -50,7 +50,7 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     for r in rows {
         s += &format!(
             // Floats in their shortest exact form, so a resumed bench reads back what it wrote.
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             field(&r.scene),
             field(&r.config),
             r.method,
@@ -68,6 +68,8 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
             r.truth_spp,
             r.mc_spp.map_or(String::new(), |v| v.to_string()),
             r.mc_ms.map_or(String::new(), |v| v.to_string()),
+            r.pixel_l2.map_or(String::new(), |v| v.0.to_string()),
+            r.pixel_l2.map_or(String::new(), |v| v.1.to_string()),
             field(&objects_field(r))
         );
         for (name, e, n) in &r.objects {
@@ -94,11 +96,11 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
         .map(|(k, line)| {
             let f = split(line);
             let bad = || anyhow::anyhow!("{}: line {}: malformed row", path.display(), k + 2);
-            if f.len() != 18 {
+            if f.len() != 20 {
                 return Err(bad());
             }
             let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
-            let objects = f[17]
+            let objects = f[19]
                 .split(';')
                 .filter(|s| !s.is_empty())
                 .map(|o| {
@@ -125,6 +127,7 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
                 truth_spp: f[14].parse().map_err(|_| bad())?,
                 mc_spp: if f[15].is_empty() { None } else { Some(num(15)?) },
                 mc_ms: if f[16].is_empty() { None } else { Some(num(16)?) },
+                pixel_l2: if f[17].is_empty() { None } else { Some((num(17)?, num(18)?)) },
                 objects,
             })
         })
@@ -137,7 +140,7 @@ fn speedup(x: f64) -> String {
 }
 
 /// A file-name-safe stem of a scene path.
-fn stem(scene: &str) -> String {
+pub fn stem(scene: &str) -> String {
     let s = Path::new(scene).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
 }
@@ -187,13 +190,13 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
             );
             let names: Vec<&str> = first.objects.iter().map(|o| o.0.as_str()).collect();
             md += &format!(
-                "| configuration | ms/frame | prepare ms | built | MB | rel. L2 | mean rel. | p95 rel. | MC spp at equal error | × faster than MC | {} |\n|---|---|---|---|---|---|---|---|---|---|{}\n",
+                "| configuration | ms/frame | prepare ms | built | MB | rel. L2 | mean rel. | p95 rel. | pixel rel. L2 | MC spp at equal error | × faster than MC | {} |\n|---|---|---|---|---|---|---|---|---|---|---|{}\n",
                 names.join(" | "),
                 "---|".repeat(names.len())
             );
             for (k, r) in rs.iter().enumerate() {
                 md += &format!(
-                    "| {}{} | {:.1} | {:.0} | {} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {} | {} | {} |\n",
+                    "| {}{} | {:.1} | {:.0} | {} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {} | {} | {} | {} |\n",
                     if front.contains(&k) { "★ " } else { "" },
                     r.config,
                     r.ms_per_frame,
@@ -203,9 +206,20 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
                     100.0 * r.relative_l2,
                     100.0 * r.mean_relative,
                     100.0 * r.p95_relative,
+                    r.pixel_l2.map_or_else(
+                        || "—".into(),
+                        |(e, n)| format!("{:.2}% (truth noise {:.2}%)", 100.0 * e, 100.0 * n)
+                    ),
                     r.mc_spp.map_or_else(|| "— (within the truth's noise)".into(), |s| format!("{s:.1}")),
                     r.mc_ms.map_or_else(|| "—".into(), |m| speedup(m / r.ms_per_frame)),
                     r.objects.iter().map(|o| format!("{:.2}%", 100.0 * o.1)).collect::<Vec<_>>().join(" | ")
+                );
+            }
+            let grid = format!("{stem}_grid_t{t}.png");
+            if out.join(&grid).exists() {
+                md += &format!(
+                    "\nThe grid (at half resolution; first row the per-pixel truth, then per configuration its render \
+                     and its luminance error, one colour scale for all): ![grid]({grid})\n"
                 );
             }
         }
@@ -307,6 +321,7 @@ mod tests {
             truth_spp: 64,
             mc_spp: Some(20.0),
             mc_ms: None,
+            pixel_l2: Some((0.5, 0.25)),
             objects: vec![("floor".into(), 0.05, 0.01), ("ball".into(), 0.5, 0.02)],
         }
     }

@@ -115,6 +115,7 @@ mod tests {
             truth_spp: 64,
             mc_spp: None,
             mc_ms: None,
+            pixel_l2: None,
             objects: Vec::new(),
         }
     }

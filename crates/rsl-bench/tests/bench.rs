@@ -45,6 +45,12 @@ fn scene(dir: &std::path::Path) -> PathBuf {
     path
 }
 
+fn image_size(path: &std::path::Path) -> (u32, u32) {
+    // PNG: the IHDR chunk holds width and height at bytes 16..24.
+    let b = std::fs::read(path).unwrap();
+    (u32::from_be_bytes(b[16..20].try_into().unwrap()), u32::from_be_bytes(b[20..24].try_into().unwrap()))
+}
+
 fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> BenchOptions {
     let sweeps: Vec<Sweep> = sweeps.iter().map(|s| s.parse().unwrap()).collect();
     BenchOptions {
@@ -55,6 +61,7 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         seed: 3,
         times: vec![0.0],
         frames: 2,
+        grid_spp: 8,
         cache_dir: Some(cache),
         progress: Default::default(),
     }
@@ -65,7 +72,8 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     let d = dir("resume");
     let (scene, out, cache) = (scene(&d), d.join("out"), d.join("cache"));
     let first = run(&options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"])).unwrap();
-    assert_eq!((first.measured, first.reused, first.truths_estimated, first.truths_reused), (2, 0, 1, 0));
+    // Two truths: per vertex, and per pixel for the images.
+    assert_eq!((first.measured, first.reused, first.truths_estimated, first.truths_reused), (2, 0, 2, 0));
     for f in [
         "results.csv",
         "objects.csv",
@@ -79,12 +87,16 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     let rows = &first.rows;
     assert!(rows.iter().all(|r| r.relative_l2.is_finite() && r.relative_l2 > 0.0 && r.ms_per_frame > 0.0));
     assert!(rows.iter().all(|r| r.truth_noise > 0.0 && r.objects.len() == 2));
+    assert!(rows.iter().all(|r| r.pixel_l2.is_some_and(|(e, n)| e.is_finite() && e > 0.0 && n > 0.0)), "{rows:?}");
+    let grid = image_size(&out.join("small_grid_t0.png"));
+    assert_eq!(grid, (2 * 32 + 12, 3 * (24 + 16 + 4) + 4 + 40), "truth row, two configuration rows, legend");
     // The few-light configurations are further from the truth than its noise: a Monte
     // Carlo estimate of equal error and its time exist.
     assert!(rows.iter().all(|r| r.mc_spp.is_some_and(|s| s > 0.0) && r.mc_ms.is_some_and(|m| m > 0.0)), "{rows:?}");
-    // Run again: nothing is measured, and nothing else is estimated.
+    // Run again: nothing is measured, and nothing is estimated (the images are drawn again
+    // from the cached per-pixel truth).
     let again = run(&options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"])).unwrap();
-    assert_eq!((again.measured, again.reused, again.truths_estimated, again.truths_reused), (0, 2, 0, 0));
+    assert_eq!((again.measured, again.reused, again.truths_estimated, again.truths_reused), (0, 2, 0, 1));
     assert_eq!(again.rows, first.rows);
     // A bench cut short after its first configuration resumes with the second; a new
     // configuration reuses the cached truth.
@@ -92,7 +104,7 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     let cut: Vec<&str> = text.lines().take(2).collect();
     std::fs::write(out.join("results.csv"), cut.join("\n") + "\n").unwrap();
     let resumed = run(&options(scene, out, cache, &["rsl=2,8,32"])).unwrap();
-    assert_eq!((resumed.measured, resumed.reused, resumed.truths_estimated, resumed.truths_reused), (2, 1, 0, 1));
+    assert_eq!((resumed.measured, resumed.reused, resumed.truths_estimated, resumed.truths_reused), (2, 1, 0, 2));
     assert_eq!(resumed.rows.len(), 3);
     let eight = |rows: &[rsl_bench::Row]| rows.iter().find(|r| r.rsl == 8).unwrap().relative_l2;
     assert!((eight(&resumed.rows) - eight(&first.rows)).abs() < 1e-9, "the same configuration measures the same error");

@@ -138,8 +138,11 @@ pub fn false_colour(t: f32) -> Vec3 {
     Vec3::from(STOPS[i]).lerp(Vec3::from(STOPS[i + 1]), f)
 }
 
-/// 3×5 glyphs of the characters a legend needs.
+/// 3×5 glyphs (rows top to bottom, bit 4 the left column) of digits, letters (lower case
+/// drawn as upper case, but for the exponent's `e`) and the punctuation labels need; other
+/// characters are blank.
 fn glyph(c: char) -> [u8; 5] {
+    let c = if c.is_ascii_lowercase() && c != 'e' { c.to_ascii_uppercase() } else { c };
     match c {
         '0' => [7, 5, 5, 5, 7],
         '1' => [2, 6, 2, 2, 7],
@@ -155,6 +158,41 @@ fn glyph(c: char) -> [u8; 5] {
         '-' => [0, 0, 7, 0, 0],
         '+' => [0, 2, 7, 2, 0],
         'e' => [0, 7, 7, 4, 7],
+        'A' => [2, 5, 7, 5, 5],
+        'B' => [6, 5, 6, 5, 6],
+        'C' => [3, 4, 4, 4, 3],
+        'D' => [6, 5, 5, 5, 6],
+        'E' => [7, 4, 6, 4, 7],
+        'F' => [7, 4, 6, 4, 4],
+        'G' => [3, 4, 5, 5, 3],
+        'H' => [5, 5, 7, 5, 5],
+        'I' => [7, 2, 2, 2, 7],
+        'J' => [1, 1, 1, 5, 2],
+        'K' => [5, 5, 6, 5, 5],
+        'L' => [4, 4, 4, 4, 7],
+        'M' => [5, 7, 7, 5, 5],
+        'N' => [6, 5, 5, 5, 5],
+        'O' => [2, 5, 5, 5, 2],
+        'P' => [6, 5, 6, 4, 4],
+        'Q' => [2, 5, 5, 6, 3],
+        'R' => [6, 5, 6, 5, 5],
+        'S' => [3, 4, 2, 1, 6],
+        'T' => [7, 2, 2, 2, 2],
+        'U' => [5, 5, 5, 5, 7],
+        'V' => [5, 5, 5, 5, 2],
+        'W' => [5, 5, 7, 7, 5],
+        'X' => [5, 5, 2, 5, 5],
+        'Y' => [5, 5, 2, 2, 2],
+        'Z' => [7, 1, 2, 4, 7],
+        '=' => [0, 7, 0, 7, 0],
+        ':' => [0, 2, 0, 2, 0],
+        '%' => [5, 1, 2, 4, 5],
+        '(' => [1, 2, 2, 2, 1],
+        ')' => [4, 2, 2, 2, 4],
+        ',' => [0, 0, 0, 2, 4],
+        '/' => [1, 1, 2, 4, 4],
+        '_' => [0, 0, 0, 0, 7],
+        '×' => [0, 5, 2, 5, 0],
         _ => [0; 5],
     }
 }
@@ -250,5 +288,17 @@ mod tests {
         assert_eq!(img.len(), 64 * 72 * 3);
         // Label pixels were drawn in the strip.
         assert!(img[(64 * 56 * 3) as usize..].chunks(3).any(|p| p == [235, 235, 235]));
+    }
+
+    #[test]
+    fn every_letter_and_digit_has_its_own_glyph() {
+        let chars: Vec<char> = ('A'..='Z').chain('0'..='9').chain("=:%()/,_×".chars()).collect();
+        for (i, a) in chars.iter().enumerate() {
+            assert_ne!(glyph(*a), [0; 5], "{a} is blank");
+            for b in &chars[i + 1..] {
+                assert_ne!(glyph(*a), glyph(*b), "{a} and {b} look the same");
+            }
+        }
+        assert_eq!(glyph('q'), glyph('Q'));
     }
 }
