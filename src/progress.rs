@@ -1,19 +1,21 @@
 //! Progress bars on standard error for the library's [`Progress`] reports: a percentage and
 //! a time estimate per task, hidden when standard error is not a terminal.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use rsl_engine::{Event, Progress};
 use std::collections::HashMap;
 use std::sync::Mutex;
 
-/// A [`Progress`] that draws one bar per running task on standard error.
+/// A [`Progress`] that draws one bar per running task on standard error (nested tasks,
+/// such as a field build inside a bench, stack below the outer one).
 pub fn bars() -> Progress {
     let running: Mutex<HashMap<String, ProgressBar>> = Mutex::new(HashMap::new());
+    let multi = MultiProgress::new();
     Progress::new(move |e| {
         let Ok(mut running) = running.lock() else { return };
         match *e {
             Event::Started { task } => {
-                let bar = ProgressBar::new(0).with_message(task.to_string());
+                let bar = multi.add(ProgressBar::new(0).with_message(task.to_string()));
                 bar.set_style(
                     ProgressStyle::with_template("{msg} {wide_bar} {percent:>3}% [{elapsed} / ~{duration}]")
                         .expect("valid template"),
@@ -30,6 +32,7 @@ pub fn bars() -> Progress {
             Event::Finished { task } => {
                 if let Some(bar) = running.remove(task) {
                     bar.finish_and_clear();
+                    multi.remove(&bar);
                 }
             }
         }

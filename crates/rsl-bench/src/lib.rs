@@ -287,7 +287,11 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             }
             truths.push((t, tr));
         }
-        for (config, t) in todo {
+        let task = format!("{name}: {} configuration(s) to measure", todo.len());
+        let total = todo.len();
+        options.progress.report(&rsl_engine::Event::Started { task: &task });
+        for (done, (config, t)) in todo.into_iter().enumerate() {
+            options.progress.report(&rsl_engine::Event::Advanced { task: &task, done, total });
             let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
             scene.quality = config.quality(base)?;
             let start = Instant::now();
@@ -360,6 +364,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             summary.measured += 1;
             report::write_rows(&results, &summary.rows)?;
         }
+        options.progress.report(&rsl_engine::Event::Finished { task: &task });
     }
     if options.grid_spp > 0 {
         images(options, &mut summary, &mut cpu, &mut gpu)?;
