@@ -218,6 +218,127 @@ impl Plot {
     }
 }
 
+/// An RGB8 canvas for the PNG form of a plot.
+struct Canvas {
+    rgb: Vec<u8>,
+    w: u32,
+    h: u32,
+}
+
+impl Canvas {
+    fn set(&mut self, x: i64, y: i64, c: [u8; 3]) {
+        if x >= 0 && y >= 0 && (x as u32) < self.w && (y as u32) < self.h {
+            let o = ((y as u32 * self.w + x as u32) * 3) as usize;
+            self.rgb[o..o + 3].copy_from_slice(&c);
+        }
+    }
+
+    /// A line `width` pixels thick; `dash` > 0 draws `dash` pixels on, `dash` off.
+    fn line(&mut self, (x0, y0): (f64, f64), (x1, y1): (f64, f64), c: [u8; 3], width: i64, dash: usize) {
+        let n = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
+        for k in 0..=n {
+            if dash > 0 && (k / dash) % 2 == 1 {
+                continue;
+            }
+            let t = k as f64 / n as f64;
+            let (x, y) = ((x0 + (x1 - x0) * t).round() as i64, (y0 + (y1 - y0) * t).round() as i64);
+            for dy in 0..width {
+                for dx in 0..width {
+                    self.set(x + dx - width / 2, y + dy - width / 2, c);
+                }
+            }
+        }
+    }
+
+    fn disc(&mut self, (x, y): (f64, f64), r: f64, c: [u8; 3]) {
+        let ri = r.ceil() as i64;
+        for dy in -ri..=ri {
+            for dx in -ri..=ri {
+                if (dx * dx + dy * dy) as f64 <= r * r {
+                    self.set(x.round() as i64 + dx, y.round() as i64 + dy, c);
+                }
+            }
+        }
+    }
+
+    /// Text in the 3×5 legend font at twice its size (8 pixels a character); `anchor` 0 is
+    /// left, 1 centre, 2 right.
+    fn text(&mut self, x: f64, y: f64, text: &str, anchor: u32, c: [u8; 3]) {
+        let width = text.chars().count() as f64 * 8.0;
+        let x = (x - width * f64::from(anchor) / 2.0).max(0.0);
+        let text = text.to_uppercase();
+        rsl_truth::metrics::draw_text(&mut self.rgb, (self.w, self.h), (x as u32, y.max(0.0) as u32), &text, 2, c);
+    }
+}
+
+fn rgb_of(hex: &str) -> [u8; 3] {
+    let v = |k: usize| u8::from_str_radix(&hex[k..k + 2], 16).unwrap_or(0);
+    [v(1), v(3), v(5)]
+}
+
+impl Plot {
+    /// The plot as RGB8 pixels (for PNG), drawn with the same layout as [`Plot::svg`] and the
+    /// bitmap font of the error legends, so no system font is involved. Returns the pixels
+    /// and the size.
+    pub fn rgb(&self) -> (Vec<u8>, u32, u32) {
+        // The legend's column widens to its longest name (8 pixels a character).
+        let longest = self.series.iter().map(|s| s.name.chars().count()).max().unwrap_or(0) as f64;
+        let (w, h) = ((W - RIGHT + RIGHT.max(34.0 + 8.0 * longest)) as u32, H as u32);
+        let mut c = Canvas { rgb: vec![255; (w * h * 3) as usize], w, h };
+        let all = || self.series.iter().flat_map(|s| s.points.iter());
+        let x = Axis::new(all().map(|p| p.0), self.x_log);
+        let y = Axis::new(all().map(|p| p.1).chain(self.references.iter().map(|r| r.0)), self.y_log);
+        let (pw, ph) = (W - LEFT - RIGHT, H - TOP - BOTTOM);
+        let px = |v: f64| LEFT + x.unit(v) * pw;
+        let py = |v: f64| TOP + (1.0 - y.unit(v)) * ph;
+        let (grid, ink, grey) = ([228, 228, 228], [40, 40, 40], [110, 110, 110]);
+        for t in x.ticks() {
+            c.line((px(t), TOP), (px(t), TOP + ph), grid, 1, 0);
+            c.text(px(t), TOP + ph + 8.0, &label(t), 1, ink);
+        }
+        for t in y.ticks() {
+            c.line((LEFT, py(t)), (LEFT + pw, py(t)), grid, 1, 0);
+            c.text(LEFT - 6.0, py(t) - 5.0, &label(t), 2, ink);
+        }
+        for (a, b) in [((LEFT, TOP), (LEFT + pw, TOP)), ((LEFT, TOP + ph), (LEFT + pw, TOP + ph))] {
+            c.line(a, b, ink, 1, 0);
+        }
+        for (a, b) in [((LEFT, TOP), (LEFT, TOP + ph)), ((LEFT + pw, TOP), (LEFT + pw, TOP + ph))] {
+            c.line(a, b, ink, 1, 0);
+        }
+        c.text(LEFT + pw / 2.0, 6.0, &self.title, 1, ink);
+        c.text(LEFT + pw / 2.0, H - 22.0, &self.x_label, 1, ink);
+        c.text(8.0, TOP - 14.0, &self.y_label, 0, ink);
+        for (v, text) in &self.references {
+            c.line((LEFT, py(*v)), (LEFT + pw, py(*v)), grey, 1, 5);
+            c.text(LEFT + 6.0, py(*v) - 14.0, text, 0, grey);
+        }
+        for (k, series) in self.series.iter().enumerate() {
+            let colour = rgb_of(COLOURS[k % COLOURS.len()]);
+            let pts: Vec<(f64, f64)> = series
+                .points
+                .iter()
+                .filter(|(a, b)| {
+                    a.is_finite() && b.is_finite() && (!self.x_log || *a > 0.0) && (!self.y_log || *b > 0.0)
+                })
+                .map(|&(a, b)| (px(a), py(b)))
+                .collect();
+            if series.line {
+                for pair in pts.windows(2) {
+                    c.line(pair[0], pair[1], colour, 2, 0);
+                }
+            }
+            for p in &pts {
+                c.disc(*p, 3.5, colour);
+            }
+            let ly = TOP + 14.0 + 18.0 * k as f64;
+            c.disc((LEFT + pw + 14.0, ly - 4.0), 4.0, colour);
+            c.text(LEFT + pw + 24.0, ly - 9.0, &series.name, 0, ink);
+        }
+        (c.rgb, w, h)
+    }
+}
+
 /// The points of `points` on the lower-left Pareto front (no other point is both cheaper
 /// and more accurate), sorted by x.
 pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
@@ -264,5 +385,12 @@ mod tests {
         assert_eq!(s.matches("<polyline").count(), 1);
         assert_eq!(s.matches("<circle").count(), 3 + 2, "three points and two legend marks");
         assert!(s.contains("truth noise"));
+        // The same plot as pixels: the right size, the series colours present, and text
+        // drawn in ink.
+        let (rgb, w, h) = plot.rgb();
+        assert_eq!((w, h, rgb.len()), (720, 460, 720 * 460 * 3), "short names fit the usual legend");
+        let has = |c: [u8; 3]| rgb.chunks_exact(3).any(|p| p == c);
+        assert!(has(rgb_of(COLOURS[0])) && has(rgb_of(COLOURS[1])) && has([40, 40, 40]));
+        assert!(!has(rgb_of(COLOURS[2])), "no third series");
     }
 }

@@ -278,6 +278,8 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
         for (name, plot) in plots {
             let file = format!("{stem}_{name}.svg");
             write_atomic(&out.join(&file), plot.svg().as_bytes())?;
+            let (rgb, w, h) = plot.rgb();
+            rsl_engine::output::write_png(&out.join(format!("{stem}_{name}.png")), w, h, rgb)?;
             md += &format!("![{}]({file})\n", plot.title);
         }
     }
