@@ -36,6 +36,14 @@ pub struct BenchArgs {
     /// `<scene>_target.toml`, a `[quality]` table the scene can use.
     #[arg(long, value_parser = parse_error)]
     pub target_error: Option<f64>,
+    /// Term counts of the Haar wavelet baseline (Ng et al. 2003: the environment's largest
+    /// area-weighted coefficients on the scene's cube grid, against transport with shadow
+    /// rays precomputed for the scene at each time), measured beside the configurations.
+    #[arg(long, value_delimiter = ',', default_value = "20,30,100")]
+    pub wavelet_terms: Vec<usize>,
+    /// Leave the wavelet baseline out.
+    #[arg(long)]
+    pub no_wavelet: bool,
     /// Samples per pixel of the per-pixel truth behind the image grid and the per-pixel
     /// errors, at half the camera's resolution (0: no images).
     #[arg(long, default_value_t = 256)]
@@ -82,6 +90,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     if !(1..=MAX_FRAMES).contains(&args.frames) {
         bail!("--frames must be in 1..={MAX_FRAMES}");
     }
+    if args.wavelet_terms.iter().any(|&k| k == 0 || k > 6 * 512 * 512) {
+        bail!("--wavelet-terms: each count must be in 1..={}", 6 * 512 * 512);
+    }
     if args.grid_spp > MAX_SPP {
         bail!("--grid-spp must be at most {MAX_SPP}");
     }
@@ -99,6 +110,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         times: args.times.clone(),
         frames: args.frames,
         grid_spp: args.grid_spp,
+        wavelet_terms: if args.no_wavelet { Vec::new() } else { args.wavelet_terms.clone() },
         cache_dir: args.prepare.options().cache_dir,
         progress: crate::progress::bars(),
     };

@@ -13,6 +13,7 @@ pub mod plot;
 pub mod report;
 pub mod target;
 pub mod truth;
+pub mod wavelet;
 
 use anyhow::{Context, Result, bail};
 use config::{Config, MethodKind};
@@ -40,6 +41,9 @@ pub struct BenchOptions {
     pub times: Vec<f32>,
     /// Frames timed per configuration and time (the median is reported).
     pub frames: usize,
+    /// Term counts of the Haar wavelet baseline to measure (empty: none), on the scene's
+    /// own environment grid (a power of two).
+    pub wavelet_terms: Vec<usize>,
     /// Samples per pixel of the per-pixel truth behind the image grids and per-pixel errors,
     /// at half the camera's resolution (0: no images).
     pub grid_spp: u32,
@@ -111,6 +115,63 @@ pub struct Summary {
     pub truths_estimated: usize,
     /// Truths read from the cache.
     pub truths_reused: usize,
+}
+
+/// The identity of the wavelet baseline with `k` terms.
+pub fn wavelet_id(k: usize) -> String {
+    format!("method=wavelet terms={k}")
+}
+
+/// The row of a measured frame: its errors against the truth (scene, per object, per
+/// vertex) and the Monte Carlo estimate of equal error.
+#[allow(clippy::too_many_arguments)]
+fn measured_row(
+    name: &str,
+    scene: &Scene,
+    config: String,
+    method: &str,
+    rsl: u32,
+    time: f32,
+    (prepare_ms, prepare_bytes, prepare_built): (f64, usize, u64),
+    ms_per_frame: f64,
+    radiance: &[Vec<Vec3>],
+    truth: &truth::VertexTruth,
+) -> Result<Row> {
+    let (relative_l2, mean_relative, p95_relative) = vertex_errors(&radiance.concat(), &truth.mean.concat())?;
+    let objects = scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            Ok((
+                o.name.clone(),
+                rsl_truth::compare(&radiance[i], &truth.mean[i], None)?.relative_l2,
+                truth.noise(Some(i)),
+            ))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mc_spp = equal_error_spp(relative_l2, truth.noise(None), truth.spp);
+    Ok(Row {
+        scene: name.to_string(),
+        config,
+        method: method.into(),
+        quality: scene.quality.preset.name().into(),
+        rsl,
+        time,
+        prepare_ms,
+        prepare_bytes,
+        prepare_built,
+        ms_per_frame,
+        relative_l2,
+        mean_relative,
+        p95_relative,
+        truth_noise: truth.noise(None),
+        truth_spp: truth.spp,
+        mc_spp,
+        mc_ms: mc_spp.map(|s| s * truth.seconds * 1e3 / f64::from(truth.spp)),
+        pixel_l2: None,
+        objects,
+    })
 }
 
 /// Most configurations one grid shows.
@@ -255,8 +316,18 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
             .filter(|(c, t)| !summary.rows.iter().any(|r| r.scene == name && r.config == c.id() && r.time == *t))
             .collect();
-        summary.reused += options.configs.len() * options.times.len() - todo.len();
-        if todo.is_empty() {
+        let wavelet_todo: Vec<(usize, f32)> = options
+            .wavelet_terms
+            .iter()
+            .flat_map(|&k| options.times.iter().map(move |&t| (k, t)))
+            .filter(|(k, t)| {
+                !summary.rows.iter().any(|r| r.scene == name && r.config == wavelet_id(*k) && r.time == *t)
+            })
+            .collect();
+        summary.reused += (options.configs.len() + options.wavelet_terms.len()) * options.times.len()
+            - todo.len()
+            - wavelet_todo.len();
+        if todo.is_empty() && wavelet_todo.is_empty() {
             continue;
         }
         // The truths, once per time: only the method-neutral layer is needed for them.
@@ -324,47 +395,63 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 frame = Some(f);
             }
             let frame = frame.expect("at least one frame");
-            let (relative_l2, mean_relative, p95_relative) =
-                vertex_errors(&frame.radiance.concat(), &truth.mean.concat())?;
-            let objects = scene
-                .objects
-                .iter()
-                .enumerate()
-                .map(|(i, o)| {
-                    Ok((
-                        o.name.clone(),
-                        rsl_truth::compare(&frame.radiance[i], &truth.mean[i], None)?.relative_l2,
-                        truth.noise(Some(i)),
-                    ))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            let mc_spp = equal_error_spp(relative_l2, truth.noise(None), truth.spp);
-            let mc_ms = mc_spp.map(|s| s * truth.seconds * 1e3 / f64::from(truth.spp));
-            summary.rows.push(Row {
-                scene: name.clone(),
-                config: config.id(),
-                method: config.method.name().into(),
-                quality: scene.quality.preset.name().into(),
-                rsl: engine.rsls().len() as u32,
-                time: t,
-                prepare_ms,
-                prepare_bytes: engine.memory().resident_bytes,
-                prepare_built: engine.cache_stats().misses,
-                ms_per_frame: median(times),
-                relative_l2,
-                mean_relative,
-                p95_relative,
-                truth_noise: truth.noise(None),
-                truth_spp: truth.spp,
-                mc_spp,
-                mc_ms,
-                pixel_l2: None,
-                objects,
-            });
+            let row = measured_row(
+                &name,
+                &scene,
+                config.id(),
+                config.method.name(),
+                engine.rsls().len() as u32,
+                t,
+                (prepare_ms, engine.memory().resident_bytes, engine.cache_stats().misses),
+                median(times),
+                &frame.radiance,
+                truth,
+            )?;
+            summary.rows.push(row);
             summary.measured += 1;
             report::write_rows(&results, &summary.rows)?;
         }
         options.progress.report(&rsl_engine::Event::Finished { task: &task });
+        scene.quality = base;
+        for &t in &options.times {
+            let terms: Vec<usize> = wavelet_todo.iter().filter(|(_, tt)| *tt == t).map(|(k, _)| *k).collect();
+            let Some(&max) = terms.iter().max() else { continue };
+            let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
+            let task = format!(
+                "{name}: wavelet transport ({} vertices, 6×{}² rays each)",
+                scene.counts().0,
+                base.settings.env_grid
+            );
+            let start = Instant::now();
+            let w = options.progress.task(&task, |_| {
+                wavelet::Wavelets::new(&neutral, &scene, t, base.settings.env_grid as usize, max, true)
+            })?;
+            let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
+            for k in terms {
+                let mut times = Vec::with_capacity(options.frames);
+                let mut radiance = Vec::new();
+                for _ in 0..options.frames {
+                    let start = Instant::now();
+                    radiance = w.radiance(k);
+                    times.push(start.elapsed().as_secs_f64() * 1e3);
+                }
+                let row = measured_row(
+                    &name,
+                    &scene,
+                    wavelet_id(k),
+                    "wavelet",
+                    k as u32,
+                    t,
+                    (prepare_ms, w.bytes(), 0),
+                    median(times),
+                    &radiance,
+                    truth,
+                )?;
+                summary.rows.push(row);
+                summary.measured += 1;
+                report::write_rows(&results, &summary.rows)?;
+            }
+        }
     }
     if options.grid_spp > 0 {
         images(options, &mut summary, &mut cpu, &mut gpu)?;

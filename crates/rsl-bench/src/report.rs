@@ -145,9 +145,10 @@ pub fn stem(scene: &str) -> String {
     s.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }).collect()
 }
 
-/// The configuration without its RSL count: the series an RSL sweep draws as one line.
+/// The configuration without its RSL count (or wavelet term count): the series a sweep of
+/// counts draws as one line.
 fn series_of(config: &str) -> String {
-    config.split(' ').filter(|p| !p.starts_with("rsl=")).collect::<Vec<_>>().join(" ")
+    config.split(' ').filter(|p| !p.starts_with("rsl=") && !p.starts_with("terms=")).collect::<Vec<_>>().join(" ")
 }
 
 /// Writes `report.md` and the plots of every scene into `out`.
@@ -248,7 +249,7 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
                 "error_vs_rsl",
                 Plot {
                     title: format!("{scene}: error against RSL count"),
-                    x_label: "RSLs".into(),
+                    x_label: "RSLs (wavelet baseline: terms)".into(),
                     y_label: "relative L2 against the truth (%)".into(),
                     x_log: true,
                     y_log: true,

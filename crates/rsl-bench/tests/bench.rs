@@ -62,6 +62,7 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         times: vec![0.0],
         frames: 2,
         grid_spp: 8,
+        wavelet_terms: vec![],
         cache_dir: Some(cache),
         progress: Default::default(),
     }
@@ -120,4 +121,21 @@ fn bad_options_are_clear_errors() {
     o.truth_spp = 4;
     o.scenes = vec![d.join("missing.toml")];
     assert!(format!("{:#}", run(&o).unwrap_err()).contains("missing.toml"));
+}
+
+#[test]
+fn the_wavelet_baseline_joins_the_study() {
+    let d = dir("wavelet");
+    let mut o = options(scene(&d), d.join("out"), d.join("cache"), &["rsl=8"]);
+    o.wavelet_terms = vec![4, 64];
+    o.grid_spp = 0;
+    let s = run(&o).unwrap();
+    assert_eq!(s.measured, 3);
+    for k in [4u32, 64] {
+        let r = s.rows.iter().find(|r| r.config == format!("method=wavelet terms={k}")).unwrap();
+        assert_eq!((r.method.as_str(), r.rsl), ("wavelet", k));
+        assert!(r.relative_l2.is_finite() && r.ms_per_frame > 0.0 && r.prepare_bytes > 0);
+    }
+    // Resumed: nothing is measured again.
+    assert_eq!(run(&o).unwrap().measured, 0);
 }
