@@ -117,6 +117,34 @@ pub struct Summary {
     pub truths_reused: usize,
 }
 
+/// An engine of `scene`'s method-neutral layer (what the truth and the wavelet baseline
+/// need), from the bench's cache.
+fn neutral_engine(scene: &Scene, options: &BenchOptions) -> Result<Engine> {
+    Engine::new(
+        scene,
+        EngineOptions {
+            cache_dir: options.cache_dir.clone(),
+            layers: rsl_engine::Layers { rsl: false },
+            progress: options.progress.clone(),
+            ..EngineOptions::default()
+        },
+    )
+}
+
+/// An engine of `scene` (its quality already the configuration's) with the configuration's
+/// RSL count, from the bench's cache.
+fn config_engine(scene: &Scene, options: &BenchOptions, config: &Config) -> Result<Engine> {
+    Engine::new(
+        scene,
+        EngineOptions {
+            cache_dir: options.cache_dir.clone(),
+            rsl_count: config.rsl,
+            progress: options.progress.clone(),
+            ..EngineOptions::default()
+        },
+    )
+}
+
 /// The identity of the wavelet baseline with `k` terms.
 pub fn wavelet_id(k: usize) -> String {
     format!("method=wavelet terms={k}")
@@ -187,15 +215,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
         let full = Scene::load(scene_path)?;
         let base = full.quality;
         let mut scene = grid::grid_scene(&full);
-        let neutral = Engine::new(
-            &scene,
-            EngineOptions {
-                cache_dir: options.cache_dir.clone(),
-                layers: rsl_engine::Layers { rsl: false },
-                progress: options.progress.clone(),
-                ..EngineOptions::default()
-            },
-        )?;
+        let neutral = neutral_engine(&scene, options)?;
         for &t in &options.times {
             let (truth, pixel_noise, cached) = grid::truth_image(
                 &neutral,
@@ -214,15 +234,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
             let mut renders = Vec::new();
             for config in &options.configs {
                 scene.quality = config.quality(base)?;
-                let engine = Engine::new(
-                    &scene,
-                    EngineOptions {
-                        cache_dir: options.cache_dir.clone(),
-                        rsl_count: config.rsl,
-                        progress: options.progress.clone(),
-                        ..EngineOptions::default()
-                    },
-                )?;
+                let engine = config_engine(&scene, options, config)?;
                 let method: &mut dyn Method = match config.method {
                     MethodKind::Cpu => cpu,
                     MethodKind::Gpu => gpu.as_mut().context("the GPU was opened while measuring")?,
@@ -331,15 +343,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             continue;
         }
         // The truths, once per time: only the method-neutral layer is needed for them.
-        let neutral = Engine::new(
-            &scene,
-            EngineOptions {
-                cache_dir: options.cache_dir.clone(),
-                layers: rsl_engine::Layers { rsl: false },
-                progress: options.progress.clone(),
-                ..EngineOptions::default()
-            },
-        )?;
+        let neutral = neutral_engine(&scene, options)?;
         let mut truths = Vec::new();
         for &t in &options.times {
             let (tr, cached) = truth::truth(
@@ -366,16 +370,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
             scene.quality = config.quality(base)?;
             let start = Instant::now();
-            let engine = Engine::new(
-                &scene,
-                EngineOptions {
-                    cache_dir: options.cache_dir.clone(),
-                    rsl_count: config.rsl,
-                    progress: options.progress.clone(),
-                    ..EngineOptions::default()
-                },
-            )
-            .with_context(|| format!("{name}: {}", config.id()))?;
+            let engine = config_engine(&scene, options, config).with_context(|| format!("{name}: {}", config.id()))?;
             let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
             let method: &mut dyn Method = match config.method {
                 MethodKind::Cpu => &mut cpu,

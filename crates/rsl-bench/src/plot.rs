@@ -129,11 +129,27 @@ fn label(v: f64) -> String {
 }
 
 impl Plot {
-    /// The plot as an SVG document.
-    pub fn svg(&self) -> String {
+    /// The axes spanning every point and reference line.
+    fn axes(&self) -> (Axis, Axis) {
         let all = || self.series.iter().flat_map(|s| s.points.iter());
         let x = Axis::new(all().map(|p| p.0), self.x_log);
         let y = Axis::new(all().map(|p| p.1).chain(self.references.iter().map(|r| r.0)), self.y_log);
+        (x, y)
+    }
+
+    /// The points of `series` that can be drawn (finite, and positive on a log axis).
+    fn drawable<'a>(&self, series: &'a Series) -> impl Iterator<Item = (f64, f64)> + 'a {
+        let (x_log, y_log) = (self.x_log, self.y_log);
+        series
+            .points
+            .iter()
+            .copied()
+            .filter(move |(a, b)| a.is_finite() && b.is_finite() && (!x_log || *a > 0.0) && (!y_log || *b > 0.0))
+    }
+
+    /// The plot as an SVG document.
+    pub fn svg(&self) -> String {
+        let (x, y) = self.axes();
         let (pw, ph) = (W - LEFT - RIGHT, H - TOP - BOTTOM);
         let px = |v: f64| LEFT + x.unit(v) * pw;
         let py = |v: f64| TOP + (1.0 - y.unit(v)) * ph;
@@ -186,14 +202,7 @@ impl Plot {
         }
         for (k, series) in self.series.iter().enumerate() {
             let colour = COLOURS[k % COLOURS.len()];
-            let pts: Vec<(f64, f64)> = series
-                .points
-                .iter()
-                .filter(|(a, b)| {
-                    a.is_finite() && b.is_finite() && (!self.x_log || *a > 0.0) && (!self.y_log || *b > 0.0)
-                })
-                .map(|&(a, b)| (px(a), py(b)))
-                .collect();
+            let pts: Vec<(f64, f64)> = self.drawable(series).map(|(a, b)| (px(a), py(b))).collect();
             if series.line && pts.len() > 1 {
                 let path: Vec<String> = pts.iter().map(|(a, b)| format!("{a:.1},{b:.1}")).collect();
                 s += &format!(
@@ -285,9 +294,7 @@ impl Plot {
         let longest = self.series.iter().map(|s| s.name.chars().count()).max().unwrap_or(0) as f64;
         let (w, h) = ((W - RIGHT + RIGHT.max(34.0 + 8.0 * longest)) as u32, H as u32);
         let mut c = Canvas { rgb: vec![255; (w * h * 3) as usize], w, h };
-        let all = || self.series.iter().flat_map(|s| s.points.iter());
-        let x = Axis::new(all().map(|p| p.0), self.x_log);
-        let y = Axis::new(all().map(|p| p.1).chain(self.references.iter().map(|r| r.0)), self.y_log);
+        let (x, y) = self.axes();
         let (pw, ph) = (W - LEFT - RIGHT, H - TOP - BOTTOM);
         let px = |v: f64| LEFT + x.unit(v) * pw;
         let py = |v: f64| TOP + (1.0 - y.unit(v)) * ph;
@@ -315,14 +322,7 @@ impl Plot {
         }
         for (k, series) in self.series.iter().enumerate() {
             let colour = rgb_of(COLOURS[k % COLOURS.len()]);
-            let pts: Vec<(f64, f64)> = series
-                .points
-                .iter()
-                .filter(|(a, b)| {
-                    a.is_finite() && b.is_finite() && (!self.x_log || *a > 0.0) && (!self.y_log || *b > 0.0)
-                })
-                .map(|&(a, b)| (px(a), py(b)))
-                .collect();
+            let pts: Vec<(f64, f64)> = self.drawable(series).map(|(a, b)| (px(a), py(b))).collect();
             if series.line {
                 for pair in pts.windows(2) {
                     c.line(pair[0], pair[1], colour, 2, 0);
