@@ -142,8 +142,11 @@ pub fn rsls_from_bytes(b: &[u8]) -> Result<Vec<Rsl>, String> {
     if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
         return Err("light set file is corrupt (checksum mismatch)".into());
     }
+    if payload.len() < 4 {
+        return Err(format!("light set file is malformed: {} payload bytes, no light count", payload.len()));
+    }
     let count = u32::from_le_bytes(payload[..4].try_into().expect("4 bytes")) as usize;
-    if payload.len() != 4 + count * 28 {
+    if payload.len() as u64 != 4 + count as u64 * 28 {
         return Err(format!("light set file is malformed: {count} lights in {} bytes", payload.len()));
     }
     let f = |k: usize| f32::from_le_bytes(payload[k..k + 4].try_into().expect("4 bytes"));
@@ -195,6 +198,13 @@ mod tests {
         let mut future = b;
         future[8] = 9;
         assert!(rsls_from_bytes(&future).unwrap_err().contains("version"));
+        // A well-formed header over an empty payload (its checksum right) is an error, not a
+        // panic, so the engine rejects and removes the file.
+        let mut empty = RSL_MAGIC.to_vec();
+        empty.extend_from_slice(&RSL_VERSION.to_le_bytes());
+        empty.extend_from_slice(&0u64.to_le_bytes());
+        empty.extend_from_slice(&fnv1a64(&[]).to_le_bytes());
+        assert!(rsls_from_bytes(&empty).unwrap_err().contains("no light count"));
     }
 
     #[test]
