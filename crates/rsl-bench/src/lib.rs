@@ -226,11 +226,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
                 options.cache_dir.as_deref(),
                 &options.progress,
             )?;
-            if cached {
-                summary.truths_reused += 1;
-            } else {
-                summary.truths_estimated += 1;
-            }
+            summary.count_truth(cached);
             let mut renders = Vec::new();
             for config in &options.configs {
                 scene.quality = config.quality(base)?;
@@ -276,6 +272,17 @@ pub fn equal_error_spp(error: f64, noise: f64, spp: u32) -> Option<f64> {
 /// of the per-vertex relative errors: their relative error measures the truth's noise on
 /// almost nothing (they still count, with their weight, in the relative L2).
 pub const DARK: f32 = 0.01;
+
+impl Summary {
+    /// Counts a truth read from the cache or estimated.
+    fn count_truth(&mut self, cached: bool) {
+        if cached {
+            self.truths_reused += 1;
+        } else {
+            self.truths_estimated += 1;
+        }
+    }
+}
 
 /// The error of `test` against the truth: relative L2 over all vertices, and the mean and
 /// 95th percentile of the per-vertex relative error `|a − b|₂ / |b|₂` over the vertices the
@@ -355,11 +362,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 options.cache_dir.as_deref(),
                 &options.progress,
             )?;
-            if cached {
-                summary.truths_reused += 1;
-            } else {
-                summary.truths_estimated += 1;
-            }
+            summary.count_truth(cached);
             truths.push((t, tr));
         }
         let task = format!("{name}: {} configuration(s) to measure", todo.len());

@@ -486,7 +486,12 @@ impl Engine {
         // What the scene needs stays while the rest is built.
         self.store.pin_more([self.env.rsl_key, self.decomposition_key()]);
         for o in &scene.objects {
-            let mesh_key = cache::mesh_key(&o.mesh);
+            // The key is the mesh's contents; a mesh the engine already holds (the same
+            // shared, immutable allocation) is not hashed again on every edit.
+            let mesh_key = match self.objects.iter().find(|p| Arc::ptr_eq(&p.mesh, &o.mesh)) {
+                Some(p) => p.mesh_key,
+                None => cache::mesh_key(&o.mesh),
+            };
             let brdf = brdf_of(&o.material);
             let anisotropic = brdf.is_anisotropic();
             let frames_key = KeyHasher::default().str("frames").u64(mesh_key).u64(u64::from(anisotropic)).finish();

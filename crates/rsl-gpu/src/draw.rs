@@ -361,40 +361,11 @@ impl GpuDraw {
     /// object covers each.
     pub fn read_linear(&self) -> Result<(Vec<Vec3>, Vec<bool>), GpuError> {
         let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
-        let row = u64::from(t.width) * 16;
-        let padded = row.next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
-        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("image readback"),
-            size: padded * u64::from(t.height),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let mut enc = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("image") });
-        enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &t.color,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &staging,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded as u32),
-                    rows_per_image: Some(t.height),
-                },
-            },
-            wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: 1 },
-        );
-        self.ctx.queue.submit([enc.finish()]);
-        let bytes = self.ctx.read_buffer(&staging, padded * u64::from(t.height))?;
+        let bytes = self.read_texture(&t.color, 16, "image readback")?;
         let (mut pixels, mut covered) = (Vec::new(), Vec::new());
-        for r in bytes.chunks_exact(padded as usize) {
-            let px: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&r[..row as usize]);
-            pixels.extend(px.iter().map(|p| Vec3::new(p[0], p[1], p[2])));
-            covered.extend(px.iter().map(|p| p[3] > 0.5));
-        }
+        let px: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+        pixels.extend(px.iter().map(|p| Vec3::new(p[0], p[1], p[2])));
+        covered.extend(px.iter().map(|p| p[3] > 0.5));
         Ok((pixels, covered))
     }
 
@@ -505,17 +476,23 @@ impl GpuDraw {
 
     /// Reads a [`DISPLAY`] texture back as interleaved 8-bit RGB (for tests and screenshots).
     pub fn read_display(&self, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
+        let bytes = self.read_texture(texture, 4, "display readback")?;
+        Ok(bytes.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
+    /// A 2D texture of `texel` bytes per texel read back, rows packed without the copy's
+    /// row padding, row 0 first.
+    fn read_texture(&self, texture: &wgpu::Texture, texel: u64, label: &str) -> Result<Vec<u8>, GpuError> {
         let (w, h) = (texture.width(), texture.height());
-        let row = u64::from(w) * 4;
+        let row = u64::from(w) * texel;
         let padded = row.next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
         let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("display readback"),
+            label: Some(label),
             size: padded * u64::from(h),
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let mut enc =
-            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("display") });
+        let mut enc = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
         enc.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
                 texture,
@@ -535,10 +512,7 @@ impl GpuDraw {
         );
         self.ctx.queue.submit([enc.finish()]);
         let bytes = self.ctx.read_buffer(&staging, padded * u64::from(h))?;
-        Ok(bytes
-            .chunks_exact(padded as usize)
-            .flat_map(|r| r[..row as usize].chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]))
-            .collect())
+        Ok(bytes.chunks_exact(padded as usize).flat_map(|r| r[..row as usize].iter().copied()).collect())
     }
 }
 
