@@ -48,6 +48,12 @@ pub struct BenchArgs {
     /// errors, at half the camera's resolution (0: no images).
     #[arg(long, default_value_t = 256)]
     pub grid_spp: u32,
+    /// Error budgets: for the CPU configurations with this many RSLs, the error with each
+    /// approximation replaced by its exact value (`rsl render --oracle`), one at a time and
+    /// all together, written to budget.csv and the report. Oracles trace shadow rays: a
+    /// budget costs several truths' time.
+    #[arg(long)]
+    pub budget: Option<u32>,
     /// Frames timed per configuration (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
@@ -96,6 +102,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     if args.grid_spp > MAX_SPP {
         bail!("--grid-spp must be at most {MAX_SPP}");
     }
+    if args.budget == Some(0) {
+        bail!("--budget: the RSL count must be at least 1");
+    }
     if !(2..=MAX_SPP).contains(&args.truth_spp) {
         bail!("--truth-spp must be in 2..={MAX_SPP} (one sample cannot measure the truth's noise)");
     }
@@ -113,6 +122,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         wavelet_terms: if args.no_wavelet { Vec::new() } else { args.wavelet_terms.clone() },
         cache_dir: args.prepare.options().cache_dir,
         progress: crate::progress::bars(),
+        budget_rsl: args.budget,
     };
     eprintln!(
         "bench: {} scene(s) × {} configuration(s) × {} time(s); truth at {} spp",
@@ -130,6 +140,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         s.truths_estimated,
         s.truths_reused
     );
+    if args.budget.is_some() {
+        eprintln!("bench: {} oracle setting(s) measured for error budgets", s.budget_measured);
+    }
     println!("{}", std::fs::read_to_string(args.out.join("report.md"))?);
     if let Some(x) = args.target_error {
         for path in &args.scenes {

@@ -1,10 +1,10 @@
 //! `rsl precompute`, `rsl render` and `rsl demo`: loops over rsl-engine's [`Method`]s.
 
 use anyhow::{Context, Result, bail};
-use rsl_engine::method::{CpuRsl, Frame, GpuRsl, Method, Request, Truth, exposure_for};
+use rsl_engine::method::{CpuRsl, Frame, GpuRsl, Method, Oracle, Request, Truth, exposure_for};
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, Layers, output, ply};
 use rsl_scene::{Material, Preset, Scene};
-use rsl_shade::tonemap;
+use rsl_shade::{Oracles, tonemap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -117,6 +117,12 @@ pub struct RenderArgs {
     /// Seed of `--method truth` (the result is deterministic for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Replace approximations of the RSL path by their exact values, to see what each
+    /// costs: a comma-separated list of `light` (one RSL per environment texel), `brdf`
+    /// (square integrals by quadrature), `self` and `occluders` (visibility by shadow rays),
+    /// `product` (the whole product by quadrature with rays), or `all`. CPU only; slow.
+    #[arg(long, value_parser = parse_oracles)]
+    pub oracle: Option<Oracles>,
     /// Output image: .png (tonemapped) or .exr (linear radiance).
     #[arg(long)]
     pub out: PathBuf,
@@ -130,6 +136,10 @@ pub struct RenderArgs {
     /// Precomputation options.
     #[command(flatten)]
     pub prepare: PrepareArgs,
+}
+
+fn parse_oracles(s: &str) -> Result<Oracles, String> {
+    Oracles::parse(s).map_err(|e| e.to_string())
 }
 
 fn parse_range(s: &str) -> Result<(u32, u32), String> {
@@ -204,13 +214,18 @@ fn print_preparation(engine: &Engine) {
     let m = engine.memory();
     use rsl_engine::engine::stage;
     eprintln!(
-        "prepared ({} quality, {} RSLs, tables {}×{}): environment {:.0} ms, BRDF tables {:.0} ms, \
+        "prepared ({} quality, {} RSLs, BRDF tables {}, visibility {}×{}): environment {:.0} ms, BRDF tables {:.0} ms, \
          self-visibility {:.0} ms, occluder fields {:.0} ms; cache: {} hits ({} from disk), {} computed, {} rejected; \
          {:.1} MB in memory",
         preset.name(),
         engine.rsls().len(),
-        q.table_resolution,
-        q.table_resolution,
+        if q.brdf_resolution == rsl_scene::quality::AUTO {
+            "auto".to_string()
+        } else {
+            format!("{0}×{0}", q.brdf_resolution)
+        },
+        q.visibility_resolution,
+        q.visibility_resolution,
         t.ms(stage::ENVIRONMENT),
         t.ms(stage::TABLES),
         t.ms(stage::SVDF),
@@ -303,6 +318,9 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     if args.method == MethodArg::Truth && args.spp == 0 {
         bail!("--spp must be at least 1");
     }
+    if args.oracle.is_some() && (args.method != MethodArg::Rsl || args.device == Device::Gpu) {
+        bail!("--oracle replaces parts of the RSL path on the CPU: use it with --method rsl and without --device gpu");
+    }
     let scene = Scene::load(&args.scene)?;
     if args.method == MethodArg::Truth && scene.objects.is_empty() {
         bail!("{}: the scene has no objects; there is nothing to estimate", args.scene.display());
@@ -318,11 +336,19 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         }
     };
     let layers = Layers { rsl: args.method == MethodArg::Rsl };
-    let engine = Engine::new(&scene, EngineOptions { layers, ..args.prepare.options() })?;
+    let mut engine = Engine::new(&scene, EngineOptions { layers, ..args.prepare.options() })?;
+    let mut method = match args.oracle {
+        Some(oracles) => {
+            Oracle::prepare(&mut engine, oracles)?;
+            let mut o = Oracle::new(oracles);
+            o.progress = crate::progress::bars();
+            Box::new(o)
+        }
+        None => method_for(args.method, args.device, &engine, args.spp, args.seed)?,
+    };
     if layers.rsl {
         print_preparation(&engine);
     }
-    let mut method = method_for(args.method, args.device, &engine, args.spp, args.seed)?;
     let mut exposure = args.exposure;
     let mut gif_frames = Vec::new();
     let mut spent = rsl_engine::Timings::default();

@@ -94,7 +94,7 @@ impl std::str::FromStr for Sweep {
         if values.is_empty() {
             return Err(format!("--sweep {key}: no values"));
         }
-        let knobs: Vec<&str> = QualitySettings::preset(Preset::Draft).knobs().iter().map(|k| k.0).collect();
+        let knobs = QualitySettings::names();
         if !["rsl", "quality", "method"].contains(&key.as_str()) && !knobs.contains(&key.as_str()) {
             return Err(format!("--sweep {key}: unknown; known: rsl, quality, method, {}", knobs.join(", ")));
         }
@@ -144,8 +144,8 @@ pub fn configs(sweeps: &[Sweep]) -> Result<Vec<Config>> {
                             .ok_or_else(|| anyhow::anyhow!("--sweep method: `{v}` is not a method (cpu, gpu)"))?;
                     }
                     knob => {
-                        let n: i64 =
-                            v.parse().map_err(|_| anyhow::anyhow!("--sweep {knob}: `{v}` is not a whole number"))?;
+                        let n = QualitySettings::parse_value(knob, v)
+                            .map_err(|e| anyhow::anyhow!("--sweep {knob}: {e}"))?;
                         c.knobs.retain(|(k, _)| k != knob);
                         c.knobs.push((knob.to_string(), n));
                     }
@@ -171,7 +171,8 @@ mod tests {
         assert_eq!(c.len(), 4);
         assert_eq!(c[0].id(), "method=cpu quality=draft rsl=10 table_resolution=16");
         assert_eq!(c[3].id(), "method=cpu quality=paper rsl=30 table_resolution=16");
-        assert_eq!(c[3].quality(Quality::default()).unwrap().settings.table_resolution, 16);
+        let q = c[3].quality(Quality::default()).unwrap().settings;
+        assert_eq!((q.brdf_resolution, q.visibility_resolution), (16, 16), "table_resolution sets both");
         let scene_own = configs(&["method=cpu,gpu".parse().unwrap()]).unwrap();
         assert_eq!(scene_own[1].id(), "method=gpu");
         let base = Quality::from_preset(Preset::High);

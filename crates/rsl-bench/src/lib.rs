@@ -7,6 +7,7 @@
 //! finished configurations are kept in `results.csv` and never measured again, so an
 //! interrupted bench resumes. Reports: CSV, Markdown and SVG plots ([`report`]).
 
+pub mod budget;
 pub mod config;
 pub mod grid;
 pub mod plot;
@@ -18,7 +19,7 @@ pub mod wavelet;
 use anyhow::{Context, Result, bail};
 use config::{Config, MethodKind};
 use glam::Vec3;
-use rsl_engine::method::{CpuRsl, GpuRsl, Method, Request};
+use rsl_engine::method::{CpuRsl, GpuRsl, Method, Oracle, Request};
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, Progress};
 use rsl_scene::Scene;
 use std::path::PathBuf;
@@ -52,6 +53,9 @@ pub struct BenchOptions {
     pub cache_dir: Option<PathBuf>,
     /// Progress of long steps.
     pub progress: Progress,
+    /// Error budgets (every oracle alone and all together) for the CPU configurations with
+    /// this many RSLs (`None`: no budgets).
+    pub budget_rsl: Option<u32>,
 }
 
 /// One measured point: a configuration of a scene at a time.
@@ -113,6 +117,8 @@ pub struct Summary {
     pub reused: usize,
     /// Truths estimated in this run.
     pub truths_estimated: usize,
+    /// Oracle settings measured for error budgets.
+    pub budget_measured: usize,
     /// Truths read from the cache.
     pub truths_reused: usize,
 }
@@ -323,6 +329,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
     std::fs::create_dir_all(&options.out).with_context(|| format!("cannot create {}", options.out.display()))?;
     let results = options.out.join("results.csv");
     let mut summary = Summary { rows: report::read_rows(&results)?, ..Summary::default() };
+    let budget_file = options.out.join("budget.csv");
+    let mut budget_rows = budget::read_rows(&budget_file)?;
     let mut cpu = CpuRsl;
     let mut gpu: Option<GpuRsl> = None;
     for scene_path in &options.scenes {
@@ -346,7 +354,24 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         summary.reused += (options.configs.len() + options.wavelet_terms.len()) * options.times.len()
             - todo.len()
             - wavelet_todo.len();
-        if todo.is_empty() && wavelet_todo.is_empty() {
+        let budget_todo: Vec<(&Config, f32, &'static str, rsl_shade::Oracles)> = options
+            .budget_rsl
+            .map(|n| {
+                options
+                    .configs
+                    .iter()
+                    .filter(|c| c.method == MethodKind::Cpu && c.rsl.unwrap_or(scene.environment.rsl_count) == n)
+                    .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
+                    .flat_map(|(c, t)| budget::oracle_settings().into_iter().map(move |(o, set)| (c, t, o, set)))
+                    .filter(|(c, t, o, _)| {
+                        !budget_rows
+                            .iter()
+                            .any(|r| r.scene == name && r.config == c.id() && r.time == *t && r.oracle == *o)
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        if todo.is_empty() && wavelet_todo.is_empty() && budget_todo.is_empty() {
             continue;
         }
         // The truths, once per time: only the method-neutral layer is needed for them.
@@ -410,6 +435,41 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             report::write_rows(&results, &summary.rows)?;
         }
         options.progress.report(&rsl_engine::Event::Finished { task: &task });
+        for (config, t, oracle, set) in budget_todo {
+            let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
+            scene.quality = config.quality(base)?;
+            let what = format!("{name}: {} with oracle {oracle}", config.id());
+            let mut engine = config_engine(&scene, options, config).with_context(|| what.clone())?;
+            Oracle::prepare(&mut engine, set).with_context(|| what.clone())?;
+            let mut method = Oracle::new(set);
+            method.progress = options.progress.clone();
+            let request = Request { time: t, image: false, vertices: true, exposure: None };
+            let start = Instant::now();
+            let frame = method.render(&engine, &scene, &request).with_context(|| what.clone())?;
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            let relative_l2 = rsl_truth::compare(&frame.radiance.concat(), &truth.mean.concat(), None)?.relative_l2;
+            let objects = scene
+                .objects
+                .iter()
+                .enumerate()
+                .map(|(i, o)| {
+                    Ok((o.name.clone(), rsl_truth::compare(&frame.radiance[i], &truth.mean[i], None)?.relative_l2))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            budget_rows.push(budget::BudgetRow {
+                scene: name.clone(),
+                config: config.id(),
+                time: t,
+                oracle: oracle.to_string(),
+                relative_l2,
+                truth_noise: truth.noise(None),
+                ms,
+                rays: frame.shadow_rays,
+                objects,
+            });
+            summary.budget_measured += 1;
+            budget::write_rows(&budget_file, &budget_rows)?;
+        }
         scene.quality = base;
         for &t in &options.times {
             let terms: Vec<usize> = wavelet_todo.iter().filter(|(_, tt)| *tt == t).map(|(k, _)| *k).collect();
@@ -455,7 +515,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         images(options, &mut summary, &mut cpu, &mut gpu)?;
         report::write_rows(&results, &summary.rows)?;
     }
-    report::write_reports(&options.out, &summary.rows)?;
+    report::write_reports(&options.out, &summary.rows, &budget_rows)?;
     Ok(summary)
 }
 

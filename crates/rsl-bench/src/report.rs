@@ -12,12 +12,12 @@ const HEADER: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_by
                       mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,pixel_l2,pixel_truth_noise,objects";
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break.
-fn field(s: &str) -> String {
+pub(crate) fn field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
 }
 
 /// The fields of one CSV line (quotes doubled inside quoted fields).
-fn split(line: &str) -> Vec<String> {
+pub(crate) fn split(line: &str) -> Vec<String> {
     let (mut out, mut cur, mut quoted, mut chars) = (Vec::new(), String::new(), false, line.chars().peekable());
     while let Some(c) = chars.next() {
         match (c, quoted) {
@@ -80,25 +80,42 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     write_atomic(&path.with_file_name("objects.csv"), o.as_bytes())
 }
 
-/// Reads `results.csv` back (none when the file does not exist).
-pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
+/// The fields of every line of a CSV file written with `header` (none when the file does not
+/// exist), each with a maker of the error that names the file and line; `kind` says what the
+/// file is in the error for a different header.
+pub(crate) type CsvLine = (Vec<String>, Box<dyn Fn() -> anyhow::Error>);
+
+pub(crate) fn read_csv(path: &Path, header: &str, kind: &str, fields: usize) -> Result<Vec<CsvLine>> {
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
     };
     let mut lines = text.lines();
-    if lines.next() != Some(HEADER) {
-        bail!("{}: not a results file of this version (header differs); move it away to start afresh", path.display());
+    if lines.next() != Some(header) {
+        bail!("{}: not a {kind} file of this version (header differs); move it away to start afresh", path.display());
     }
     lines
         .enumerate()
         .map(|(k, line)| {
             let f = split(line);
-            let bad = || anyhow::anyhow!("{}: line {}: malformed row", path.display(), k + 2);
-            if f.len() != 20 {
+            let (file, n) = (path.display().to_string(), k + 2);
+            let bad: Box<dyn Fn() -> anyhow::Error> =
+                Box::new(move || anyhow::anyhow!("{file}: line {n}: malformed row"));
+            if f.len() != fields {
                 return Err(bad());
             }
+            Ok((f, bad))
+        })
+        .collect()
+}
+
+/// Reads `results.csv` back (none when the file does not exist).
+pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
+    read_csv(path, HEADER, "results", 20)?
+        .into_iter()
+        .map(|(f, bad)| {
+            let bad = &*bad;
             let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
             let objects = f[19]
                 .split(';')
@@ -152,7 +169,7 @@ fn series_of(config: &str) -> String {
 }
 
 /// Writes `report.md` and the plots of every scene into `out`.
-pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
+pub fn write_reports(out: &Path, rows: &[Row], budget: &[crate::budget::BudgetRow]) -> Result<()> {
     let mut by_scene: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
     for r in rows {
         by_scene.entry(&r.scene).or_default().push(r);
@@ -284,6 +301,7 @@ pub fn write_reports(out: &Path, rows: &[Row]) -> Result<()> {
             md += &format!("![{}]({file})\n", plot.title);
         }
     }
+    md += &crate::budget::markdown(budget);
     write_atomic(&out.join("report.md"), md.as_bytes())
 }
 
@@ -338,7 +356,7 @@ mod tests {
         let path = dir.join("results.csv");
         write_rows(&path, &rows).unwrap();
         assert_eq!(read_rows(&path).unwrap(), rows);
-        write_reports(&dir, &rows).unwrap();
+        write_reports(&dir, &rows, &[]).unwrap();
         let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
         assert!(md.contains("★ method=cpu quality=draft rsl=30") && md.contains("★ method=cpu quality=paper rsl=30"));
         assert!(

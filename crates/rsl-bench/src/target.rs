@@ -86,7 +86,7 @@ pub fn fragment(pick: &Pick, config: &Config, base: Quality, truth_spp: u32) -> 
     s += &format!("[quality]\npreset = \"{}\"\n", q.preset.name());
     for ((name, v), (_, d)) in q.settings.knobs().iter().zip(defaults.knobs()) {
         if *v != d {
-            s += &format!("{name} = {v}\n");
+            s += &format!("{name} = {}\n", QualitySettings::value_text(name, *v));
         }
     }
     Ok(s)
@@ -145,14 +145,23 @@ mod tests {
         let config = crate::config::configs(&[
             "quality=paper".parse().unwrap(),
             "rsl=60".parse().unwrap(),
-            "table_resolution=64".parse().unwrap(),
+            "visibility_resolution=64".parse().unwrap(),
         ])
         .unwrap()
         .remove(0);
         let p = Pick { scene: "s.toml".into(), config: config.id(), error: 0.1, ms_per_frame: 30.0, prepare_ms: 1.0 };
         let f = fragment(&p, &config, Quality::default(), 256).unwrap();
-        assert!(f.contains("[quality]\npreset = \"paper\"\ntable_resolution = 64\n"), "{f}");
+        assert!(f.contains("[quality]\npreset = \"paper\"\nvisibility_resolution = 64\n"), "{f}");
         assert!(f.contains("rsl_count = 60"));
         assert_eq!(f.lines().filter(|l| !l.starts_with('#')).count(), 3, "{f}");
+        // A fixed BRDF resolution over a preset's automatic one is written; "auto" reads back.
+        let config = crate::config::configs(&["quality=draft".parse().unwrap(), "brdf_resolution=64".parse().unwrap()])
+            .unwrap()
+            .remove(0);
+        let f = fragment(&p, &config, Quality::default(), 256).unwrap();
+        assert!(f.contains("brdf_resolution = 64\n"), "{f}");
+        let config = crate::config::configs(&["brdf_resolution=auto".parse().unwrap()]).unwrap().remove(0);
+        let base = config.quality(Quality::default()).unwrap();
+        assert_eq!(base.settings.brdf_resolution, rsl_scene::quality::AUTO);
     }
 }

@@ -65,6 +65,7 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         wavelet_terms: vec![],
         cache_dir: Some(cache),
         progress: Default::default(),
+        budget_rsl: None,
     }
 }
 

@@ -10,9 +10,11 @@
 //! where every index is below the table's length by construction and the length is
 //! asserted per call. Square lookups are most of a frame's time.
 
+pub mod exact;
 pub mod model;
 pub mod sample;
 pub mod table;
 
+pub use exact::{square_exact, square_exact_at};
 pub use model::{Brdf, ParamError};
 pub use table::{BrdfTable, Resolution, SquareIntegral, ViewLookup, Views};

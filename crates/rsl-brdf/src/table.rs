@@ -768,6 +768,44 @@ fn refine(width: Option<f64>, mirror: Vec3, x0: f64, y0: f64, side: f64, depth: 
     f64::from(centre.dot(mirror).clamp(-1.0, 1.0).acos()) < 3.0 * w + angular
 }
 
+/// Calls `f(direction, solid angle)` for the points of the adaptive rule over the plane
+/// square `[x0, x0 + side] × [y0, y0 + side]` that lie inside the unit disk (the rule of
+/// [`BrdfTable::build`], exposed for direct quadrature with a weight).
+pub(crate) fn adaptive_points(
+    width: Option<f64>,
+    mirror: Vec3,
+    x0: f64,
+    y0: f64,
+    side: f64,
+    f: &mut dyn FnMut(Vec3, f64),
+) {
+    adaptive_points_at(width, mirror, x0, y0, side, 0, f)
+}
+
+fn adaptive_points_at(
+    width: Option<f64>,
+    mirror: Vec3,
+    x0: f64,
+    y0: f64,
+    side: f64,
+    depth: u32,
+    f: &mut dyn FnMut(Vec3, f64),
+) {
+    if refine(width, mirror, x0, y0, side, depth) {
+        let half = 0.5 * side;
+        for (dx, dy) in [(0.0, 0.0), (half, 0.0), (0.0, half), (half, half)] {
+            adaptive_points_at(width, mirror, x0 + dx, y0 + dy, half, depth + 1, f);
+        }
+        return;
+    }
+    let weight = 0.5 * side * side;
+    for p in gauss_points(x0, y0, side) {
+        if p.length_squared() < 1.0 {
+            f(dir_from_hemi(p), weight);
+        }
+    }
+}
+
 /// `∫ ρ cos θ dω` over the plane square `[x0, x0 + side] × [y0, y0 + side]` ∩ unit disk.
 #[allow(clippy::too_many_arguments)]
 fn integrate(

@@ -131,7 +131,7 @@ pub fn svdf_params(preset: Preset, q: &QualitySettings) -> SvdfParams {
         Preset::High => SvdfParams::HIGH,
     };
     SvdfParams {
-        n: q.table_resolution as usize,
+        n: q.visibility_resolution as usize,
         clusters: q.cpca_clusters as usize,
         vectors: q.cpca_vectors as usize,
         ..base
@@ -143,15 +143,20 @@ pub fn ovdf_params(q: &QualitySettings) -> OvdfParams {
     OvdfParams {
         shells: q.ovdf_shells as usize,
         m: q.ovdf_directions as usize,
-        n: q.table_resolution as usize,
+        n: q.visibility_resolution as usize,
         supersample: 2,
         vectors: q.ovdf_vectors as usize,
     }
 }
 
-/// The BRDF table resolution of a quality setting.
-pub fn table_resolution(q: &QualitySettings) -> Resolution {
-    Resolution { n: q.table_resolution as usize, views: (q.view_samples as usize).max(2) }
+/// The BRDF table resolution of a quality setting for `brdf`: its `brdf_resolution`, or
+/// when that is automatic rsl-brdf's choice from the lobe width; `view_samples` views.
+pub fn table_resolution(q: &QualitySettings, brdf: &Brdf) -> Resolution {
+    let views = (q.view_samples as usize).max(2);
+    match q.brdf_resolution {
+        rsl_scene::quality::AUTO => Resolution { views, ..Resolution::auto(brdf) },
+        n => Resolution { n: n as usize, views },
+    }
 }
 
 /// The environment's radiance, before its intensity.
@@ -461,6 +466,18 @@ impl Engine {
         Ok((set, key))
     }
 
+    /// Texels of the environment grid: the most RSLs a decomposition holds (one per texel,
+    /// what the light oracle uses).
+    pub fn texel_count(&self) -> usize {
+        let g = self.settings.env_grid as usize;
+        6 * g * g
+    }
+
+    /// The current number of RSLs.
+    pub fn rsl_count(&self) -> usize {
+        self.env.rsls.len()
+    }
+
     /// Changes the number of RSLs (a cut of the same decomposition: no new decomposition).
     pub fn set_rsl_count(&mut self, n: usize) -> Result<()> {
         if n == 0 {
@@ -538,7 +555,7 @@ impl Engine {
     }
 
     fn table(&mut self, name: &str, brdf: &Brdf) -> Result<(Arc<BrdfTable>, u64)> {
-        let res = table_resolution(&self.settings);
+        let res = table_resolution(&self.settings, brdf);
         let key = KeyHasher::default()
             .str("table")
             .u64(brdf_key(brdf))

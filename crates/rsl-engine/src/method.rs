@@ -8,7 +8,7 @@ use crate::progress::{Progress, Timings};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use rsl_scene::{Scene, SceneState};
-use rsl_shade::{FrameStats, Image, RasterMesh, tonemap};
+use rsl_shade::{FrameStats, Image, OracleParams, Oracles, RasterMesh, Terms, tonemap};
 use rsl_truth::{EnvLight, Estimate, TruthObject, TruthScene};
 use std::time::Instant;
 
@@ -341,6 +341,87 @@ impl Method for Truth {
             self_error: estimable.then_some(self_error),
             stats,
             shadow_rays,
+            timings,
+        })
+    }
+}
+
+/// The RSL path with oracles (rsl-shade's `oracle`): some of its approximations replaced by
+/// exact values, traced with the truth's shadow rays, to measure what each one costs.
+pub struct Oracle {
+    /// Which approximations are replaced.
+    pub oracles: Oracles,
+    /// How finely they integrate.
+    pub params: OracleParams,
+    /// Where the shading reports its progress.
+    pub progress: Progress,
+}
+
+impl Oracle {
+    /// The oracles `oracles` at their default resolutions. With the light oracle, call
+    /// [`Oracle::prepare`] on the engine first.
+    pub fn new(oracles: Oracles) -> Self {
+        Self { oracles, params: OracleParams::default(), progress: Progress::none() }
+    }
+
+    /// Readies `engine` for `oracles`: the light oracle needs one RSL per texel of the
+    /// environment grid (a cut of the same decomposition).
+    pub fn prepare(engine: &mut Engine, oracles: Oracles) -> Result<()> {
+        if oracles.light && engine.rsl_count() != engine.texel_count() {
+            engine.set_rsl_count(engine.texel_count())?;
+        }
+        Ok(())
+    }
+}
+
+impl Method for Oracle {
+    fn describe(&self) -> String {
+        format!("RSL on the CPU with oracles: {}", self.oracles.names())
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        if self.oracles.light && engine.rsl_count() != engine.texel_count() {
+            bail!(
+                "the light oracle needs one RSL per texel ({}); the engine holds {}: call Oracle::prepare first",
+                engine.texel_count(),
+                engine.rsl_count()
+            );
+        }
+        let state = scene.at(request.time);
+        let mut timings = Timings::default();
+        let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
+        let (radiance, stats) = if self.oracles.shading() {
+            let rays = timings.time("scene", || Truth::scene(engine, scene, &state, env_light(engine)))?;
+            let task = format!("oracles ({})", self.oracles.names());
+            let start = Instant::now();
+            let out = self
+                .progress
+                .task(&task, |report| rsl_shade::shade_oracle(&setup, self.oracles, &self.params, &rays, report));
+            timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
+            out
+        } else {
+            let start = Instant::now();
+            let (r, s) = rsl_shade::shade(&setup);
+            timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
+            (r, rsl_shade::OracleStats { lookups: s, rays: 0 })
+        };
+        let n = radiance.len();
+        let positions: Vec<Vec<Vec3>> =
+            (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.position(i, v)).collect()).collect();
+        let normals = (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
+        let image =
+            request.image.then(|| timings.time("draw", || rasterise(engine, scene, &state, &positions, &radiance)));
+        Ok(Frame {
+            state,
+            positions,
+            normals,
+            radiance,
+            std_error: None,
+            image,
+            encoded: None,
+            self_error: None,
+            stats: stats.lookups,
+            shadow_rays: stats.rays,
             timings,
         })
     }

@@ -34,14 +34,25 @@ impl Preset {
     }
 }
 
-/// Precomputation resolutions. Field names are the override keys of a `[quality]` table.
+/// `brdf_resolution` chosen per material from its lobe width.
+pub const AUTO: u32 = 0;
+
+/// Precomputation resolutions. Field names are the override keys of a `[quality]` table
+/// (plus `table_resolution`, which sets both table resolutions at once).
+///
+/// BRDF tables and visibility fields have separate knobs: a BRDF table costs milliseconds,
+/// a visibility field minutes, and a narrow lobe needs a fine BRDF grid whatever the
+/// shadows need.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct QualitySettings {
-    /// `N` of the `N×N` hemisphere tables (BRDF, visibility).
-    pub table_resolution: u32,
+    /// `N` of the BRDF tables' `N×N` hemisphere grid; [`AUTO`] (written `"auto"`): per
+    /// material from its lobe width (rsl-brdf's `Resolution::auto`), the presets' choice.
+    pub brdf_resolution: u32,
     /// Polar view samples of isotropic BRDF tables (`V`; `V×V` for anisotropic ones).
     pub view_samples: u32,
+    /// `N` of the `N×N` hemisphere tables of the visibility fields (self and occluder).
+    pub visibility_resolution: u32,
     /// `R` of the `6×R×R` environment grid decomposed into RSLs.
     pub env_grid: u32,
     /// `M` of the `6×M×M` occluder-field directions per shell.
@@ -61,8 +72,9 @@ impl QualitySettings {
     pub fn preset(p: Preset) -> Self {
         match p {
             Preset::Draft => Self {
-                table_resolution: 16,
+                brdf_resolution: AUTO,
                 view_samples: 16,
+                visibility_resolution: 16,
                 env_grid: 16,
                 ovdf_directions: 8,
                 ovdf_shells: 8,
@@ -71,8 +83,9 @@ impl QualitySettings {
                 cpca_vectors: 4,
             },
             Preset::Paper => Self {
-                table_resolution: 32,
+                brdf_resolution: AUTO,
                 view_samples: 32,
+                visibility_resolution: 32,
                 env_grid: 32,
                 ovdf_directions: 32,
                 ovdf_shells: 16,
@@ -81,8 +94,9 @@ impl QualitySettings {
                 cpca_vectors: 8,
             },
             Preset::High => Self {
-                table_resolution: 64,
+                brdf_resolution: AUTO,
                 view_samples: 64,
+                visibility_resolution: 64,
                 env_grid: 64,
                 ovdf_directions: 32,
                 ovdf_shells: 24,
@@ -93,11 +107,13 @@ impl QualitySettings {
         }
     }
 
-    /// `(name, value)` of every knob, for summaries and overrides.
-    pub fn knobs(&self) -> [(&'static str, u32); 8] {
+    /// `(name, value)` of every knob, for summaries and overrides (`brdf_resolution` is
+    /// [`AUTO`] when automatic; [`QualitySettings::value_text`] writes it).
+    pub fn knobs(&self) -> [(&'static str, u32); 9] {
         [
-            ("table_resolution", self.table_resolution),
+            ("brdf_resolution", self.brdf_resolution),
             ("view_samples", self.view_samples),
+            ("visibility_resolution", self.visibility_resolution),
             ("env_grid", self.env_grid),
             ("ovdf_directions", self.ovdf_directions),
             ("ovdf_shells", self.ovdf_shells),
@@ -107,25 +123,62 @@ impl QualitySettings {
         ]
     }
 
-    /// Sets one knob by name; errors name the knob and the allowed range.
+    /// Every name [`QualitySettings::set`] accepts: the knobs and `table_resolution`.
+    pub fn names() -> Vec<&'static str> {
+        let mut v: Vec<&'static str> = Self::preset(Preset::Draft).knobs().iter().map(|k| k.0).collect();
+        v.push("table_resolution");
+        v
+    }
+
+    /// A knob's value as written in a scene file or a sweep: a whole number, or `"auto"`
+    /// for `brdf_resolution` and `table_resolution` ([`AUTO`]).
+    pub fn parse_value(name: &str, text: &str) -> Result<i64, String> {
+        let t = text.trim();
+        if t == "auto" {
+            return match name {
+                "brdf_resolution" => Ok(i64::from(AUTO)),
+                _ => Err(format!("`auto` is only for brdf_resolution, not {name}")),
+            };
+        }
+        t.parse().map_err(|_| format!("`{t}` is not a whole number"))
+    }
+
+    /// A knob's value as a scene file writes it (`"auto"` for an automatic BRDF resolution).
+    pub fn value_text(name: &str, value: u32) -> String {
+        if name == "brdf_resolution" && value == AUTO { "\"auto\"".into() } else { value.to_string() }
+    }
+
+    /// Sets one knob by name; errors name the knob and the allowed range. `table_resolution`
+    /// sets `brdf_resolution` and `visibility_resolution` together.
     pub fn set(&mut self, name: &str, value: i64) -> Result<(), String> {
+        if name == "brdf_resolution" && value == i64::from(AUTO) {
+            self.brdf_resolution = AUTO;
+            return Ok(());
+        }
         let (lo, hi) = match name {
-            "table_resolution" | "env_grid" | "ovdf_directions" => (2, 512),
+            "table_resolution" | "brdf_resolution" | "visibility_resolution" | "env_grid" | "ovdf_directions" => {
+                (2, 512)
+            }
             "view_samples" => (1, 512),
             "ovdf_shells" => (2, 256),
             "ovdf_vectors" | "cpca_vectors" => (1, 256),
             "cpca_clusters" => (1, 65_536),
             _ => {
-                let known: Vec<_> = self.knobs().iter().map(|k| k.0).collect();
-                return Err(format!("unknown quality setting `{name}`; known: {}", known.join(", ")));
+                return Err(format!("unknown quality setting `{name}`; known: {}", Self::names().join(", ")));
             }
         };
         if !(lo..=hi).contains(&value) {
-            return Err(format!("must be in {lo}..={hi}, got {value}"));
+            let auto = if name == "brdf_resolution" { " or \"auto\"" } else { "" };
+            return Err(format!("must be in {lo}..={hi}{auto}, got {value}"));
         }
         let v = value as u32;
         match name {
-            "table_resolution" => self.table_resolution = v,
+            "table_resolution" => {
+                self.brdf_resolution = v;
+                self.visibility_resolution = v;
+            }
+            "brdf_resolution" => self.brdf_resolution = v,
+            "visibility_resolution" => self.visibility_resolution = v,
             "view_samples" => self.view_samples = v,
             "env_grid" => self.env_grid = v,
             "ovdf_directions" => self.ovdf_directions = v,

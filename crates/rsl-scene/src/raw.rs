@@ -336,7 +336,22 @@ fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
                     continue;
                 }
                 let field = format!("quality.{k}");
-                let n = v.as_integer().ok_or_else(|| cx.err(&field, format!("must be an integer, got {v}")))?;
+                if !crate::quality::QualitySettings::names().contains(&k.as_str()) {
+                    return Err(cx.err(
+                        &field,
+                        format!(
+                            "unknown quality setting; known: preset, {}",
+                            crate::quality::QualitySettings::names().join(", ")
+                        ),
+                    ));
+                }
+                let n = match v {
+                    toml::Value::Integer(n) => *n,
+                    toml::Value::String(t) => {
+                        crate::quality::QualitySettings::parse_value(k, t).map_err(|m| cx.err(&field, m))?
+                    }
+                    _ => return Err(cx.err(&field, format!("must be an integer, got {v}"))),
+                };
                 q.settings.set(k, n).map_err(|m| cx.err(&field, m))?;
             }
             Ok(q)

@@ -272,18 +272,33 @@ fn structural_mistakes_are_explained() {
 #[test]
 fn quality_presets_and_overrides() {
     let s = Scene::from_toml_str(&format!("quality = \"paper\"\n{HEAD}"), Path::new("s.toml")).unwrap();
-    assert_eq!(s.quality.settings.table_resolution, 32);
+    assert_eq!(s.quality.settings.visibility_resolution, 32);
+    assert_eq!(s.quality.settings.brdf_resolution, rsl_scene::quality::AUTO, "BRDF tables follow the lobe");
     assert_eq!(s.quality.settings.env_grid, 32);
     assert_eq!(s.quality.settings.ovdf_shells, 16);
     assert_eq!((s.quality.settings.cpca_clusters, s.quality.settings.cpca_vectors), (256, 8));
     let text = format!("{HEAD}[quality]\npreset = \"paper\"\ntable_resolution = 64\n");
     let s = Scene::from_toml_str(&text, Path::new("s.toml")).unwrap();
     assert_eq!(s.quality.preset, Preset::Paper);
-    assert_eq!(s.quality.settings.table_resolution, 64);
+    assert_eq!((s.quality.settings.brdf_resolution, s.quality.settings.visibility_resolution), (64, 64));
     assert_eq!(s.quality.settings.env_grid, 32);
-    let text = format!("{HEAD}[quality]\ntable_rez = 64\n");
-    let e = Scene::from_toml_str(&text, Path::new("s.toml")).unwrap_err().to_string();
-    assert!(e.contains("quality.table_rez") && e.contains("table_resolution"), "{e}");
+    // The two table knobs apart; "auto" for the BRDF's.
+    let text = format!("{HEAD}[quality]\nbrdf_resolution = 128\nvisibility_resolution = 24\n");
+    let q = Scene::from_toml_str(&text, Path::new("s.toml")).unwrap().quality.settings;
+    assert_eq!((q.brdf_resolution, q.visibility_resolution), (128, 24));
+    let text = format!("{HEAD}[quality]\ntable_resolution = 64\nbrdf_resolution = \"auto\"\n");
+    let q = Scene::from_toml_str(&text, Path::new("s.toml")).unwrap().quality.settings;
+    assert_eq!(q.visibility_resolution, 64);
+    for (bad, words) in [
+        ("table_rez = 64", &["quality.table_rez", "table_resolution"][..]),
+        ("visibility_resolution = \"auto\"", &["quality.visibility_resolution", "only for brdf_resolution"][..]),
+        ("brdf_resolution = \"fine\"", &["quality.brdf_resolution", "`fine`"][..]),
+        ("brdf_resolution = 1", &["quality.brdf_resolution", "2..=512 or \"auto\""][..]),
+    ] {
+        let e =
+            Scene::from_toml_str(&format!("{HEAD}[quality]\n{bad}\n"), Path::new("s.toml")).unwrap_err().to_string();
+        assert!(words.iter().all(|w| e.contains(w)), "{bad}: {e}");
+    }
 }
 
 #[test]

@@ -2,10 +2,12 @@
 //! (Xu et al. 2006, eq. 5 and fig. 8): a plain reference loop and a rayon fast path, the CPU
 //! rasteriser that draws the shaded vertices, and display encoding.
 
+pub mod oracle;
 pub mod raster;
 pub mod shade;
 pub mod tonemap;
 
+pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
 pub use raster::{Image, RasterMesh, rasterise};
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, VertexFrames, shade, shade_reference,

@@ -145,7 +145,8 @@ pub struct FrameStats {
 }
 
 impl FrameStats {
-    fn add(mut self, o: Self) -> Self {
+    /// The sum of two frames' (or parts of a frame's) counts.
+    pub fn plus(mut self, o: Self) -> Self {
         self.vertices += o.vertices;
         self.back_facing += o.back_facing;
         self.brdf_lookups += o.brdf_lookups;
@@ -212,11 +213,11 @@ impl Pose {
 
 /// The per-frame form of an object: its pose, and every light's direction in its object
 /// space.
-struct Placed<'a> {
-    object: ShadeObject<'a>,
-    pose: Pose,
+pub(crate) struct Placed<'a> {
+    pub(crate) object: ShadeObject<'a>,
+    pub(crate) pose: Pose,
     /// Light directions in object space (unit).
-    light_dirs: Vec<Vec3>,
+    pub(crate) light_dirs: Vec<Vec3>,
     /// Bounding sphere of the occluder field in world space, and its object-space form.
     bound: Option<OccluderBound>,
 }
@@ -261,12 +262,12 @@ impl<'a> Placed<'a> {
         self.pose.point_to_object(x)
     }
 
-    fn position(&self, v: usize) -> Vec3 {
+    pub(crate) fn position(&self, v: usize) -> Vec3 {
         self.pose.position(self.object.mesh.positions[v])
     }
 
     /// The world-space shading frame of vertex `v`.
-    fn shading_frame(&self, v: usize) -> Frame {
+    pub(crate) fn shading_frame(&self, v: usize) -> Frame {
         self.pose.frame(self.object.frames.shading(v))
     }
 }
@@ -274,7 +275,7 @@ impl<'a> Placed<'a> {
 /// An occluder near a vertex: where the vertex lies in the occluder's space, and the sphere
 /// test's inputs.
 #[derive(Clone, Copy)]
-struct Near {
+pub(crate) struct Near {
     j: usize,
     x_object: Vec3,
     /// Unit direction from the vertex to the bounding-sphere centre (world).
@@ -326,11 +327,11 @@ fn near(placed: &Placed<'_>, j: usize, x: Vec3) -> Option<Near> {
 
 /// Everything a frame needs: objects at their current transforms, lights, eye.
 pub struct FrameSetup<'a> {
-    placed: Vec<Placed<'a>>,
-    lights: Vec<Light>,
+    pub(crate) placed: Vec<Placed<'a>>,
+    pub(crate) lights: Vec<Light>,
     cones: Vec<Cone>,
-    eye: Vec3,
-    terms: Terms,
+    pub(crate) eye: Vec3,
+    pub(crate) terms: Terms,
 }
 
 impl<'a> FrameSetup<'a> {
@@ -374,11 +375,7 @@ impl<'a> FrameSetup<'a> {
         if self.terms.occluders {
             // Where the vertex lies in a field is found the first time a light needs it:
             // culling often leaves an occluder nothing to look up.
-            nears.extend(
-                (0..self.placed.len())
-                    .filter(|&j| j != i)
-                    .filter_map(|j| Some((near(&self.placed[j], j, x)?, Lazy::Unknown))),
-            );
+            self.nears(i, x, nears);
         }
         let vis_frame = &o.frames.visibility[v];
         let self_vis = o.svdf.vertex(v);
@@ -395,36 +392,61 @@ impl<'a> FrameSetup<'a> {
                 stats.self_lookups += 1;
                 cover = self_vis.coverage(hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
             }
-            for (n, at) in nears.iter_mut() {
-                if cover <= 0.0 {
-                    break;
-                }
-                if culled(n, light.dir, self.cones[l]) {
-                    stats.occluders_culled += 1;
-                    continue;
-                }
-                let q = &self.placed[n.j];
-                if let Lazy::Unknown = at {
-                    *at = match q.object.ovdf.and_then(|f| Some(f.prepare(&f.locate(n.x_object)?))) {
-                        Some(prepared) => Lazy::Ready(prepared),
-                        None => Lazy::Outside,
-                    };
-                }
-                if let Lazy::Ready(at) = at {
-                    stats.occluder_lookups += 1;
-                    cover *= at.coverage(q.light_dirs[l], r);
-                }
-            }
+            cover = self.occluder_cover(nears, l, cover, stats);
             sum += light.radiance * brdf * cover;
         }
         sum
+    }
+
+    /// `cover` times the occluder fields' coverages of light `l` at a vertex whose occluders
+    /// are `nears` (located on first use); nothing is looked up once it is zero.
+    pub(crate) fn occluder_cover(
+        &self,
+        nears: &mut [(Near, Lazy<'a>)],
+        l: usize,
+        mut cover: f32,
+        stats: &mut FrameStats,
+    ) -> f32 {
+        let light = &self.lights[l];
+        for (n, at) in nears.iter_mut() {
+            if cover <= 0.0 {
+                break;
+            }
+            if culled(n, light.dir, self.cones[l]) {
+                stats.occluders_culled += 1;
+                continue;
+            }
+            let q = &self.placed[n.j];
+            if let Lazy::Unknown = at {
+                *at = match q.object.ovdf.and_then(|f| Some(f.prepare(&f.locate(n.x_object)?))) {
+                    Some(prepared) => Lazy::Ready(prepared),
+                    None => Lazy::Outside,
+                };
+            }
+            if let Lazy::Ready(at) = at {
+                stats.occluder_lookups += 1;
+                cover *= at.coverage(q.light_dirs[l], light.half_diagonal);
+            }
+        }
+        cover
+    }
+
+    /// The occluders near world point `x` on object `i` (every other object whose field
+    /// reaches `x`), not yet located in their fields.
+    pub(crate) fn nears(&self, i: usize, x: Vec3, out: &mut Vec<(Near, Lazy<'a>)>) {
+        out.clear();
+        out.extend(
+            (0..self.placed.len())
+                .filter(|&j| j != i)
+                .filter_map(|j| Some((near(&self.placed[j], j, x)?, Lazy::Unknown))),
+        );
     }
 }
 
 /// An occluder field's lookup at a vertex, prepared when first needed.
 // Held in a reused per-thread list (a box each would allocate per vertex and occluder).
 #[allow(clippy::large_enum_variant)]
-enum Lazy<'a> {
+pub(crate) enum Lazy<'a> {
     /// Not located yet.
     Unknown,
     /// Beyond the field: nothing occluded.
@@ -459,7 +481,7 @@ pub fn shade(setup: &FrameSetup<'_>) -> (Vec<Vec<Vec3>>, FrameStats) {
     let mut stats = FrameStats::default();
     for (i, _, out, s) in done {
         result[i].extend(out);
-        stats = stats.add(s);
+        stats = stats.plus(s);
     }
     (result, stats)
 }

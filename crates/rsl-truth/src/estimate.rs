@@ -236,11 +236,16 @@ impl TruthScene {
 
     /// Whether light from world direction `dir` reaches `x` on object `receiver`.
     fn visible(&self, receiver: usize, x: Vec3, dir: Vec3) -> bool {
+        self.visible_past(x, dir, |owner| owner == receiver || self.casts[owner])
+    }
+
+    /// Whether light from world direction `dir` reaches `x` on object `receiver` past the
+    /// triangles of the objects `blocks` accepts.
+    fn visible_past(&self, x: Vec3, dir: Vec3, blocks: impl Fn(usize) -> bool) -> bool {
         let ray = Ray::new(Vec3A::from(x), Vec3A::from(dir), 0.0, f32::INFINITY);
         self.bvh.ray_traverse_miss(ray, |ray, id| {
             let k = self.bvh.primitive_indices[id] as usize;
-            let owner = self.owners[k].0 as usize;
-            if owner == receiver || self.casts[owner] { self.tris[k].intersect(ray) } else { f32::INFINITY }
+            if blocks(self.owners[k].0 as usize) { self.tris[k].intersect(ray) } else { f32::INFINITY }
         })
     }
 
@@ -463,5 +468,22 @@ impl TruthScene {
         let stats =
             TruthStats { points: px.iter().filter(|p| p.1).count() as u64, shadow_rays: px.iter().map(|p| p.2).sum() };
         Ok((px.iter().map(|p| p.0).collect(), px.iter().map(|p| p.1).collect(), stats))
+    }
+}
+
+/// Shadow rays for the RSL path's oracles, from the same points as the truth's (vertices
+/// lifted `1e-4` scene radii along the shading normal). Objects that cast no shadows block
+/// only themselves.
+impl rsl_shade::Rays for TruthScene {
+    fn visible(&self, object: usize, vertex: usize, dir: Vec3, blockers: rsl_shade::Blockers) -> bool {
+        use rsl_shade::Blockers;
+        let x = self.positions[object][vertex] + self.frames[object][vertex].n * self.offset;
+        match blockers {
+            Blockers::Own => self.visible_past(x, dir, |o| o == object),
+            Blockers::Object(j) => j == object || !self.casts[j] || self.visible_past(x, dir, |o| o == j),
+            Blockers::All { own, others } => {
+                self.visible_past(x, dir, |o| if o == object { own } else { others && self.casts[o] })
+            }
+        }
     }
 }
