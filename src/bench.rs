@@ -52,8 +52,11 @@ pub struct BenchArgs {
     /// approximation replaced by its exact value (`rsl render --oracle`), one at a time and
     /// all together, written to budget.csv and the report. Oracles trace shadow rays: a
     /// budget costs several truths' time.
+    #[arg(long, default_value_t = 30)]
+    pub budget: u32,
+    /// Leave the error budgets out.
     #[arg(long)]
-    pub budget: Option<u32>,
+    pub no_budget: bool,
     /// Frames timed per configuration (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
@@ -102,7 +105,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     if args.grid_spp > MAX_SPP {
         bail!("--grid-spp must be at most {MAX_SPP}");
     }
-    if args.budget == Some(0) {
+    if args.budget == 0 {
         bail!("--budget: the RSL count must be at least 1");
     }
     if !(2..=MAX_SPP).contains(&args.truth_spp) {
@@ -122,7 +125,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         wavelet_terms: if args.no_wavelet { Vec::new() } else { args.wavelet_terms.clone() },
         cache_dir: args.prepare.options().cache_dir,
         progress: crate::progress::bars(),
-        budget_rsl: args.budget,
+        budget_rsl: (!args.no_budget).then_some(args.budget),
     };
     eprintln!(
         "bench: {} scene(s) × {} configuration(s) × {} time(s); truth at {} spp",
@@ -140,7 +143,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         s.truths_estimated,
         s.truths_reused
     );
-    if args.budget.is_some() {
+    if !args.no_budget {
         eprintln!("bench: {} oracle setting(s) measured for error budgets", s.budget_measured);
     }
     println!("{}", std::fs::read_to_string(args.out.join("report.md"))?);

@@ -140,3 +140,31 @@ fn the_wavelet_baseline_joins_the_study() {
     // Resumed: nothing is measured again.
     assert_eq!(run(&o).unwrap().measured, 0);
 }
+
+#[test]
+fn an_error_budget_measures_every_oracle_once_and_all_of_them_approach_the_truth() {
+    let d = dir("budget");
+    let (scene, out, cache) = (scene(&d), d.join("out"), d.join("cache"));
+    let mut o = options(scene, out.clone(), cache, &["rsl=2,8"]);
+    o.grid_spp = 0;
+    o.truth_spp = 1024;
+    o.budget_rsl = Some(2);
+    let first = run(&o).unwrap();
+    assert_eq!(first.budget_measured, 7, "none, five oracles, all — for the one configuration with 2 RSLs");
+    let rows = rsl_bench::budget::read_rows(&out.join("budget.csv")).unwrap();
+    let err = |name: &str| rows.iter().find(|r| r.oracle == name).unwrap().relative_l2;
+    // The plain path with 2 lights is far from the truth; with every approximation exact, only
+    // the draft environment grid (6×16×16) and the truth's noise are left.
+    let noise = rows[0].truth_noise;
+    eprintln!("none {} all {} noise {noise}", err("none"), err("all"));
+    assert!(err("all") < 0.5 * err("none"), "all {} vs none {}", err("all"), err("none"));
+    assert!((err("none") - first.rows.iter().find(|r| r.rsl == 2).unwrap().relative_l2).abs() < 1e-9);
+    assert!(
+        rows.iter().filter(|r| r.oracle != "none" && r.oracle != "light").all(|r| r.rays > 0 || r.oracle == "brdf")
+    );
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## Error budgets") && md.contains("| all |"), "{md}");
+    // Run again: nothing is measured twice.
+    let again = run(&o).unwrap();
+    assert_eq!(again.budget_measured, 0);
+}
