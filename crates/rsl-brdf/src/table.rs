@@ -68,12 +68,10 @@ impl Resolution {
     /// within `[32, 128]` (32 for Lambertian BRDFs). A cell spans at most `4/N` radians, so
     /// that is about twelve cells per lobe width, where square integrals of two cells and
     /// more are within 10⁻³ of direct integration at tabulated views (README: measured per
-    /// model and `N`). Anisotropic tables hold `V×V` views (a quarter stored), so their `N`
-    /// stays at 32: at 128 one would take 140 MB and a tenth of a second to build.
+    /// model and `N`).
     pub fn auto(brdf: &Brdf) -> Self {
         let n = match brdf.lobe_width() {
             None => 32,
-            Some(_) if brdf.is_anisotropic() => 32,
             Some(w) => ((48.0 / w).ceil() as usize).next_power_of_two().clamp(32, 128),
         };
         Self { n, views: 32 }

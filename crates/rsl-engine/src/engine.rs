@@ -151,9 +151,12 @@ pub fn ovdf_params(q: &QualitySettings) -> OvdfParams {
 
 /// The BRDF table resolution of a quality setting for `brdf`: its `brdf_resolution`, or
 /// when that is automatic rsl-brdf's choice from the lobe width; `view_samples` views.
+/// Anisotropic tables hold `V×V` views (a quarter stored), so under `auto` their `N` stays
+/// at 32: at 128 one table would take 140 MB and a tenth of a second to build.
 pub fn table_resolution(q: &QualitySettings, brdf: &Brdf) -> Resolution {
     let views = (q.view_samples as usize).max(2);
     match q.brdf_resolution {
+        rsl_scene::quality::AUTO if brdf.is_anisotropic() => Resolution { n: 32, views },
         rsl_scene::quality::AUTO => Resolution { views, ..Resolution::auto(brdf) },
         n => Resolution { n: n as usize, views },
     }
