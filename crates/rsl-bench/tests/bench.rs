@@ -168,3 +168,41 @@ fn an_error_budget_measures_every_oracle_once_and_all_of_them_approach_the_truth
     let again = run(&o).unwrap();
     assert_eq!(again.budget_measured, 0);
 }
+
+#[test]
+fn raising_any_single_knob_never_raises_the_error_beyond_the_truths_noise() {
+    let d = dir("monotone");
+    let (scene, out, cache) = (scene(&d), d.join("out"), d.join("cache"));
+    // From a coarse base, each knob alone at a low and a higher value.
+    let base = "quality=draft";
+    // (The ball is convex: it has no self-visibility field, so the CPCA knobs do not apply.)
+    let pairs: [(&str, &str, &str); 8] = [
+        ("rsl", "4", "32"),
+        ("brdf_resolution", "16", "64"),
+        ("view_samples", "4", "16"),
+        ("visibility_resolution", "8", "32"),
+        ("ovdf_vectors", "1", "8"),
+        ("ovdf_directions", "4", "16"),
+        ("ovdf_shells", "2", "8"),
+        ("env_grid", "8", "16"),
+    ];
+    for (knob, low, high) in pairs {
+        let sweep = format!("{knob}={low},{high}");
+        let mut o = options(scene.clone(), out.join(knob), cache.clone(), &[base, &sweep]);
+        o.grid_spp = 0;
+        o.truth_spp = 1024;
+        let s = run(&o).unwrap();
+        let err = |v: &str| s.rows.iter().find(|r| r.config.contains(&format!("{knob}={v}"))).unwrap();
+        let (lo, hi) = (err(low), err(high));
+        eprintln!(
+            "{knob}: {low} → {:.4}, {high} → {:.4} (noise {:.4})",
+            lo.relative_l2, hi.relative_l2, hi.truth_noise
+        );
+        assert!(
+            hi.relative_l2 <= lo.relative_l2 + hi.truth_noise,
+            "{knob}: {} then {}",
+            lo.relative_l2,
+            hi.relative_l2
+        );
+    }
+}
