@@ -3,7 +3,7 @@
 //! time and all together — which term costs how much. `budget.csv` holds one row per oracle
 //! (read back to resume); `report.md` shows a table per configuration.
 
-use crate::report::{field, read_csv};
+use crate::report::{field, malformed, read_csv};
 use anyhow::Result;
 use rsl_engine::output::write_atomic;
 use rsl_shade::Oracles;
@@ -69,8 +69,8 @@ pub fn write_rows(path: &Path, rows: &[BudgetRow]) -> Result<()> {
 pub fn read_rows(path: &Path) -> Result<Vec<BudgetRow>> {
     read_csv(path, HEADER, "budget", 9)?
         .into_iter()
-        .map(|(f, bad)| {
-            let bad = &*bad;
+        .map(|(n, f)| {
+            let bad = || malformed(path, n);
             let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
             let objects = f[8]
                 .split(';')

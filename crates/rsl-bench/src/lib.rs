@@ -172,18 +172,7 @@ fn measured_row(
     truth: &truth::VertexTruth,
 ) -> Result<Row> {
     let (relative_l2, mean_relative, p95_relative) = vertex_errors(&radiance.concat(), &truth.mean.concat())?;
-    let objects = scene
-        .objects
-        .iter()
-        .enumerate()
-        .map(|(i, o)| {
-            Ok((
-                o.name.clone(),
-                rsl_truth::compare(&radiance[i], &truth.mean[i], None)?.relative_l2,
-                truth.noise(Some(i)),
-            ))
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let objects = object_errors(scene, radiance, truth)?;
     let mc_spp = equal_error_spp(relative_l2, truth.noise(None), truth.spp);
     Ok(Row {
         scene: name.to_string(),
@@ -206,6 +195,20 @@ fn measured_row(
         pixel_l2: None,
         objects,
     })
+}
+
+/// Per object: its name, the relative L2 of `radiance` against the truth, and the truth's
+/// own noise there.
+fn object_errors(scene: &Scene, radiance: &[Vec<Vec3>], truth: &truth::VertexTruth) -> Result<Vec<(String, f64, f64)>> {
+    scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let e = rsl_truth::compare(&radiance[i], &truth.mean[i], None)?.relative_l2;
+            Ok((o.name.clone(), e, truth.noise(Some(i))))
+        })
+        .collect()
 }
 
 /// Most configurations one grid shows.
@@ -435,27 +438,32 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             report::write_rows(&results, &summary.rows)?;
         }
         options.progress.report(&rsl_engine::Event::Finished { task: &task });
+        // One engine per configuration, its light set switched between the fitted one and one
+        // per texel (the light oracle) as the settings need.
+        let mut prepared: Option<(String, Engine, usize)> = None;
         for (config, t, oracle, set) in budget_todo {
             let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
             scene.quality = config.quality(base)?;
             let what = format!("{name}: {} with oracle {oracle}", config.id());
-            let mut engine = config_engine(&scene, options, config).with_context(|| what.clone())?;
-            Oracle::prepare(&mut engine, set).with_context(|| what.clone())?;
+            if prepared.as_ref().is_none_or(|(id, _, _)| *id != config.id()) {
+                let engine = config_engine(&scene, options, config).with_context(|| what.clone())?;
+                let fitted = engine.rsl_count();
+                prepared = Some((config.id(), engine, fitted));
+            }
+            let (_, engine, fitted) = prepared.as_mut().expect("prepared just above");
+            if set.light {
+                Oracle::prepare(engine, set).with_context(|| what.clone())?;
+            } else if engine.rsl_count() != *fitted {
+                engine.set_rsl_count(*fitted).with_context(|| what.clone())?;
+            }
             let mut method = Oracle::new(set);
             method.progress = options.progress.clone();
             let request = Request { time: t, image: false, vertices: true, exposure: None };
             let start = Instant::now();
-            let frame = method.render(&engine, &scene, &request).with_context(|| what.clone())?;
+            let frame = method.render(engine, &scene, &request).with_context(|| what.clone())?;
             let ms = start.elapsed().as_secs_f64() * 1e3;
             let relative_l2 = rsl_truth::compare(&frame.radiance.concat(), &truth.mean.concat(), None)?.relative_l2;
-            let objects = scene
-                .objects
-                .iter()
-                .enumerate()
-                .map(|(i, o)| {
-                    Ok((o.name.clone(), rsl_truth::compare(&frame.radiance[i], &truth.mean[i], None)?.relative_l2))
-                })
-                .collect::<Result<Vec<_>>>()?;
+            let objects = object_errors(&scene, &frame.radiance, truth)?.into_iter().map(|(n, e, _)| (n, e)).collect();
             budget_rows.push(budget::BudgetRow {
                 scene: name.clone(),
                 config: config.id(),

@@ -80,12 +80,10 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     write_atomic(&path.with_file_name("objects.csv"), o.as_bytes())
 }
 
-/// The fields of every line of a CSV file written with `header` (none when the file does not
-/// exist), each with a maker of the error that names the file and line; `kind` says what the
-/// file is in the error for a different header.
-pub(crate) type CsvLine = (Vec<String>, Box<dyn Fn() -> anyhow::Error>);
-
-pub(crate) fn read_csv(path: &Path, header: &str, kind: &str, fields: usize) -> Result<Vec<CsvLine>> {
+/// The fields of every line but the header of a CSV file written with `header`, with their
+/// line numbers (none when the file does not exist); `kind` names the file in the error for a
+/// different header, and a line with other than `fields` fields is malformed.
+pub(crate) fn read_csv(path: &Path, header: &str, kind: &str, fields: usize) -> Result<Vec<(usize, Vec<String>)>> {
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
@@ -99,23 +97,25 @@ pub(crate) fn read_csv(path: &Path, header: &str, kind: &str, fields: usize) -> 
         .enumerate()
         .map(|(k, line)| {
             let f = split(line);
-            let (file, n) = (path.display().to_string(), k + 2);
-            let bad: Box<dyn Fn() -> anyhow::Error> =
-                Box::new(move || anyhow::anyhow!("{file}: line {n}: malformed row"));
             if f.len() != fields {
-                return Err(bad());
+                return Err(malformed(path, k + 2));
             }
-            Ok((f, bad))
+            Ok((k + 2, f))
         })
         .collect()
+}
+
+/// The error for line `n` of `path`.
+pub(crate) fn malformed(path: &Path, n: usize) -> anyhow::Error {
+    anyhow::anyhow!("{}: line {n}: malformed row", path.display())
 }
 
 /// Reads `results.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
     read_csv(path, HEADER, "results", 20)?
         .into_iter()
-        .map(|(f, bad)| {
-            let bad = &*bad;
+        .map(|(n, f)| {
+            let bad = || malformed(path, n);
             let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
             let objects = f[19]
                 .split(';')

@@ -9,7 +9,7 @@
 //! table resolution, no view interpolation and no spline.
 
 use crate::model::Brdf;
-use crate::table::{adaptive_points, theta_max};
+use crate::table::adaptive_points;
 use glam::{Vec2, Vec3};
 use rsl_sphere::hemi::hemi_from_dir;
 
@@ -92,12 +92,6 @@ pub fn square_exact_at(brdf: &Brdf, light: Vec3, r: f32, view: Vec3, base_side: 
         }
     }
     Vec3::new(sum[0] as f32, sum[1] as f32, sum[2] as f32)
-}
-
-/// Whether the view lies beyond the last tabulated polar angle (where tables use their last
-/// slice and [`square_exact`] does not).
-pub fn beyond_tabulated(view: Vec3) -> bool {
-    view.z.clamp(-1.0, 1.0).acos() > theta_max()
 }
 
 #[cfg(test)]

@@ -248,6 +248,23 @@ pub struct ShadedFrame {
     pub shade_ms: f64,
 }
 
+impl ShadedFrame {
+    /// The frame of `radiance` shaded from `setup` at `state`, with the vertices' world
+    /// positions and normals.
+    pub fn of(
+        setup: &FrameSetup<'_>,
+        state: SceneState,
+        radiance: Vec<Vec<Vec3>>,
+        stats: FrameStats,
+        shade_ms: f64,
+    ) -> Self {
+        let n = radiance.len();
+        let positions = (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.position(i, v)).collect()).collect();
+        let normals = (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
+        Self { state, positions, normals, radiance, stats, shade_ms }
+    }
+}
+
 /// The scene's prepared data and the caches it came from.
 pub struct Engine {
     options: EngineOptions,
@@ -751,11 +768,7 @@ impl Engine {
         let start = Instant::now();
         let (radiance, stats) = rsl_shade::shade(&setup);
         let shade_ms = start.elapsed().as_secs_f64() * 1e3;
-        let positions =
-            (0..self.objects.len()).map(|i| (0..radiance[i].len()).map(|v| setup.position(i, v)).collect()).collect();
-        let normals =
-            (0..self.objects.len()).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
-        Ok(ShadedFrame { state, positions, normals, radiance, stats, shade_ms })
+        Ok(ShadedFrame::of(&setup, state, radiance, stats, shade_ms))
     }
 }
 

@@ -154,19 +154,7 @@ impl Method for CpuRsl {
         let image = request
             .image
             .then(|| timings.time("draw", || rasterise(engine, scene, &f.state, &f.positions, &f.radiance)));
-        Ok(Frame {
-            state: f.state,
-            positions: f.positions,
-            normals: f.normals,
-            radiance: f.radiance,
-            std_error: None,
-            image,
-            encoded: None,
-            self_error: None,
-            stats: f.stats,
-            shadow_rays: 0,
-            timings,
-        })
+        Ok(Frame::rsl(f, image, None, timings))
     }
 }
 
@@ -387,42 +375,26 @@ impl Method for Oracle {
                 engine.rsl_count()
             );
         }
-        let state = scene.at(request.time);
         let mut timings = Timings::default();
-        let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
-        let (radiance, stats) = if self.oracles.shading() {
+        // The light oracle alone is the plain path with the per-texel light set.
+        let (f, rays) = if self.oracles.shading() {
+            let state = scene.at(request.time);
+            let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
             let rays = timings.time("scene", || Truth::scene(engine, scene, &state, env_light(engine)))?;
             let task = format!("oracles ({})", self.oracles.names());
             let start = Instant::now();
-            let out = self
+            let (radiance, stats) = self
                 .progress
                 .task(&task, |report| rsl_shade::shade_oracle(&setup, self.oracles, &self.params, &rays, report));
-            timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
-            out
+            let ms = start.elapsed().as_secs_f64() * 1e3;
+            (ShadedFrame::of(&setup, state, radiance, stats.lookups, ms), stats.rays)
         } else {
-            let start = Instant::now();
-            let (r, s) = rsl_shade::shade(&setup);
-            timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
-            (r, rsl_shade::OracleStats { lookups: s, rays: 0 })
+            (engine.shade(scene, request.time)?, 0)
         };
-        let n = radiance.len();
-        let positions: Vec<Vec<Vec3>> =
-            (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.position(i, v)).collect()).collect();
-        let normals = (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
-        let image =
-            request.image.then(|| timings.time("draw", || rasterise(engine, scene, &state, &positions, &radiance)));
-        Ok(Frame {
-            state,
-            positions,
-            normals,
-            radiance,
-            std_error: None,
-            image,
-            encoded: None,
-            self_error: None,
-            stats: stats.lookups,
-            shadow_rays: stats.rays,
-            timings,
-        })
+        timings.add("shade", f.shade_ms, None);
+        let image = request
+            .image
+            .then(|| timings.time("draw", || rasterise(engine, scene, &f.state, &f.positions, &f.radiance)));
+        Ok(Frame { shadow_rays: rays, ..Frame::rsl(f, image, None, timings) })
     }
 }

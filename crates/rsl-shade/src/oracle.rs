@@ -172,12 +172,9 @@ pub fn shade_oracle(
     rays: &dyn Rays,
     report: &(dyn Fn(usize, usize) + Sync),
 ) -> (Vec<Vec<Vec3>>, OracleStats) {
-    let blocks: Vec<(usize, usize)> = setup
-        .placed
-        .iter()
-        .enumerate()
-        .flat_map(|(i, p)| (0..p.object.mesh.vertex_count().div_ceil(BLOCK)).map(move |b| (i, b)))
-        .collect();
+    let blocks = setup.blocks(BLOCK);
+    // The objects that cast shadows (have occluder fields), found once.
+    let casters: Vec<usize> = (0..setup.placed.len()).filter(|&j| setup.placed[j].object.ovdf.is_some()).collect();
     let total: usize = setup.placed.iter().map(|p| p.object.mesh.vertex_count()).sum();
     let done = AtomicUsize::new(0);
     let results: Vec<(usize, Vec<Vec3>, OracleStats)> = blocks
@@ -187,7 +184,7 @@ pub fn shade_oracle(
             let mut stats = OracleStats::default();
             let range = b * BLOCK..((b + 1) * BLOCK).min(n);
             let count = range.len();
-            let out = range.map(|v| vertex(setup, oracles, params, rays, i, v, nears, &mut stats)).collect();
+            let out = range.map(|v| vertex(setup, oracles, params, rays, &casters, i, v, nears, &mut stats)).collect();
             report(done.fetch_add(count, Ordering::Relaxed) + count, total);
             (i, out, stats)
         })
@@ -236,6 +233,7 @@ fn vertex<'a>(
     oracles: Oracles,
     params: &OracleParams,
     rays: &dyn Rays,
+    casters: &[usize],
     i: usize,
     v: usize,
     nears: &mut Vec<(Near, Lazy<'a>)>,
@@ -265,8 +263,6 @@ fn vertex<'a>(
     };
     let vis_frame = &o.frames.visibility[v];
     let self_vis = o.svdf.vertex(v);
-    let casters: Vec<usize> =
-        (0..setup.placed.len()).filter(|&j| j != i && setup.placed[j].object.ovdf.is_some()).collect();
     let mut sum = Vec3::ZERO;
     for (l, light) in setup.lights.iter().enumerate() {
         let r = light.half_diagonal;
@@ -312,7 +308,7 @@ fn vertex<'a>(
         if terms.occluders && cover > 0.0 {
             if oracles.occluders {
                 let f = Frame::from_normal(light.dir);
-                for &j in &casters {
+                for &j in casters.iter().filter(|&&j| j != i) {
                     if cover <= 0.0 {
                         break;
                     }

@@ -346,6 +346,16 @@ impl<'a> FrameSetup<'a> {
         }
     }
 
+    /// The parallel work items of a frame: `(object, block)` for every block of `size`
+    /// vertices of every object.
+    pub(crate) fn blocks(&self, size: usize) -> Vec<(usize, usize)> {
+        self.placed
+            .iter()
+            .enumerate()
+            .flat_map(|(i, p)| (0..p.object.mesh.vertex_count().div_ceil(size)).map(move |b| (i, b)))
+            .collect()
+    }
+
     /// World position of vertex `v` of object `i`.
     pub fn position(&self, i: usize, v: usize) -> Vec3 {
         self.placed[i].position(v)
@@ -461,12 +471,7 @@ const BLOCK: usize = 256;
 /// Shades every vertex of every object (the fast path): per object, per vertex, the radiance
 /// toward the eye.
 pub fn shade(setup: &FrameSetup<'_>) -> (Vec<Vec<Vec3>>, FrameStats) {
-    let blocks: Vec<(usize, usize)> = setup
-        .placed
-        .iter()
-        .enumerate()
-        .flat_map(|(i, p)| (0..p.object.mesh.vertex_count().div_ceil(BLOCK)).map(move |b| (i, b)))
-        .collect();
+    let blocks = setup.blocks(BLOCK);
     let done: Vec<(usize, usize, Vec<Vec3>, FrameStats)> = blocks
         .par_iter()
         .map_init(Vec::new, |nears, &(i, b)| {
