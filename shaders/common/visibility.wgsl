@@ -126,7 +126,9 @@ fn face_uv_from_dir(d: vec3<f32>) -> FaceUv {
     return FaceUv(face, uv);
 }
 
-// An object's occluder field as the shader reads it.
+// An object's occluder field as the shader reads it. A flat object (rsl_vis::Flat) has
+// shells = 0, its corner count in n, and its plane (normal, offset) then its corners (xyz
+// each) at word `cube`.
 struct OvdfRef {
     centre: vec3<f32>,
     radius: f32,
@@ -143,6 +145,8 @@ struct OvdfRef {
 // Where a point lies among a field's samples (rsl_vis::OvdfPoint).
 struct OvdfPoint {
     found: bool,
+    // The point (object space).
+    x: vec3<f32>,
     shell: u32,
     shell_weight: f32,
     texels: vec4<u32>,
@@ -159,6 +163,11 @@ fn locate(f: OvdfRef, x: vec3<f32>) -> OvdfPoint {
     let v = x - f.centre;
     let r = length(v) / f.radius;
     if r >= OVDF_OUTER {
+        return out;
+    }
+    out.x = x;
+    if f.shells == 0u {
+        out.found = true;
         return out;
     }
     var t = 0.0;
@@ -212,8 +221,34 @@ fn sample_frame(f: OvdfRef, texel: u32) -> Frame {
     return Frame(vec3<f32>(w[0], w[1], w[2]), vec3<f32>(w[3], w[4], w[5]), vec3<f32>(w[6], w[7], w[8]));
 }
 
+fn field_vec3(at: u32) -> vec3<f32> {
+    return vec3<f32>(bitcast<f32>(fields[at]), bitcast<f32>(fields[at + 1u]), bitcast<f32>(fields[at + 2u]));
+}
+
+// Flat::prepare and FlatLookup::distance at once: −min over the bounding great circles of
+// asin(m·d), over √2. (Recomputed per light: a flat outline has few corners.)
+fn flat_distance(f: OvdfRef, x: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let normal = field_vec3(f.cube);
+    let side = select(-1.0, 1.0, dot(normal, x) - bitcast<f32>(fields[f.cube + 3u]) >= 0.0);
+    var s = dot(-side * normal, dir);
+    let corners = f.cube + 4u;
+    for (var k = 0u; k < f.n; k++) {
+        let a = field_vec3(corners + 3u * k) - x;
+        let b = field_vec3(corners + 3u * ((k + 1u) % f.n)) - x;
+        let m = side * cross(b, a);
+        let len2 = dot(m, m);
+        if len2 > 0.0 {
+            s = min(s, dot(m, dir) / sqrt(len2));
+        }
+    }
+    return -asin_precise(s) * 0.70710678118;
+}
+
 // Ovdf::distance_at: trilinear over the point's 8 samples for light from `dir` (object space).
 fn distance_at(f: OvdfRef, at: OvdfPoint, dir: vec3<f32>) -> f32 {
+    if f.shells == 0u {
+        return flat_distance(f, at.x, dir);
+    }
     var points: array<vec2<f32>, 4>;
     for (var q = 0u; q < 4u; q++) {
         points[q] = hemi_from_dir(to_local(sample_frame(f, at.texels[q]), dir));

@@ -407,6 +407,16 @@ impl GpuShading {
             }
             let ovdf = o.ovdf.map(|field| {
                 *ovdfs.entry(std::ptr::from_ref(field)).or_insert_with(|| {
+                    let (centre, radius) = field.bounds();
+                    if let Some(flat) = field.flat() {
+                        // Shells = 0 marks a flat object; n is its corner count and `cube` the
+                        // offset of its plane (normal, offset) and corners in `fields`.
+                        let at = fields.len() as u32;
+                        let plane = flat.normal().extend(flat.offset());
+                        fields.extend(plane.to_array().iter().map(|v| v.to_bits()));
+                        fields.extend(flat.corners().iter().flat_map(|c| c.to_array()).map(f32::to_bits));
+                        return (centre, radius, [0, 0, flat.corners().len() as u32, at, 0]);
+                    }
                     let p = field.params();
                     let cube = *cubes.entry(p.m).or_insert_with(|| push_cube(&mut fields, p.m));
                     let first = segments.len() as u32;
@@ -414,7 +424,6 @@ impl GpuShading {
                         let c = push_compressed(&mut fields, seg);
                         segments.push(c);
                     }
-                    let (centre, radius) = field.bounds();
                     (centre, radius, [p.shells as u32, p.m as u32, p.n as u32, cube, first])
                 })
             });

@@ -13,6 +13,7 @@
 pub mod coverage;
 pub mod cpca;
 pub mod edt;
+pub mod flat;
 pub mod map;
 pub mod ovdf;
 pub mod rays;
@@ -20,6 +21,7 @@ pub mod store;
 pub mod svdf;
 
 pub use coverage::coverage;
+pub use flat::Flat;
 pub use map::{Vdt, VisibilityMap};
 pub use ovdf::{Ovdf, OvdfLookup, OvdfParams, OvdfPoint};
 pub use rays::{Occluder, VisError};

@@ -14,9 +14,13 @@
 //! A lookup at a point interpolates the distances of the 8 nearest samples (2 shells × 4 cube
 //! neighbours, across face seams) trilinearly; beyond the outer shell nothing is occluded,
 //! inside the inner one the inner shell is used.
+//!
+//! A flat convex object (a floor, a wall, a card) takes no samples: its field is the closed
+//! form of [`crate::flat`], exact where the sampled field is at its worst.
 
 use crate::coverage::coverage;
 use crate::cpca::{Cpca, CpcaVector, hsum};
+use crate::flat::{Flat, FlatLookup};
 use crate::map::{VisibilityMap, bilinear_cells, bilinear_taps};
 use crate::rays::{Occluder, VisError};
 use glam::{Vec2, Vec3};
@@ -29,6 +33,8 @@ use rsl_sphere::mesh::TriMesh;
 /// A point located among an occluder field's samples ([`Ovdf::locate`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OvdfPoint {
+    /// The point itself (object space).
+    x: Vec3,
     /// Inner of the two shells.
     shell: usize,
     /// Weight of the outer shell.
@@ -93,6 +99,8 @@ pub struct Ovdf {
     /// Each cube texel's sample frame, `Frame::from_normal(−u)` (computed once: lookups read
     /// eight of them).
     frames: Vec<Frame>,
+    /// The closed form of a flat convex object, which then has no segments or frames.
+    flat: Option<Flat>,
     /// Whether every segment holds `n²` means and rows and `n ≥ 2`, so that the vector
     /// kernel may read them without bounds checks: true of every field built or read here
     /// (a field that is not takes the portable path).
@@ -117,17 +125,42 @@ impl Ovdf {
     }
 
     /// [`Ovdf::build`], calling `progress(done, total)` after each of the `shells × 24`
-    /// segments.
+    /// segments. A flat convex mesh takes the closed form ([`crate::flat`]) at once.
     pub fn build_with_progress(
         mesh: &TriMesh,
         params: &OvdfParams,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Self, VisError> {
+        Self::build_as(mesh, params, progress, true)
+    }
+
+    /// The sampled field of any mesh, flat or not (for comparisons: [`Ovdf::build`] gives a
+    /// flat convex mesh its closed form).
+    pub fn build_sampled(
+        mesh: &TriMesh,
+        params: &OvdfParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Self, VisError> {
+        Self::build_as(mesh, params, progress, false)
+    }
+
+    /// The field of `mesh`: the closed form where `closed_form` allows and the mesh is flat
+    /// and convex, else sampled.
+    fn build_as(
+        mesh: &TriMesh,
+        params: &OvdfParams,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        closed_form: bool,
+    ) -> Result<Self, VisError> {
         mesh.validate().map_err(|e| VisError::Mesh(e.to_string()))?;
         params.check()?;
-        let occluder = Occluder::new(mesh)?;
         let (centre, radius) = mesh.bounding_sphere().unwrap_or_default();
         let radius = radius.max(1e-6);
+        if let Some(flat) = Flat::detect(mesh).filter(|_| closed_form) {
+            progress(1, 1);
+            return Self::from_flat(centre, radius, *params, flat).map_err(VisError::Params);
+        }
+        let occluder = Occluder::new(mesh)?;
         let grid = CubeGrid::new(params.m);
         let half = params.m / 2;
         let d = params.n * params.n;
@@ -200,9 +233,40 @@ impl Ovdf {
         .map_err(VisError::Params)
     }
 
-    /// Bytes held as stored: every segment's PCA and the texel frames.
+    /// Bytes held as stored: every segment's PCA and the texel frames, or a flat object's
+    /// outline.
     pub fn bytes(&self) -> usize {
-        self.segments.iter().map(Cpca::stored_bytes).sum::<usize>() + std::mem::size_of_val(self.frames.as_slice())
+        self.segments.iter().map(Cpca::stored_bytes).sum::<usize>()
+            + std::mem::size_of_val(self.frames.as_slice())
+            + self.flat.as_ref().map_or(0, |f| std::mem::size_of_val(f.corners()) + 16)
+    }
+
+    /// The closed form of a flat convex object, whose field has no segments.
+    pub fn flat(&self) -> Option<&Flat> {
+        self.flat.as_ref()
+    }
+
+    /// The field of a flat convex object: its closed form, built around the object's bounding
+    /// sphere (`params` are kept to say what was asked for; no samples are taken).
+    pub fn from_flat(centre: Vec3, radius: f32, params: OvdfParams, flat: Flat) -> Result<Self, String> {
+        params.check().map_err(|e| e.to_string())?;
+        if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
+            return Err(format!("bad bounding sphere (centre {centre}, radius {radius})"));
+        }
+        Ok(Self {
+            centre,
+            radius,
+            params,
+            segments: Vec::new(),
+            frames: Vec::new(),
+            flat: Some(flat),
+            whole: false,
+            raw_bytes: 0,
+            bytes_f32: 0,
+            bytes_f16: 0,
+            rms_distance_error: 0.0,
+            rms_coverage_error: 0.0,
+        })
     }
 
     /// Resolutions the field was built with.
@@ -249,6 +313,7 @@ impl Ovdf {
             params,
             segments,
             frames,
+            flat: None,
             whole,
             raw_bytes,
             bytes_f32,
@@ -272,6 +337,16 @@ impl Ovdf {
         if r >= OUTER {
             return None;
         }
+        if self.flat.is_some() {
+            return Some(OvdfPoint {
+                x,
+                shell: 0,
+                shell_weight: 0.0,
+                texels: [0; 4],
+                places: [(0, 0); 4],
+                weights: [0.0; 4],
+            });
+        }
         let shells = self.params.shells;
         let t = if r > INNER { (r / INNER).ln() / (OUTER / INNER).ln() * (shells - 1) as f32 } else { 0.0 };
         let s0 = (t.floor() as usize).min(shells - 2);
@@ -280,9 +355,9 @@ impl Ovdf {
         let grid = CubeGrid::new(m);
         let u = if v.length_squared() > 0.0 { v.normalize() } else { Vec3::Y };
         let (face, fu, fv) = rsl_sphere::cube::face_uv_from_dir(u.as_dvec3());
-        let (x, y) = ((fu + 1.0) * 0.5 * m as f64 - 0.5, (fv + 1.0) * 0.5 * m as f64 - 0.5);
-        let (i0, j0) = (x.floor() as i64, y.floor() as i64);
-        let (fx, fy) = ((x - i0 as f64) as f32, (y - j0 as f64) as f32);
+        let (gx, gy) = ((fu + 1.0) * 0.5 * m as f64 - 0.5, (fv + 1.0) * 0.5 * m as f64 - 0.5);
+        let (i0, j0) = (gx.floor() as i64, gy.floor() as i64);
+        let (fx, fy) = ((gx - i0 as f64) as f32, (gy - j0 as f64) as f32);
         let half = m / 2;
         // The texel at (i, j) of this face, stepping across a seam for i or j just outside,
         // and its place: its segment within a shell (face·4 + quadrant) and its index there.
@@ -304,6 +379,7 @@ impl Ovdf {
         let texels = [corners[0].0, corners[1].0, corners[2].0, corners[3].0];
         let places = [corners[0].1, corners[1].1, corners[2].1, corners[3].1];
         Some(OvdfPoint {
+            x,
             shell: s0,
             shell_weight: fs,
             texels,
@@ -322,6 +398,9 @@ impl Ovdf {
     /// sample frames, and each of the 8 samples' rows, coefficients and trilinear weight.
     #[inline]
     pub fn prepare(&self, at: &OvdfPoint) -> OvdfLookup<'_> {
+        if let Some(flat) = &self.flat {
+            return OvdfLookup(Lookup::Flat(flat.prepare(at.x)));
+        }
         let w = at.shell_weight;
         let shells = if w <= 0.0 { 1 } else { 2 };
         let n = self.params.n;
@@ -344,7 +423,7 @@ impl Ovdf {
             (self.segments[s * 24 + segment as usize].vector(index as usize), weight * at.weights[t])
         };
         let samples = [sample(0), sample(1), sample(2), sample(3), sample(4), sample(5), sample(6), sample(7)];
-        OvdfLookup { n, shells, axes, samples, whole: self.whole }
+        OvdfLookup(Lookup::Sampled(SampledLookup { n, shells, axes, samples, whole: self.whole }))
     }
 
     /// The signed distance (visible > 0) to this object's shadow boundary for light from
@@ -373,7 +452,20 @@ impl Ovdf {
 /// A located point of an occluder field prepared for lookups in many directions
 /// ([`Ovdf::prepare`]).
 #[derive(Clone, Copy, Debug)]
-pub struct OvdfLookup<'a> {
+pub struct OvdfLookup<'a>(Lookup<'a>);
+
+// Both variants are a few hundred bytes and live in reused per-thread lists: boxing the
+// larger would allocate per vertex and occluder.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug)]
+enum Lookup<'a> {
+    Sampled(SampledLookup<'a>),
+    Flat(FlatLookup),
+}
+
+/// A point prepared among a sampled field's samples.
+#[derive(Clone, Copy, Debug)]
+struct SampledLookup<'a> {
     n: usize,
     /// 1 when the point lies on the inner shell (its outer weight is zero), else 2.
     shells: usize,
@@ -389,9 +481,13 @@ pub struct OvdfLookup<'a> {
 
 impl OvdfLookup<'_> {
     /// The signed distance for light from `dir` (object space): trilinear over the 8
-    /// samples (each texel's plane point and bilinear cells are shared by both shells).
+    /// samples (each texel's plane point and bilinear cells are shared by both shells), or a
+    /// flat object's closed form.
     pub fn distance(&self, dir: Vec3) -> f32 {
-        lookup_distance(self, dir)
+        match &self.0 {
+            Lookup::Sampled(s) => lookup_distance(s, dir),
+            Lookup::Flat(f) => f.distance(dir),
+        }
     }
 
     /// The visible fraction of the square of half-diagonal `r` around `dir`.
@@ -399,7 +495,9 @@ impl OvdfLookup<'_> {
     pub fn coverage(&self, dir: Vec3, r: f32) -> f32 {
         coverage(self.distance(dir), r)
     }
+}
 
+impl SampledLookup<'_> {
     /// Texel `t`'s local coordinates of `dir`.
     fn texel_local(&self, t: usize, d: Vec3) -> Vec3 {
         let a = &self.axes;
@@ -409,7 +507,7 @@ impl OvdfLookup<'_> {
 }
 
 /// [`OvdfLookup::distance`]: AVX2 and FMA where the processor has them.
-fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
+fn lookup_distance(at: &SampledLookup<'_>, dir: Vec3) -> f32 {
     #[cfg(target_arch = "x86_64")]
     if at.whole && crate::cpca::simd::available() {
         #[allow(unsafe_code)]
@@ -420,7 +518,7 @@ fn lookup_distance(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
 }
 
 /// [`lookup_distance`] in portable code.
-fn lookup_distance_portable(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
+fn lookup_distance_portable(at: &SampledLookup<'_>, dir: Vec3) -> f32 {
     let mut acc = [0.0f32; 8];
     let mut mean = 0.0f32;
     for t in 0..4 {
@@ -437,7 +535,7 @@ fn lookup_distance_portable(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
 /// four at a time, then each sample's rows blended in vector registers.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn lookup_distance_avx2(at: &OvdfLookup<'_>, dir: Vec3) -> f32 {
+fn lookup_distance_avx2(at: &SampledLookup<'_>, dir: Vec3) -> f32 {
     use std::arch::x86_64::*;
     let a = &at.axes;
     let v = |k: usize| -> __m128 { bytemuck::cast(a[k]) };
@@ -551,7 +649,7 @@ mod tests {
                 let dir = rsl_sphere::sampling::uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
                 let Some(at) = f.locate(x) else { continue };
                 let want = distance_by_cells(&f, &at, dir);
-                let prepared = f.prepare(&at);
+                let OvdfLookup(Lookup::Sampled(prepared)) = f.prepare(&at) else { panic!("a sampled field") };
                 for got in [lookup_distance(&prepared, dir), lookup_distance_portable(&prepared, dir)] {
                     worst = worst.max((got - want).abs() / want.abs().max(1.0));
                 }

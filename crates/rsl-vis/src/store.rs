@@ -12,7 +12,7 @@ pub const SVDF_MAGIC: [u8; 8] = *b"RSLSVDF\0";
 /// File magic of an occluder field.
 pub const OVDF_MAGIC: [u8; 8] = *b"RSLOVDF\0";
 /// Current format version.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 8 + 8;
 
 /// Why a field file was rejected.
@@ -216,6 +216,16 @@ pub fn ovdf_to_bytes(f: &crate::ovdf::Ovdf) -> Vec<u8> {
         w.u32(v as u32);
     }
     w.f32s(&[f.rms_distance_error, f.rms_coverage_error]);
+    // A flat object's outline (0 corners for a sampled field), then the segments.
+    let corners = f.flat().map_or(&[][..], |flat| flat.corners());
+    w.u32(corners.len() as u32);
+    if let Some(flat) = f.flat() {
+        let n = flat.normal();
+        w.f32s(&[n.x, n.y, n.z, flat.offset()]);
+        for c in corners {
+            w.f32s(&[c.x, c.y, c.z]);
+        }
+    }
     for s in f.segments() {
         write_cpca(&mut w, s);
     }
@@ -233,13 +243,26 @@ pub fn ovdf_from_bytes(b: &[u8]) -> Result<crate::ovdf::Ovdf, FieldFileError> {
     if shells == 0 || shells > 4096 {
         return Err(FieldFileError::Malformed(format!("{shells} shells")));
     }
-    let segments = (0..shells * 24).map(|_| read_cpca(&mut r)).collect::<Result<Vec<_>, _>>()?;
+    let corners = r.u32()? as usize;
+    if corners > crate::flat::MAX_CORNERS {
+        return Err(FieldFileError::Malformed(format!("a flat outline of {corners} corners")));
+    }
+    let params = crate::ovdf::OvdfParams { shells, m, n, supersample, vectors };
+    let centre = glam::Vec3::new(cr[0], cr[1], cr[2]);
+    let v3 = |v: Vec<f32>| glam::Vec3::new(v[0], v[1], v[2]);
+    let field = if corners > 0 {
+        let plane = r.f32s(4)?;
+        let outline = (0..corners).map(|_| r.f32s(3).map(v3)).collect::<Result<Vec<_>, _>>()?;
+        crate::flat::Flat::from_parts(v3(plane.clone()), plane[3], outline)
+            .and_then(|flat| crate::ovdf::Ovdf::from_flat(centre, cr[3], params, flat))
+    } else {
+        let segments = (0..shells * 24).map(|_| read_cpca(&mut r)).collect::<Result<Vec<_>, _>>()?;
+        crate::ovdf::Ovdf::from_parts(centre, cr[3], params, segments, bytes, errors)
+    };
     if r.at != payload.len() {
         return Err(FieldFileError::Malformed(format!("{} bytes after the field", payload.len() - r.at)));
     }
-    let params = crate::ovdf::OvdfParams { shells, m, n, supersample, vectors };
-    crate::ovdf::Ovdf::from_parts(glam::Vec3::new(cr[0], cr[1], cr[2]), cr[3], params, segments, bytes, errors)
-        .map_err(FieldFileError::Malformed)
+    field.map_err(FieldFileError::Malformed)
 }
 
 /// Parses a field, checking magic, version, length, checksum and consistency.
