@@ -26,6 +26,11 @@ pub struct CompareArgs {
     /// Compare every pixel of EXR inputs, background included.
     #[arg(long)]
     pub all_pixels: bool,
+    /// With PLY inputs and --scene: the error per object and per band of n·v (the cosine
+    /// between the vertex normal and the direction to the scene's camera eye), each with its
+    /// share of the squared error.
+    #[arg(long)]
+    pub breakdown: bool,
 }
 
 fn kind(p: &Path) -> Option<&'static str> {
@@ -65,6 +70,11 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         let (ra, rb) = (rad(&a), rad(&b));
         let m = metrics::compare(&ra, &rb, None)?;
         println!("vertices: {m}");
+        if args.breakdown {
+            let Some(scene) = &args.scene else { bail!("--breakdown needs --scene for the camera eye") };
+            let scene = Scene::load(scene)?;
+            print_breakdown(&scene, &b, &ra, &rb)?;
+        }
         if let Some(h) = &args.heatmap {
             let Some(scene) = &args.scene else { bail!("--heatmap with PLY inputs needs --scene for the camera") };
             let scene = Scene::load(scene)?;
@@ -102,10 +112,122 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     Ok(())
 }
 
+/// Bands of n·v for [`print_breakdown`]: grazing views first.
+const BANDS: [(f32, f32); 5] = [(-1.0, 0.0), (0.0, 0.1), (0.1, 0.3), (0.3, 0.6), (0.6, 1.0)];
+
+/// One line of a breakdown: a group of vertices and its error.
+#[derive(Clone, Debug, PartialEq)]
+struct Row {
+    /// "object" or "n·v".
+    by: &'static str,
+    name: String,
+    points: usize,
+    relative_l2: f64,
+    /// Its share of the squared error of all vertices.
+    share: f64,
+}
+
+/// The error per object (`names` by index) and per band of n·v toward `eye`, each with its
+/// share of the squared error (the vertices' positions and normals from the reference `b`).
+fn breakdown(eye: Vec3, names: &[String], b: &ply::PlyData, ra: &[Vec3], rb: &[Vec3]) -> Result<Vec<Row>> {
+    let squared = |keep: &dyn Fn(usize) -> bool| -> f64 {
+        (0..ra.len()).filter(|&k| keep(k)).map(|k| f64::from((ra[k] - rb[k]).length_squared())).sum()
+    };
+    let total = squared(&|_| true);
+    let row = |by: &'static str, name: String, keep: &dyn Fn(usize) -> bool| -> Result<Row> {
+        let mask: Vec<bool> = (0..ra.len()).map(keep).collect();
+        let (points, relative_l2) = match metrics::compare(ra, rb, Some(&mask)) {
+            Ok(m) => (m.points, m.relative_l2),
+            Err(metrics::CompareError::Empty) => (0, 0.0),
+            Err(e) => return Err(e.into()),
+        };
+        let share = if total > 0.0 { squared(keep) / total } else { 0.0 };
+        Ok(Row { by, name, points, relative_l2, share })
+    };
+    let mut rows = Vec::new();
+    for (j, name) in names.iter().enumerate() {
+        rows.push(row("object", name.clone(), &|k| b.objects[k] == j as i32)?);
+    }
+    let cosine = |k: usize| {
+        let v = &b.vertices[k];
+        let (x, n) = (Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]));
+        n.normalize_or_zero().dot((eye - x).normalize_or_zero())
+    };
+    for (lo, hi) in BANDS {
+        let name = if lo < 0.0 { "facing away (< 0)".to_string() } else { format!("{lo:.1} ≤ n·v < {hi:.1}") };
+        rows.push(row("n·v", name, &|k| {
+            let c = cosine(k);
+            c >= lo && (c < hi || hi == 1.0)
+        })?);
+    }
+    Ok(rows)
+}
+
+/// Prints [`breakdown`] for `scene`'s objects and camera eye.
+fn print_breakdown(scene: &Scene, b: &ply::PlyData, ra: &[Vec3], rb: &[Vec3]) -> Result<()> {
+    let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
+    let mut by = "";
+    for r in breakdown(scene.camera.eye, &names, b, ra, rb)? {
+        if r.by != by {
+            by = r.by;
+            println!("by {by}:");
+        }
+        println!(
+            "  {:<24} {:>7} vertices  relative L2 {:>9.4}%  {:>6.2}% of the squared error",
+            r.name,
+            r.points,
+            100.0 * r.relative_l2,
+            100.0 * r.share
+        );
+    }
+    Ok(())
+}
+
 fn write_heatmap(path: &Path, w: u32, h: u32, px: &[Vec3], max: f32) -> Result<()> {
     let rgb: Vec<u8> = px.iter().flat_map(|c| c.to_array().map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8)).collect();
     let (img, hh) = with_legend(&rgb, w, h, max);
     output::write_png(path, w, hh, img)?;
     println!("wrote {} (luminance error, 0 to {max:.3e})", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_breakdown_splits_the_error_by_object_and_by_view_angle() {
+        // Eye on +z at 10; four vertices at the origin facing it at n·v = 1, 0.5, 0.2, −1.
+        let eye = Vec3::new(0.0, 0.0, 10.0);
+        let normal = |c: f32| Vec3::new((1.0 - c * c).max(0.0).sqrt(), 0.0, c);
+        let cosines = [1.0f32, 0.5, 0.2, -1.0];
+        let vertices = cosines
+            .iter()
+            .map(|&c| {
+                let n = normal(c);
+                [0.0, 0.0, 0.0, n.x, n.y, n.z, 0.0, 0.0, 0.0]
+            })
+            .collect();
+        let b = ply::PlyData { vertices, objects: vec![0, 0, 1, 1], faces: Vec::new() };
+        let rb = [Vec3::splat(1.0), Vec3::splat(2.0), Vec3::splat(1.0), Vec3::ZERO];
+        let ra = [Vec3::splat(1.1), Vec3::splat(2.0), Vec3::splat(1.3), Vec3::ZERO];
+        let rows = breakdown(eye, &["a".into(), "b".into()], &b, &ra, &rb).unwrap();
+        let get = |name: &str| rows.iter().find(|r| r.name == name).unwrap().clone();
+        // Squared errors: 0.03 (vertex 0), 0, 0.27 (vertex 2), 0; total 0.3.
+        let (a, bb) = (get("a"), get("b"));
+        assert_eq!((a.points, bb.points), (2, 2));
+        assert!((a.relative_l2 - (0.03f64 / 15.0).sqrt()).abs() < 1e-6, "{a:?}");
+        assert!((bb.relative_l2 - (0.27f64 / 3.0).sqrt()).abs() < 1e-6, "{bb:?}");
+        assert!((a.share - 0.1).abs() < 1e-6 && (bb.share - 0.9).abs() < 1e-6);
+        let top = get("0.6 ≤ n·v < 1.0");
+        assert_eq!(top.points, 1);
+        assert!((top.share - 0.1).abs() < 1e-6);
+        assert_eq!(get("0.3 ≤ n·v < 0.6").points, 1);
+        assert!((get("0.1 ≤ n·v < 0.3").share - 0.9).abs() < 1e-6);
+        assert_eq!(get("0.0 ≤ n·v < 0.1").points, 0);
+        assert_eq!(get("facing away (< 0)").points, 1);
+        // Every vertex falls in one band.
+        let bands: usize = rows.iter().filter(|r| r.by == "n·v").map(|r| r.points).sum();
+        assert_eq!(bands, 4);
+    }
 }

@@ -127,6 +127,7 @@ fn truth_renders_and_compares_like_the_rsl_path() {
     assert!(mask.iter().any(|&m| m) && mask.iter().any(|&m| !m));
     run(&["compare", &out("rsl.ply"), &out("truth.ply"), "--heatmap", &out("heat.png"), "--scene", scene]).unwrap();
     run(&["compare", &out("rsl.exr"), &out("truth.exr"), "--heatmap", &out("heatpx.png")]).unwrap();
+    run(&["compare", &out("rsl.ply"), &out("truth.ply"), "--scene", scene, "--breakdown"]).unwrap();
     let heat = image::open(dir.join("heat.png")).unwrap();
     assert_eq!((heat.width(), heat.height()), (640, 480 + 40));
     // Bad inputs.
@@ -134,6 +135,7 @@ fn truth_renders_and_compares_like_the_rsl_path() {
     assert!(msg(&["render", scene, "--method", "truth", "--spp", "0", "--out", &out("x.png")]).contains("--spp"));
     assert!(msg(&["compare", &out("rsl.ply"), &out("truth.exr")]).contains("two .ply or two .exr"));
     assert!(msg(&["compare", &out("missing.ply"), &out("truth.ply")]).contains("missing.ply"));
+    assert!(msg(&["compare", &out("rsl.ply"), &out("truth.ply"), "--breakdown"]).contains("--scene"));
     let empty = dir.join("empty.toml");
     std::fs::write(
         &empty,

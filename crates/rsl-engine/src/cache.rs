@@ -105,7 +105,7 @@ pub fn mesh_key(mesh: &rsl_sphere::mesh::TriMesh) -> u64 {
 
 const RSL_MAGIC: [u8; 8] = *b"RSLLIGHT";
 /// Version of the RSL-set file format.
-pub const RSL_VERSION: u32 = 1;
+pub const RSL_VERSION: u32 = 2;
 
 /// Serialises an RSL set (environment space, before intensity).
 pub fn rsls_to_bytes(rsls: &[Rsl]) -> Vec<u8> {

@@ -14,6 +14,10 @@ pub struct CubeEnv {
     pub grid: CubeGrid,
     /// `∫ L dω` over each texel, RGB.
     pub energy: Vec<[f64; 3]>,
+    /// Where a texel's light lies within it, from the map it was resampled from:
+    /// `∫ Y(ω)·ω dω` (xyz) and `∫ Y dω` over the texel, `Y` the luminance. `None` for an
+    /// environment known only per texel (light spread evenly over each).
+    pub moments: Option<Vec<[f64; 4]>>,
 }
 
 impl CubeEnv {
@@ -29,7 +33,7 @@ impl CubeEnv {
         // A lat-long texel spans π/H in θ; a cube texel at least (π/2)/R·(1/√3)… use the face
         // centre's π/(2R) as the scale: k ≥ 4·(π/H)/(π/(2R)) = 8R/H.
         let k = (8 * r).div_ceil(h).max(2);
-        let rows: Vec<Vec<(usize, [f64; 3])>> = (0..h)
+        let rows: Vec<Vec<(usize, [f64; 3], Vec3)>> = (0..h)
             .into_par_iter()
             .map(|j| {
                 let omega = texel_solid_angle(w, h, j) / (k * k) as f64;
@@ -48,7 +52,7 @@ impl CubeEnv {
                         for b in 0..k {
                             let phi = 2.0 * PI * (i as f64 + (b as f64 + 0.5) / k as f64) / w as f64;
                             let d = Vec3::new((st * phi.sin()) as f32, z as f32, (-st * phi.cos()) as f32);
-                            out.push((grid.texel_of_dir(d), e));
+                            out.push((grid.texel_of_dir(d), e, d));
                         }
                     }
                 }
@@ -56,14 +60,36 @@ impl CubeEnv {
             })
             .collect();
         let mut energy = vec![[0.0f64; 3]; grid.len()];
+        let mut moments = vec![[0.0f64; 4]; grid.len()];
         for row in rows {
-            for (t, e) in row {
+            for (t, e, d) in row {
                 for c in 0..3 {
                     energy[t][c] += e[c];
                 }
+                let y = luminance_f64(e).max(0.0);
+                let m = &mut moments[t];
+                (m[0], m[1], m[2], m[3]) =
+                    (m[0] + y * f64::from(d.x), m[1] + y * f64::from(d.y), m[2] + y * f64::from(d.z), m[3] + y);
             }
         }
-        Self { grid, energy }
+        Self { grid, energy, moments: Some(moments) }
+    }
+
+    /// Where texel `t`'s light lies: the luminance-weighted mean direction (unit) and the
+    /// half-diagonal of the square with the same spread about it (a uniform square of
+    /// half-diagonal `r` has `E|p|² = r²/3` in the equal-area plane, where `|p|² ≈ |ω − c|²/2`
+    /// near the centre `c`, and `E|ω − c|² = 2(1 − |E ω|)`). `None` without moments or light.
+    pub fn light_within(&self, t: usize) -> Option<(Vec3, f32)> {
+        let m = self.moments.as_ref()?.get(t)?;
+        if m[3].is_nan() || m[3] <= 0.0 {
+            return None;
+        }
+        let mean = glam::DVec3::new(m[0], m[1], m[2]) / m[3];
+        let len = mean.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return None;
+        }
+        Some(((mean / len).as_vec3(), (3.0 * (1.0 - len.min(1.0))).sqrt() as f32))
     }
 
     /// A constant environment of radiance `l` (each texel's energy is `l·Ω`).
@@ -73,7 +99,7 @@ impl CubeEnv {
             .map(|t| grid.texel_solid_angle(t))
             .map(|o| [l.x as f64 * o, l.y as f64 * o, l.z as f64 * o])
             .collect();
-        Self { grid, energy }
+        Self { grid, energy, moments: None }
     }
 
     /// Total energy per channel.

@@ -217,3 +217,46 @@ fn bad_counts_are_errors() {
     assert!(d.rsls(97).is_err());
     assert!(d.regions(0).is_err());
 }
+
+#[test]
+fn a_sun_smaller_than_a_texel_keeps_its_place_and_size() {
+    // A 512×256 map, dim sky everywhere, one bright lat-long texel (0.7° across) placed off
+    // the centre of its cube texel (R = 16: 5.6° across).
+    let (w, h) = (512usize, 256usize);
+    let (si, sj) = (70usize, 100usize);
+    let mut texels = vec![Vec3::splat(0.2); w * h];
+    texels[sj * w + si] = Vec3::splat(5e4);
+    let map = LatLongMap::new(w, h, texels).unwrap();
+    let (theta, phi) =
+        (std::f64::consts::PI * (sj as f64 + 0.5) / h as f64, std::f64::consts::TAU * (si as f64 + 0.5) / w as f64);
+    let sun = Vec3::new((theta.sin() * phi.sin()) as f32, theta.cos() as f32, (-theta.sin() * phi.cos()) as f32);
+    let env = CubeEnv::from_latlong(&map, 16);
+    let t = env.grid.texel_of_dir(sun);
+    let off_centre = env.grid.texel_dir(t).angle_between(sun);
+    assert!(off_centre > 0.01, "the sun sits {off_centre} rad from its texel's centre");
+    let d = Decomposition::new(&env);
+    let brightest = d.rsls(30).unwrap()[0];
+    assert_eq!(brightest.texels, 1);
+    // Within a lat-long texel's size of the sun, and about its size (a uniform square of the
+    // same solid angle has half-diagonal √(Ω)/2).
+    let texel = (std::f64::consts::PI / h as f64) as f32;
+    assert!(brightest.rsl.centre.angle_between(sun) < 0.25 * texel, "centre {}", brightest.rsl.centre);
+    let r_texel = (env.grid.texel_solid_angle(t) as f32).sqrt() / 2.0;
+    let r = brightest.rsl.half_diagonal;
+    assert!(r < 0.3 * r_texel && r > 0.1 * texel, "r = {r}, texel's {r_texel}, lat-long texel {texel}");
+    // Its energy is the texel's.
+    let q = f64::from(brightest.rsl.solid_angle());
+    assert_close("sun energy", f64::from(brightest.rsl.intensity.x) * q, env.energy[t][0], 1e-5, 0.0);
+    // A uniform environment keeps its texels' squares where they are: at the texel's mean
+    // direction, which lies a few % of r from `texel_dir` (the face-plane centre) toward the
+    // face's centre, plus how the map's cells fall into cube texels.
+    let flat = CubeEnv::from_latlong(&LatLongMap::new(w, h, vec![Vec3::ONE; w * h]).unwrap(), 16);
+    let all = Decomposition::new(&flat).rsls(flat.grid.len()).unwrap();
+    for x in &all {
+        let t = flat.grid.texel_of_dir(x.rsl.centre);
+        let r_texel = (flat.grid.texel_solid_angle(t) as f32).sqrt() / 2.0;
+        assert!(x.rsl.half_diagonal > 0.9 * r_texel, "texel {t}: {} vs {r_texel}", x.rsl.half_diagonal);
+        let moved = x.rsl.centre.angle_between(flat.grid.texel_dir(t));
+        assert!(moved < 0.1 * r_texel, "texel {t} moved by {moved}, r = {r_texel}");
+    }
+}
