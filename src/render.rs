@@ -124,9 +124,10 @@ pub struct RenderArgs {
     #[arg(long, value_parser = parse_oracles)]
     pub oracle: Option<Oracles>,
     /// Output image: .png (tonemapped) or .exr (linear radiance).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also write the shaded vertices as PLY.
+    #[arg(long, required_unless_present = "vertex_out")]
+    pub out: Option<PathBuf>,
+    /// Write the shaded vertices as PLY (alone, without --out, no image is rendered: for
+    /// `--method truth` that skips the per-pixel estimate).
     #[arg(long)]
     pub vertex_out: Option<PathBuf>,
     /// Exposure multiplier for PNG output (default: automatic, from the objects in the first
@@ -296,8 +297,10 @@ pub fn precompute(scene: &Path, prepare: &PrepareArgs) -> Result<()> {
 
 /// `rsl render`.
 pub fn render(args: &RenderArgs) -> Result<()> {
-    let format = format_of(&args.out)?;
-    check_writable(&args.out, "--out")?;
+    let format = args.out.as_deref().map(format_of).transpose()?;
+    if let Some(out) = &args.out {
+        check_writable(out, "--out")?;
+    }
     if let Some(p) = &args.vertex_out {
         check_writable(p, "--vertex-out")?;
         if p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() != Some("ply") {
@@ -354,7 +357,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     let mut spent = rsl_engine::Timings::default();
     for &(k, t) in &times {
         let start = Instant::now();
-        let request = Request { time: t, image: true, vertices: args.vertex_out.is_some(), exposure };
+        let request = Request { time: t, image: args.out.is_some(), vertices: args.vertex_out.is_some(), exposure };
         let mut frame = method.render(&engine, &scene, &request)?;
         for s in &frame.timings.stages {
             spent.add(s.name, s.wall_ms, s.gpu_ms);
@@ -365,23 +368,30 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         if args.method == MethodArg::Truth {
             print_self_error(&frame, args.spp, start.elapsed().as_secs_f64());
         }
-        let rgb = display_rgb(&mut frame, &mut exposure)?;
-        let image = frame.image.as_ref().context("the method made no image")?;
-        let out = k.map_or_else(|| args.out.clone(), |k| numbered(&args.out, k));
-        match format {
-            Format::Png => output::write_png(&out, image.width, image.height, rgb.clone())?,
-            Format::Exr => output::write_exr(&out, image.width, image.height, &image.pixels, &image.covered)?,
+        let mut written = Vec::new();
+        if let (Some(out), Some(format)) = (&args.out, format) {
+            let rgb = display_rgb(&mut frame, &mut exposure)?;
+            let image = frame.image.as_ref().context("the method made no image")?;
+            let out = k.map_or_else(|| out.clone(), |k| numbered(out, k));
+            match format {
+                Format::Png => output::write_png(&out, image.width, image.height, rgb.clone())?,
+                Format::Exr => output::write_exr(&out, image.width, image.height, &image.pixels, &image.covered)?,
+            }
+            if k.is_some() {
+                gif_frames.push(rgb);
+            }
+            written.push(out);
         }
         if let Some(p) = &args.vertex_out {
-            write_vertices(&k.map_or_else(|| p.clone(), |k| numbered(p, k)), &scene, &frame)?;
+            let p = k.map_or_else(|| p.clone(), |k| numbered(p, k));
+            write_vertices(&p, &scene, &frame)?;
+            written.push(p);
         }
-        if k.is_some() {
-            gif_frames.push(rgb);
-        }
-        eprintln!("wrote {} (t = {t:.3} s, {:.1} ms)", out.display(), start.elapsed().as_secs_f64() * 1e3);
+        let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+        eprintln!("wrote {} (t = {t:.3} s, {:.1} ms)", names.join(", "), start.elapsed().as_secs_f64() * 1e3);
     }
-    if !gif_frames.is_empty() {
-        let gif = args.out.with_extension("gif");
+    if let (false, Some(out)) = (gif_frames.is_empty(), &args.out) {
+        let gif = out.with_extension("gif");
         output::write_gif(&gif, scene.camera.width, scene.camera.height, &gif_frames, args.fps)?;
         eprintln!("wrote {}", gif.display());
     }

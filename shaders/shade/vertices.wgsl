@@ -218,7 +218,11 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         var cover = 1.0;
         if (params.terms & TERM_SELF) != 0u {
-            cover = coverage(svdf_distance(o, vert.local, hemi_from_dir(to_local(vis, frame[o.light_dirs + l].xyz))), r);
+            // SvdfVertex::coverage_above_horizon: the fraction of the square's part above
+            // the horizon (the BRDF integral leaves out the rest).
+            let p = hemi_from_dir(to_local(vis, frame[o.light_dirs + l].xyz));
+            let horizon = coverage(1.0 - length(p), r);
+            cover = select(0.0, min(coverage(svdf_distance(o, vert.local, p), r) / horizon, 1.0), horizon > 0.0);
         }
         for (var k = 0u; k < count; k++) {
             if cover <= 0.0 {

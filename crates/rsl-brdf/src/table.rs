@@ -182,7 +182,10 @@ impl BrdfTable {
         let max_density = slices.iter().fold(Vec3::ZERO, |m, s| m.max(s.1));
         let n = grid.n();
         let sat: Vec<Vec<[f64; 4]>> = slices.into_par_iter().map(|(cells, _)| summed_area(&cells, n)).collect();
+        // Paired rows serve the AVX-512 kernels only; elsewhere they would double the
+        // memory written per build for nothing.
         let pairs = match views {
+            _ if !paired_kernels() => Vec::new(),
             Views::Isotropic(_) => {
                 sat.windows(2).map(|w| w[0].iter().zip(&w[1]).map(|(a, b)| Pair::of(*a, *b)).collect()).collect()
             }
@@ -460,6 +463,14 @@ fn blend_taps(sat: &[Vec<[f64; 4]>], slices: &[(usize, f32)], taps: &Taps) -> [f
 fn pairwise(v: [[f64; 4]; 8]) -> [f64; 4] {
     let pair = |a: [f64; 4], b: [f64; 4]| std::array::from_fn::<f64, 4, _>(|c| a[c] + b[c]);
     pair(pair(pair(v[0], v[4]), pair(v[2], v[6])), pair(pair(v[1], v[5]), pair(v[3], v[7])))
+}
+
+/// Whether the kernels that read [`BrdfTable`]'s paired rows run on this processor.
+fn paired_kernels() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return simd::available_512();
+    #[cfg(not(target_arch = "x86_64"))]
+    false
 }
 
 /// The box kernels in vector registers with fused multiply-adds: the four coordinates' spline

@@ -119,7 +119,7 @@ fn the_self_oracle_matches_a_convex_objects_analytic_field() {
 /// ground point at distance d from the ball's centre, at angle θ from its normal, reflects
 /// `albedo·L·(1 − (R/d)² cos θ)` where the cap is wholly above its horizon.
 #[test]
-fn the_occluder_oracle_finds_the_analytic_cap_more_closely_than_the_field() {
+fn the_occluder_oracle_and_the_field_find_the_analytic_cap() {
     let s = scene(
         r#"
         [quality]
@@ -169,9 +169,10 @@ fn the_occluder_oracle_finds_the_analytic_cap_more_closely_than_the_field() {
     let (field_err, oracle_err) = ((field_err / norm).sqrt(), (oracle_err / norm).sqrt());
     eprintln!("{checked} ground points: field {field_err:.4}, oracle {oracle_err:.4} (relative L2)");
     assert!(checked > 300);
-    // The table's Lambert quadrature is the same 1 % in both; the oracle removes the field's
-    // boundary placement.
-    assert!(oracle_err < 0.006 && oracle_err < field_err, "field {field_err}, oracle {oracle_err}");
+    // Both find the cap: the oracle within its 12×12-point quadrature, the field (M = 16)
+    // about as closely now that a square straddling the ground's horizon is no longer
+    // darkened twice (measured: field 0.24 %, oracle 0.26 %; before, the field was further).
+    assert!(oracle_err < 0.006 && field_err < 0.006, "field {field_err}, oracle {oracle_err}");
 }
 
 #[test]

@@ -6,9 +6,9 @@
 //!
 //! - **brdf**: `B_i` by direct quadrature over the same square ([`rsl_brdf::square_exact`])
 //!   instead of the table (no table resolution, view interpolation or spline);
-//! - **self**: `C_self,i` as the visible fraction of the square in the vertex's visibility
-//!   frame, by shadow rays against the object itself (below the horizon counts as hidden,
-//!   as in the self-visibility field), instead of the SVDF;
+//! - **self**: `C_self,i` as the visible fraction of the square's part above the vertex's
+//!   horizon in its visibility frame, by shadow rays against the object itself, instead of
+//!   the SVDF's (whose coverage, horizon included, is divided by the horizon's alone);
 //! - **occluders**: each `C_j,i` as the fraction of the square, centred on the light, that
 //!   object `j` leaves visible, by shadow rays against `j` alone, instead of the OVDF (and
 //!   without its reach or culling);
@@ -288,21 +288,21 @@ fn vertex<'a>(
         if terms.self_visibility {
             let c = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
             cover = if oracles.self_visibility {
+                // The fraction of the square's points above the horizon that the object
+                // leaves visible (the BRDF integral already leaves out the rest).
                 let pts = rotated_points(params.samples, &mut rng);
-                let seen = pts
+                let above: Vec<Vec2> = pts.iter().map(|u| c + *u * s).filter(|q| q.length_squared() < 1.0).collect();
+                let seen = above
                     .iter()
-                    .filter(|u| {
-                        let q = c + **u * s;
-                        q.length_squared() < 1.0 && {
-                            let d = p.pose.linear_to_world * vis_frame.to_world(dir_from_hemi(q));
-                            trace(d.normalize_or_zero(), Blockers::Own)
-                        }
+                    .filter(|q| {
+                        let d = p.pose.linear_to_world * vis_frame.to_world(dir_from_hemi(**q));
+                        trace(d.normalize_or_zero(), Blockers::Own)
                     })
                     .count();
-                seen as f32 / pts.len() as f32
+                if above.is_empty() { 0.0 } else { seen as f32 / above.len() as f32 }
             } else {
                 stats.lookups.self_lookups += 1;
-                self_vis.coverage(c, r)
+                self_vis.coverage_above_horizon(c, r)
             };
         }
         if terms.occluders && cover > 0.0 {

@@ -13,7 +13,12 @@
 //! - Self visibility is looked up in the vertex's object-space frame `Frame::from_normal(n)`
 //!   (as the SVDF was built), with the light direction carried into object space by
 //!   `S⁻¹·R⁻¹`: ray casting commutes with affine maps, so the direction is exact under any
-//!   scale; the square's size is kept.
+//!   scale; the square's size is kept. `cover_self` is the visible fraction of the square's
+//!   part above the vertex's horizon (the field's coverage divided by the horizon's alone):
+//!   the BRDF integral already leaves out the part below, and multiplying by the field's
+//!   coverage (which counts that part as hidden) would count the horizon twice — a square
+//!   half below the horizon would get half its light. On a rough ball under a low sun this
+//!   darkened grazing views by 20 % (measured: 8.6 % → 6.4 % per vertex, README).
 //! - Occluder `j` is looked up in its own object space at its current transform: the point
 //!   by `S⁻¹·R⁻¹·(x − t)`, the direction as above.
 //! - Occluder culling: occluder `j` is skipped for RSL `i` when `x` lies beyond the field's
@@ -400,7 +405,7 @@ impl<'a> FrameSetup<'a> {
             let mut cover = 1.0;
             if self.terms.self_visibility {
                 stats.self_lookups += 1;
-                cover = self_vis.coverage(hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
+                cover = self_vis.coverage_above_horizon(hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
             }
             cover = self.occluder_cover(nears, l, cover, stats);
             sum += light.radiance * brdf * cover;
@@ -514,7 +519,7 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                 if setup.terms.self_visibility {
                     let d = p.pose.direction_to_object(light.dir);
                     let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
-                    cover = o.svdf.coverage(v, q, r);
+                    cover = o.svdf.coverage_above_horizon(v, q, r);
                 }
                 if setup.terms.occluders {
                     for (j, q) in setup.placed.iter().enumerate() {

@@ -190,6 +190,19 @@ impl Svdf {
     pub fn coverage(&self, vertex: usize, p: Vec2, r: f32) -> f32 {
         coverage(self.distance(vertex, p), r)
     }
+
+    /// [`SvdfVertex::coverage_above_horizon`] for `vertex`.
+    pub fn coverage_above_horizon(&self, vertex: usize, p: Vec2, r: f32) -> f32 {
+        above_horizon(self.coverage(vertex, p, r), p, r)
+    }
+}
+
+/// A square's visible fraction `c` (horizon included) as a fraction of its part above the
+/// horizon, `c / coverage(1 − |p|, r)` within [0, 1] (0 where none of it is above).
+#[inline]
+pub fn above_horizon(c: f32, p: Vec2, r: f32) -> f32 {
+    let h = coverage(1.0 - p.length(), r);
+    if h > 0.0 { (c / h).min(1.0) } else { 0.0 }
 }
 
 /// RMS errors of the distances and of random squares' coverage reconstructed by `cpca`,
@@ -222,6 +235,18 @@ impl SvdfVertex<'_> {
     #[inline]
     pub fn coverage(&self, p: Vec2, r: f32) -> f32 {
         coverage(self.distance(p), r)
+    }
+
+    /// The visible fraction of the square's part above the vertex's horizon: what multiplies
+    /// a BRDF integral that already leaves out the part below it (a product of the two
+    /// fractions would count the horizon twice). A convex object's is 1 wherever any of the
+    /// square is above the horizon.
+    #[inline]
+    pub fn coverage_above_horizon(&self, p: Vec2, r: f32) -> f32 {
+        match self {
+            SvdfVertex::Convex => above_horizon(coverage(1.0 - p.length(), r), p, r),
+            SvdfVertex::Field { .. } => above_horizon(self.coverage(p, r), p, r),
+        }
     }
 }
 

@@ -209,3 +209,46 @@ fn field_files_round_trip_and_reject_damage() {
     assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains("tmp")));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn coverage_above_the_horizon_is_the_visible_share_of_the_part_above_it() {
+    // Independent: the rotation-averaged fraction of the square's points above the horizon
+    // (|p| < 1) that a blocker hides, by brute force over the square, for a vertex whose
+    // only blocker is a straight boundary x > b in the plane (besides the horizon).
+    let square_share = |c: Vec2, r: f32, blocked: &dyn Fn(Vec2) -> bool| {
+        let s = r / std::f32::consts::SQRT_2;
+        let (mut above, mut seen) = (0usize, 0usize);
+        for k in 0..16 {
+            let th = std::f32::consts::FRAC_PI_2 * (k as f32 + 0.5) / 16.0;
+            let (sn, cs) = th.sin_cos();
+            for a in 0..48 {
+                for b in 0..48 {
+                    let (u, v) = (s * ((2 * a + 1) as f32 / 48.0 - 1.0), s * ((2 * b + 1) as f32 / 48.0 - 1.0));
+                    let q = c + Vec2::new(cs * u - sn * v, sn * u + cs * v);
+                    if q.length_squared() < 1.0 {
+                        above += 1;
+                        seen += usize::from(!blocked(q));
+                    }
+                }
+            }
+        }
+        if above == 0 { 0.0 } else { seen as f32 / above as f32 }
+    };
+    // A convex vertex: everything above the horizon is visible, however much of the square
+    // lies below it.
+    let convex = Svdf::Convex { vertices: 1 };
+    for (c, r) in [(Vec2::new(0.95, 0.0), 0.2f32), (Vec2::new(0.0, 1.05), 0.1), (Vec2::new(0.3, 0.3), 0.05)] {
+        let got = convex.vertex(0).coverage_above_horizon(c, r);
+        assert!((got - square_share(c, r, &|_| false)).abs() < 1e-6, "c {c}, r {r}: {got}");
+    }
+    assert_eq!(convex.vertex(0).coverage_above_horizon(Vec2::new(0.0, 1.5), 0.1), 0.0);
+    // A field whose distance is the nearer of the horizon and the line x = 0.6 (blocked
+    // beyond): next to the line the share is the line's; next to the rim, where the line is
+    // far, every point above the horizon is visible.
+    let field = |p: Vec2| (1.0 - p.length()).min(0.6 - p.x);
+    for (c, r) in [(Vec2::new(0.55, 0.0), 0.1f32), (Vec2::new(0.0, 0.97), 0.08)] {
+        let want = square_share(c, r, &|q| q.x > 0.6);
+        let got = rsl_vis::svdf::above_horizon(rsl_vis::coverage(field(c), r), c, r);
+        assert!((got - want).abs() < 0.03, "c {c}, r {r}: {got} vs {want}");
+    }
+}
