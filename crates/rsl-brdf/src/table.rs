@@ -30,7 +30,8 @@
 use crate::model::Brdf;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use rsl_sphere::hemi::{HemiGrid, Horizon, dir_from_hemi, hemi_from_dir};
+use rsl_sphere::hemi::{HemiGrid, dir_from_hemi, hemi_from_dir};
+use std::sync::{Arc, Mutex};
 
 /// Largest polar view angle tabulated: `acos(10⁻³)`.
 pub fn theta_max() -> f32 {
@@ -160,12 +161,12 @@ impl BrdfTable {
             let v = res.views;
             Views::Isotropic((0..v).map(|k| theta_max() * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect())
         };
-        let points = QuadraturePoints::new(&grid);
-        let slices: Vec<(Vec<[f64; 3]>, Vec3)> = match &views {
-            Views::Single => vec![slice(brdf, &grid, &points, Vec3::Z, true)],
+        let points = QuadraturePoints::of(&grid);
+        let slices: Vec<(Vec<[f64; 4]>, Vec3)> = match &views {
+            Views::Single => vec![slice_sat(brdf, &grid, &points, Vec3::Z, true)],
             Views::Isotropic(thetas) => thetas
                 .par_iter()
-                .map(|&t| slice(brdf, &grid, &points, Vec3::new(t.sin(), 0.0, t.cos()), true))
+                .map(|&t| slice_sat(brdf, &grid, &points, Vec3::new(t.sin(), 0.0, t.cos()), true))
                 .collect(),
             Views::Anisotropic(v) => {
                 // The anisotropic models here are symmetric under x → −x and y → −y (Ward
@@ -175,13 +176,13 @@ impl BrdfTable {
                 let half = v.div_ceil(2);
                 (0..half * half)
                     .into_par_iter()
-                    .map(|k| slice(brdf, &grid, &points, anisotropic_view(*v, k % half, k / half), false))
+                    .map(|k| slice_sat(brdf, &grid, &points, anisotropic_view(*v, k % half, k / half), false))
                     .collect()
             }
         };
         let max_density = slices.iter().fold(Vec3::ZERO, |m, s| m.max(s.1));
         let n = grid.n();
-        let sat: Vec<Vec<[f64; 4]>> = slices.into_par_iter().map(|(cells, _)| summed_area(&cells, n)).collect();
+        let sat: Vec<Vec<[f64; 4]>> = slices.into_iter().map(|(sat, _)| sat).collect();
         // Paired rows serve the AVX-512 kernels only; elsewhere they would double the
         // memory written per build for nothing.
         let pairs = match views {
@@ -656,6 +657,8 @@ struct QuadraturePoints {
     dirs: Vec<[Vec3; 4]>,
     inside: Vec<[bool; 4]>,
     centres: Vec<Vec3>,
+    /// Per cell: 1 / its solid angle above the horizon, or 0 for a cell wholly below it.
+    inv_omega: Vec<f32>,
 }
 
 /// The 2×2 Gauss–Legendre points of the plane square `[x0, x0 + side] × [y0, y0 + side]`.
@@ -689,8 +692,11 @@ impl QuadraturePoints {
         let mut dirs = Vec::with_capacity(n * n);
         let mut inside = Vec::with_capacity(n * n);
         let mut centres = Vec::with_capacity(n * n);
+        let mut inv_omega = Vec::with_capacity(n * n);
         for j in 0..n {
             for i in 0..n {
+                let omega = grid.cell_solid_angle_above(i, j);
+                inv_omega.push(if omega > 0.0 { (1.0 / omega) as f32 } else { 0.0 });
                 let [x0, y0, ..] = grid.cell_rect(i, j);
                 centres.push(dir_from_hemi(Vec2::new((x0 + 0.5 * h) as f32, (y0 + 0.5 * h) as f32)));
                 let pts = gauss_points(x0, y0, h);
@@ -698,19 +704,44 @@ impl QuadraturePoints {
                 dirs.push(pts.map(dir_from_hemi));
             }
         }
-        Self { dirs, inside, centres }
+        Self { dirs, inside, centres, inv_omega }
+    }
+
+    /// The points of an `N×N` grid, built once per `N` and kept (a few MB at N = 128; a
+    /// material edit rebuilds its table at the same `N`).
+    fn of(grid: &HemiGrid) -> Arc<Self> {
+        static BUILT: Mutex<Vec<(usize, Arc<QuadraturePoints>)>> = Mutex::new(Vec::new());
+        let n = grid.n();
+        let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, p)) = built.iter().find(|(m, _)| *m == n) {
+            return p.clone();
+        }
+        let p = Arc::new(Self::new(grid));
+        // The few resolutions in use (auto picks powers of two from 32 to 128).
+        if built.len() >= 4 {
+            built.remove(0);
+        }
+        built.push((n, p.clone()));
+        p
     }
 }
 
 /// One view slice's cell integrals (row-major `N×N`) and its largest cell density. With
 /// `mirror_y` (isotropic BRDFs, view in the xz-plane) the slice is symmetric in y: only the
 /// upper half of the rows is integrated and the rest copied.
-fn slice(brdf: &Brdf, grid: &HemiGrid, points: &QuadraturePoints, wo: Vec3, mirror_y: bool) -> (Vec<[f64; 3]>, Vec3) {
+fn slice(
+    brdf: &Brdf,
+    grid: &HemiGrid,
+    points: &QuadraturePoints,
+    wo: Vec3,
+    mirror_y: bool,
+    cells: &mut [[f64; 3]],
+) -> Vec3 {
     let n = grid.n();
     let h = 2.0 / n as f64;
     let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
     let width = brdf.lobe_width().map(f64::from);
-    let mut cells = vec![[0.0f64; 3]; n * n];
+    cells.fill([0.0; 3]);
     let mut max_density = Vec3::ZERO;
     let first_row = if mirror_y { n / 2 } else { 0 };
     // Whole cells need refining only when wider than half the lobe; then only those whose
@@ -719,21 +750,19 @@ fn slice(brdf: &Brdf, grid: &HemiGrid, points: &QuadraturePoints, wo: Vec3, mirr
         width.filter(|&w| 2.0 * h > 0.5 * w).map(|w| (3.0 * w + 2.0 * h).min(std::f64::consts::PI).cos() as f32);
     for j in first_row..n {
         for i in 0..n {
-            if grid.horizon(i, j) == Horizon::Below {
+            let k = j * n + i;
+            let inv_omega = points.inv_omega[k];
+            if inv_omega == 0.0 {
+                // Wholly below the horizon.
                 continue;
             }
-            let [x0, y0, ..] = grid.cell_rect(i, j);
-            let k = j * n + i;
             let near = near_cos.is_some_and(|c| points.centres[k].dot(mirror) > c);
-            let e = match near && refine(width, mirror, x0, y0, h, 0) {
-                true => integrate(brdf, wo, mirror, width, x0, y0, h, 0),
-                false => gauss_sum(brdf, wo, h, points.dirs[k].iter().copied().zip(points.inside[k])),
+            let e = if near && refine(width, mirror, -1.0 + i as f64 * h, -1.0 + j as f64 * h, h, 0) {
+                integrate(brdf, wo, mirror, width, -1.0 + i as f64 * h, -1.0 + j as f64 * h, h, 0)
+            } else {
+                gauss_sum(brdf, wo, h, points.dirs[k].iter().copied().zip(points.inside[k]))
             };
-            let omega = grid.cell_solid_angle_above(i, j);
-            if omega > 0.0 {
-                max_density =
-                    max_density.max(Vec3::new((e[0] / omega) as f32, (e[1] / omega) as f32, (e[2] / omega) as f32));
-            }
+            max_density = max_density.max(Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32) * inv_omega);
             cells[k] = e;
         }
     }
@@ -744,25 +773,51 @@ fn slice(brdf: &Brdf, grid: &HemiGrid, points: &QuadraturePoints, wo: Vec3, mirr
             }
         }
     }
-    (cells, max_density)
+    max_density
+}
+
+/// [`slice`]'s summed-area table ([`summed_area`]) and largest cell density, its cells in a
+/// per-thread buffer reused across slices and builds.
+fn slice_sat(
+    brdf: &Brdf,
+    grid: &HemiGrid,
+    points: &QuadraturePoints,
+    wo: Vec3,
+    mirror_y: bool,
+) -> (Vec<[f64; 4]>, Vec3) {
+    thread_local! {
+        static CELLS: std::cell::RefCell<Vec<[f64; 3]>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+    let n = grid.n();
+    CELLS.with_borrow_mut(|cells| {
+        cells.resize(n * n, [0.0; 3]);
+        let max_density = slice(brdf, grid, points, wo, mirror_y, cells);
+        (summed_area(cells, n), max_density)
+    })
 }
 
 /// Summed-area table of `N×N` cells: `(N+1)²` prefix sums, stored with replicated edges as
-/// `(N+3)²` entries (see `BrdfTable::sat`).
+/// `(N+3)²` entries (see `BrdfTable::sat`): padded row (column) `a` holds prefix row (column)
+/// `clamp(a − 1, 0, N)`, written directly.
 fn summed_area(cells: &[[f64; 3]], n: usize) -> Vec<[f64; 4]> {
-    let mut sat = vec![[0.0f64; 4]; (n + 1) * (n + 1)];
+    let w = n + 3;
+    // Padded rows 0 and 1 are prefix row 0 (zeros); row j + 2 is prefix row j + 1.
+    let mut out = vec![[0.0f64; 4]; w * w];
     for j in 0..n {
+        let (above, rest) = out.split_at_mut((j + 2) * w);
+        let (prev, cur) = (&above[(j + 1) * w..], &mut rest[..w]);
         let mut row = [0.0f64; 3];
         for i in 0..n {
-            for c in 0..3 {
-                row[c] += cells[j * n + i][c];
-                sat[(j + 1) * (n + 1) + i + 1][c] = sat[j * (n + 1) + i + 1][c] + row[c];
-            }
+            let c = cells[j * n + i];
+            row = [row[0] + c[0], row[1] + c[1], row[2] + c[2]];
+            let p = prev[i + 2];
+            cur[i + 2] = [p[0] + row[0], p[1] + row[1], p[2] + row[2], 0.0];
         }
+        cur[n + 2] = cur[n + 1];
     }
-    let w = n + 3;
-    let clamp = |a: usize| a.saturating_sub(1).min(n);
-    (0..w * w).map(|e| sat[clamp(e / w) * (n + 1) + clamp(e % w)]).collect()
+    let (body, last) = out.split_at_mut((n + 2) * w);
+    last.copy_from_slice(&body[(n + 1) * w..]);
+    out
 }
 
 /// Whether the square `[x0, x0 + side] × [y0, y0 + side]` must be split: it is wider than the
