@@ -173,20 +173,46 @@ fn an_error_budget_measures_every_oracle_once_and_all_of_them_approach_the_truth
 fn raising_any_single_knob_never_raises_the_error_beyond_the_truths_noise() {
     let d = dir("monotone");
     let (scene, out, cache) = (scene(&d), d.join("out"), d.join("cache"));
+    // A torus has a stored self-visibility field, for the CPCA knobs (the ball is convex).
+    let torus = d.join("torus.toml");
+    let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
+    std::fs::write(
+        &torus,
+        format!(
+            r#"
+            quality = "draft"
+            [environment]
+            map = "{}"
+            [camera]
+            eye = [0.0, 2.0, 2.0]
+            target = [0.0, 0.0, 0.0]
+            width = 64
+            height = 48
+            [[objects]]
+            name = "torus"
+            primitive = {{ kind = "torus", major_radius = 0.5, minor_radius = 0.2, resolution = 12 }}
+            rotation = {{ axis = [1.0, 0.0, 0.0], degrees = 60.0 }}
+            material = {{ model = "lambert", albedo = [0.7, 0.7, 0.7] }}
+            "#,
+            map.display()
+        ),
+    )
+    .unwrap();
     // From a coarse base, each knob alone at a low and a higher value.
     let base = "quality=draft";
-    // (The ball is convex: it has no self-visibility field, so the CPCA knobs do not apply.)
-    let pairs: [(&str, &str, &str); 8] = [
-        ("rsl", "4", "32"),
-        ("brdf_resolution", "16", "64"),
-        ("view_samples", "4", "16"),
-        ("visibility_resolution", "8", "32"),
-        ("ovdf_vectors", "1", "8"),
-        ("ovdf_directions", "4", "16"),
-        ("ovdf_shells", "2", "8"),
-        ("env_grid", "8", "16"),
+    let pairs: [(&str, &str, &str, &PathBuf); 10] = [
+        ("rsl", "4", "32", &scene),
+        ("brdf_resolution", "16", "64", &scene),
+        ("view_samples", "4", "16", &scene),
+        ("visibility_resolution", "8", "32", &scene),
+        ("ovdf_vectors", "1", "8", &scene),
+        ("ovdf_directions", "4", "16", &scene),
+        ("ovdf_shells", "2", "8", &scene),
+        ("env_grid", "8", "16", &scene),
+        ("cpca_clusters", "1", "16", &torus),
+        ("cpca_vectors", "1", "6", &torus),
     ];
-    for (knob, low, high) in pairs {
+    for (knob, low, high, scene) in pairs {
         let sweep = format!("{knob}={low},{high}");
         let mut o = options(scene.clone(), out.join(knob), cache.clone(), &[base, &sweep]);
         o.grid_spp = 0;
