@@ -13,36 +13,34 @@ fn dir(name: &str) -> PathBuf {
 
 /// A ball over a plane under the bundled studio map, at draft quality.
 fn scene(dir: &std::path::Path) -> PathBuf {
-    let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
-    let path = dir.join("small.toml");
-    std::fs::write(
-        &path,
-        format!(
-            r#"
-            quality = "draft"
-            [environment]
-            map = "{}"
-            [camera]
-            eye = [0.0, 2.0, 3.0]
-            target = [0.0, 0.0, 0.0]
-            width = 64
-            height = 48
-            [[objects]]
-            name = "floor"
-            primitive = {{ kind = "plane", size = 3.0, resolution = 12 }}
-            material = {{ model = "lambert", albedo = [0.6, 0.6, 0.6] }}
-            casts_shadows = false
-            [[objects]]
-            name = "ball"
-            primitive = {{ kind = "sphere", radius = 0.4, resolution = 12 }}
-            translation = [0.0, 0.5, 0.0]
-            material = {{ model = "ggx", alpha = 0.3, specular = [0.9, 0.9, 0.9], diffuse = [0.2, 0.2, 0.2] }}
-            "#,
-            map.display()
-        ),
+    write_scene(
+        &dir.join("small.toml"),
+        [0.0, 2.0, 3.0],
+        r#"
+        [[objects]]
+        name = "floor"
+        primitive = { kind = "plane", size = 3.0, resolution = 12 }
+        material = { model = "lambert", albedo = [0.6, 0.6, 0.6] }
+        casts_shadows = false
+        [[objects]]
+        name = "ball"
+        primitive = { kind = "sphere", radius = 0.4, resolution = 12 }
+        translation = [0.0, 0.5, 0.0]
+        material = { model = "ggx", alpha = 0.3, specular = [0.9, 0.9, 0.9], diffuse = [0.2, 0.2, 0.2] }
+        "#,
     )
-    .unwrap();
-    path
+}
+
+/// A small draft scene under studio.exr, 64×48, seen from `eye`, with `objects` (TOML).
+fn write_scene(path: &std::path::Path, eye: [f32; 3], objects: &str) -> PathBuf {
+    let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
+    let header = format!(
+        "quality = \"draft\"\n[environment]\nmap = \"{}\"\n[camera]\neye = {eye:?}\ntarget = [0.0, 0.0, 0.0]\n\
+         width = 64\nheight = 48\n",
+        map.display()
+    );
+    std::fs::write(path, header + objects).unwrap();
+    path.to_path_buf()
 }
 
 fn image_size(path: &std::path::Path) -> (u32, u32) {
@@ -174,30 +172,17 @@ fn raising_any_single_knob_never_raises_the_error_beyond_the_truths_noise() {
     let d = dir("monotone");
     let (scene, out, cache) = (scene(&d), d.join("out"), d.join("cache"));
     // A torus has a stored self-visibility field, for the CPCA knobs (the ball is convex).
-    let torus = d.join("torus.toml");
-    let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
-    std::fs::write(
-        &torus,
-        format!(
-            r#"
-            quality = "draft"
-            [environment]
-            map = "{}"
-            [camera]
-            eye = [0.0, 2.0, 2.0]
-            target = [0.0, 0.0, 0.0]
-            width = 64
-            height = 48
-            [[objects]]
-            name = "torus"
-            primitive = {{ kind = "torus", major_radius = 0.5, minor_radius = 0.2, resolution = 12 }}
-            rotation = {{ axis = [1.0, 0.0, 0.0], degrees = 60.0 }}
-            material = {{ model = "lambert", albedo = [0.7, 0.7, 0.7] }}
-            "#,
-            map.display()
-        ),
-    )
-    .unwrap();
+    let torus = write_scene(
+        &d.join("torus.toml"),
+        [0.0, 2.0, 2.0],
+        r#"
+        [[objects]]
+        name = "torus"
+        primitive = { kind = "torus", major_radius = 0.5, minor_radius = 0.2, resolution = 12 }
+        rotation = { axis = [1.0, 0.0, 0.0], degrees = 60.0 }
+        material = { model = "lambert", albedo = [0.7, 0.7, 0.7] }
+        "#,
+    );
     // From a coarse base, each knob alone at a low and a higher value.
     let base = "quality=draft";
     let pairs: [(&str, &str, &str, &PathBuf); 10] = [
