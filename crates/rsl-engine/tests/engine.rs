@@ -6,15 +6,8 @@ use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Terms;
 use std::path::{Path, PathBuf};
 
-/// The repository root (the bundled data lives there).
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// A scene written inline as if it were a file in data/scenes (so `../hdri/…` resolves).
-fn scene(text: &str) -> Scene {
-    Scene::from_toml_str(text, &root().join("data/scenes/inline-test.toml")).expect("valid test scene")
-}
+mod common;
+use common::{root, scene};
 
 fn memory_only() -> EngineOptions {
     EngineOptions::default()

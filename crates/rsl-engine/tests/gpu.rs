@@ -5,13 +5,10 @@
 use glam::{Quat, Vec3};
 use rsl_engine::scene::{Material, Scene};
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, ShadedFrame};
-use std::path::PathBuf;
 use std::sync::Arc;
 
-/// The repository root (the bundled data lives there).
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
+use common::{root, scene};
 
 fn default_scene() -> Scene {
     Scene::load(root().join("data/scenes/default.toml")).expect("the default scene loads")
@@ -157,11 +154,6 @@ fn gpu_matches_cpu_with_one_and_a_hundred_rsls() {
     }
 }
 
-/// A scene written inline as if it were a file in data/scenes.
-fn inline_scene(text: &str) -> Scene {
-    Scene::from_toml_str(text, &root().join("data/scenes/inline-test.toml")).expect("valid test scene")
-}
-
 #[test]
 fn gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders() {
     let Some(mut gpu) = renderer("gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders") else { return };
@@ -196,7 +188,7 @@ fn gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders() {
              translation = [{x}, 0.08, {z}]\nmaterial = {{ model = \"lambert\", albedo = [0.7, 0.7, 0.7] }}\n"
         ));
     }
-    let scene = inline_scene(&text);
+    let scene = scene(&text);
     let engine = engine(&scene);
     let cpu = engine.shade(&scene, 0.0).unwrap();
     // The overflow path is exercised: some plate vertex has more than 16 occluder fields near.

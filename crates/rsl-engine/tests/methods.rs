@@ -15,19 +15,16 @@ use glam::{Quat, Vec3};
 use rsl_engine::method::{CpuRsl, Frame, GpuRsl, Method, Request, Truth};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, Layers};
-use std::path::PathBuf;
 use std::sync::Arc;
+
+mod common;
+use common::{cap_radiance, cap_scene, facing, scene};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Kind {
     Cpu,
     Gpu,
     Truth,
-}
-
-fn scene(text: &str) -> Scene {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/inline-test.toml");
-    Scene::from_toml_str(text, &root).expect("valid test scene")
 }
 
 /// The RSL paths' error under a constant environment, relative: the light set's quadrature
@@ -71,10 +68,6 @@ fn within(kind: Kind, f: &Frame, i: usize, v: usize, expected: Vec3, rsl_tol: f3
     if diff.cmple(tol).all() { Ok(()) } else { Err(format!("vertex {v}: {got} vs {expected} (tolerance {tol})")) }
 }
 
-fn facing(f: &Frame, i: usize, v: usize, eye: Vec3) -> bool {
-    f.normals[i][v].dot((eye - f.positions[i][v]).normalize()) > 0.05
-}
-
 // ---- A Lambert sphere in a white furnace --------------------------------------------------
 
 fn furnace(kind: Kind, test: &str) {
@@ -116,51 +109,6 @@ fn furnace(kind: Kind, test: &str) {
 }
 
 // ---- Points under a sphere: the analytic cap -----------------------------------------------
-
-/// A plane under a ball, both Lambert, in a constant white environment: a plane point at
-/// horizontal distance ρ from below the ball's centre (height h, radius R) sees the ball as
-/// a cap of half-angle β = asin(R/d), d² = ρ² + h², at angle θ from its normal
-/// (cos θ = h/d). Where the cap is wholly above the horizon (θ + β < π/2) it hides
-/// (R/d)²·cos θ of the cosine-weighted hemisphere (the form factor of a sphere), so the
-/// point reflects `albedo·L·(1 − (R/d)² cos θ)`.
-fn cap_scene(motion: &str) -> Scene {
-    scene(&format!(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 8
-        table_resolution = 32
-        ovdf_directions = 16
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = 384
-        [camera]
-        eye = [0.0, 3.0, 0.5]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ground"
-        primitive = {{ kind = "plane", size = 3.0, resolution = 30 }}
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        casts_shadows = false
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = 0.4, resolution = 24 }}
-        translation = [0.0, 0.8, 0.0]
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        {motion}
-        "#
-    ))
-}
-
-/// The radiance of a ground point `p` under a ball at `centre` of radius `r` (`None` where
-/// the cap crosses the horizon).
-fn cap_radiance(p: Vec3, centre: Vec3, r: f32) -> Option<f32> {
-    let to = centre - p;
-    let d = to.length();
-    let (sin_b, cos_t) = (r / d, to.y / d);
-    let (beta, theta) = (sin_b.asin(), cos_t.acos());
-    (theta + beta < std::f32::consts::FRAC_PI_2 - 0.05).then_some(0.5 * (1.0 - sin_b * sin_b * cos_t))
-}
 
 /// The RSL paths' bound at a point: the cap's boundary is placed to within half a cell of
 /// the `N×N` equal-area hemisphere grid (cell side δ = √(2π/N²) radians), so the hidden

@@ -7,12 +7,9 @@ use rsl_engine::method::{CpuRsl, Frame, Method, Oracle, Request};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Oracles;
-use std::path::PathBuf;
 
-fn scene(text: &str) -> Scene {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/inline-test.toml");
-    Scene::from_toml_str(text, &root).expect("valid test scene")
-}
+mod common;
+use common::{cap_radiance, cap_scene, facing, scene};
 
 fn render(engine: &mut Engine, scene: &Scene, oracles: Oracles) -> Frame {
     Oracle::prepare(engine, oracles).expect("light set");
@@ -20,10 +17,6 @@ fn render(engine: &mut Engine, scene: &Scene, oracles: Oracles) -> Frame {
     let f = Oracle::new(oracles).render(engine, scene, &request).expect("frame");
     assert!(f.has_vertices());
     f
-}
-
-fn facing(f: &Frame, i: usize, v: usize, eye: Vec3) -> bool {
-    f.normals[i][v].dot((eye - f.positions[i][v]).normalize()) > 0.05
 }
 
 fn ball(material: &str, env_grid: u32, rsl_count: u32) -> Scene {
@@ -115,36 +108,12 @@ fn the_self_oracle_matches_a_convex_objects_analytic_field() {
     assert!(f.shadow_rays > 0);
 }
 
-/// A plane under a ball in a constant environment (the analytic cap of `methods.rs`): a
+/// A plane under a ball in a constant environment (the analytic cap, `common::cap_scene`): a
 /// ground point at distance d from the ball's centre, at angle θ from its normal, reflects
 /// `albedo·L·(1 − (R/d)² cos θ)` where the cap is wholly above its horizon.
 #[test]
 fn the_occluder_oracle_and_the_field_find_the_analytic_cap() {
-    let s = scene(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 8
-        table_resolution = 32
-        ovdf_directions = 16
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = 384
-        [camera]
-        eye = [0.0, 3.0, 0.5]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ground"
-        primitive = { kind = "plane", size = 3.0, resolution = 30 }
-        material = { model = "lambert", albedo = [0.5, 0.5, 0.5] }
-        casts_shadows = false
-        [[objects]]
-        name = "ball"
-        primitive = { kind = "sphere", radius = 0.4, resolution = 24 }
-        translation = [0.0, 0.8, 0.0]
-        material = { model = "lambert", albedo = [0.5, 0.5, 0.5] }
-        "#,
-    );
+    let s = cap_scene("");
     let mut engine = Engine::new(&s, EngineOptions::default()).unwrap();
     let request = Request { time: 0.0, image: false, vertices: true, exposure: None };
     let plain = CpuRsl.render(&engine, &s, &request).unwrap();
@@ -152,15 +121,8 @@ fn the_occluder_oracle_and_the_field_find_the_analytic_cap() {
     let centre = Vec3::new(0.0, 0.8, 0.0);
     let (mut field_err, mut oracle_err, mut norm, mut checked) = (0.0f64, 0.0f64, 0.0f64, 0);
     for v in 0..oracle.radiance[0].len() {
-        let p = oracle.positions[0][v];
-        let to = centre - p;
-        let d = to.length();
-        let (sin_b, cos_t) = (0.4 / d, to.y / d);
-        if sin_b.asin() + cos_t.acos() >= std::f32::consts::FRAC_PI_2 - 0.05 {
-            continue;
-        }
         // Only points the ball shades noticeably: elsewhere both are exact.
-        let expected = 0.5 * (1.0 - sin_b * sin_b * cos_t);
+        let Some(expected) = cap_radiance(oracle.positions[0][v], centre, 0.4) else { continue };
         checked += 1;
         field_err += f64::from(plain.radiance[0][v].x - expected).powi(2);
         oracle_err += f64::from(oracle.radiance[0][v].x - expected).powi(2);

@@ -244,7 +244,8 @@ impl SvdfVertex<'_> {
     #[inline]
     pub fn coverage_above_horizon(&self, p: Vec2, r: f32) -> f32 {
         match self {
-            SvdfVertex::Convex => above_horizon(coverage(1.0 - p.length(), r), p, r),
+            // The horizon is the only boundary: its share of itself.
+            SvdfVertex::Convex => f32::from(u8::from(coverage(1.0 - p.length(), r) > 0.0)),
             SvdfVertex::Field { .. } => above_horizon(self.coverage(p, r), p, r),
         }
     }
