@@ -2,7 +2,9 @@
 // square_for, box_blend). Xu et al. 2006, §4.2.
 //
 // A table's slices live in `tables` from `offset`, each `(n+1)²` summed-area entries (RGB,
-// prefix sums) followed by its `n²` cells (RGB, cell integrals). The CPU evaluates a box as
+// prefix sums) followed by its `n²` cells (RGB, cell integrals). An isotropic table with a
+// diffuse term holds its specular part in the `views` polar slices and the diffuse term in
+// one more slice after them (view-independent: it does not follow the lobe). The CPU evaluates a box as
 // Σ wy·wx·SAT over Catmull–Rom taps of its four corners, in f64. The same linear combination
 // rearranged, Σ cell·Wy·Wx with Wx_i = Σ_{taps c > i} wx_c, touches only the cells under
 // the box and its spline margin and has no cancellation, so small boxes (a sun) keep their
@@ -29,6 +31,9 @@ struct TableRef {
     views: u32,
     offset: u32,
     max_density: vec3<f32>,
+    // Isotropic: whether slice `views` holds a diffuse term, and Brdf::view_amplitude_exponent.
+    diffuse: bool,
+    amplitude: f32,
 }
 
 struct ViewLookup {
@@ -38,12 +43,21 @@ struct ViewLookup {
     node: vec2<u32>,
     // Isotropic: (cos φ_v, sin φ_v).
     rotation: vec2<f32>,
-    // Isotropic: (weight of slice + 1, 0). Anisotropic: (fx, fy).
+    // Isotropic: the weights of slices `slice` and `slice + 1`. Anisotropic: (fx, fy).
     weight: vec2<f32>,
+    // Isotropic: (cos β, sin β) of the turn about y that reads each of the two slices where
+    // its lobe is (β = θ_v − θ_k), lower slice in xy, upper in zw.
+    turn: vec4<f32>,
+}
+
+// Polar angle of isotropic slice k of v: θ_max(1 − (1 − k/(v−1))²).
+fn slice_theta(k: u32, v: u32, theta_max: f32) -> f32 {
+    let u = 1.0 - f32(k) / f32(v - 1u);
+    return theta_max * (1.0 - u * u);
 }
 
 fn view_lookup(table: TableRef, view: vec3<f32>, theta_max: f32) -> ViewLookup {
-    var out = ViewLookup(VIEW_BELOW, 0u, vec2<u32>(0u), vec2<f32>(1.0, 0.0), vec2<f32>(0.0));
+    var out = ViewLookup(VIEW_BELOW, 0u, vec2<u32>(0u), vec2<f32>(1.0, 0.0), vec2<f32>(0.0), vec4<f32>(1.0, 0.0, 1.0, 0.0));
     if !(view.z > 0.0) {
         return out;
     }
@@ -61,9 +75,16 @@ fn view_lookup(table: TableRef, view: vec3<f32>, theta_max: f32) -> ViewLookup {
         // Invert θ = θ_max(1 − (1 − t)²): t = 1 − √(1 − θ/θ_max).
         let t = (1.0 - sqrt(max(1.0 - theta / theta_max, 0.0))) * f32(v - 1u);
         let k = min(u32(floor(t)), v - 2u);
+        let f = clamp(t - f32(k), 0.0, 1.0);
+        let th0 = slice_theta(k, v, theta_max);
+        let th1 = slice_theta(k + 1u, v, theta_max);
         out.kind = VIEW_ISOTROPIC;
         out.slice = k;
-        out.weight = vec2<f32>(clamp(t - f32(k), 0.0, 1.0), 0.0);
+        out.turn = vec4<f32>(cos(theta - th0), sin(theta - th0), cos(theta - th1), sin(theta - th1));
+        out.weight = vec2<f32>(1.0 - f, f);
+        if table.amplitude != 0.0 {
+            out.weight *= pow(vec2<f32>(cos(th0), cos(th1)) / cos(theta), vec2<f32>(table.amplitude));
+        }
         return out;
     }
     var q = hemi_from_dir(view);
@@ -197,8 +218,19 @@ fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) ->
             let c = view.rotation.x;
             let sn = view.rotation.y;
             let l = vec3<f32>(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
-            let f = view.weight.x;
-            integral = box_blend(table, view.slice, 1.0 - f, view.slice + 1u, f, hemi_from_dir(l), s);
+            // Each slice is read where its lobe is: the light turned about y as the mirror
+            // direction turns from the view's to the slice's.
+            if view.weight.x > 0.0 {
+                let l0 = vec3<f32>(view.turn.x * l.x + view.turn.y * l.z, l.y, view.turn.x * l.z - view.turn.y * l.x);
+                integral += box_blend(table, view.slice, view.weight.x, 0u, 0.0, hemi_from_dir(l0), s);
+            }
+            if view.weight.y > 0.0 {
+                let l1 = vec3<f32>(view.turn.z * l.x + view.turn.w * l.z, l.y, view.turn.z * l.z - view.turn.w * l.x);
+                integral += box_blend(table, view.slice + 1u, view.weight.y, 0u, 0.0, hemi_from_dir(l1), s);
+            }
+            if table.diffuse {
+                integral += box_blend(table, table.views, 1.0, 0u, 0.0, hemi_from_dir(l), s);
+            }
         }
         case VIEW_ANISOTROPIC: {
             let p = hemi_from_dir(light);

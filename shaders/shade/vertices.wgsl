@@ -33,7 +33,7 @@ struct GpuObject {
     // object-space distance beyond which the field holds nothing.
     bound_world: vec4<f32>,
     bound_object: vec4<f32>,
-    // rgb: the table's largest cell density.
+    // rgb: the table's largest cell density; w: its BRDF's view amplitude exponent.
     max_density: vec4<f32>,
     // xyz: the occluder field's centre (object space); w: its radius.
     ovdf_centre: vec4<f32>,
@@ -99,7 +99,10 @@ const PI: f32 = 3.14159265358979;
 const MAX_NEAR: u32 = 16u;
 
 fn table_of(o: GpuObject) -> TableRef {
-    return TableRef(o.table_kind, o.table_n, o.table_views, o.table_offset, o.max_density.xyz);
+    // table_kind: the kind in bits 0–7, bit 8 set where a diffuse slice follows the views.
+    let kind = o.table_kind & 0xffu;
+    let diffuse = (o.table_kind & 0x100u) != 0u;
+    return TableRef(kind, o.table_n, o.table_views, o.table_offset, o.max_density.xyz, diffuse, o.max_density.w);
 }
 
 fn ovdf_of(o: GpuObject) -> OvdfRef {

@@ -179,6 +179,46 @@ impl Brdf {
         }
     }
 
+    /// The Lambertian albedo `kd` of the diffuse term (`albedo` for a Lambertian BRDF).
+    pub fn diffuse(&self) -> Vec3 {
+        match *self {
+            Brdf::Lambert { albedo } => albedo,
+            Brdf::Phong { diffuse, .. }
+            | Brdf::BlinnPhong { diffuse, .. }
+            | Brdf::CookTorrance { diffuse, .. }
+            | Brdf::Ward { diffuse, .. }
+            | Brdf::Ggx { diffuse, .. }
+            | Brdf::Beckmann { diffuse, .. } => diffuse,
+        }
+    }
+
+    /// The same BRDF without its diffuse term (the specular part alone; a Lambertian BRDF
+    /// becomes black).
+    pub fn specular_part(&self) -> Brdf {
+        let mut out = *self;
+        match &mut out {
+            Brdf::Lambert { albedo } => *albedo = Vec3::ZERO,
+            Brdf::Phong { diffuse, .. }
+            | Brdf::BlinnPhong { diffuse, .. }
+            | Brdf::CookTorrance { diffuse, .. }
+            | Brdf::Ward { diffuse, .. }
+            | Brdf::Ggx { diffuse, .. }
+            | Brdf::Beckmann { diffuse, .. } => *diffuse = Vec3::ZERO,
+        }
+        out
+    }
+
+    /// The power `e` of `1/cos θ_o` by which the specular part's size grows with the view's
+    /// polar angle at a fixed lobe shape: ½ for Ward (`ρ·cos θ_i ∝ √(cos θ_i / cos θ_o)`,
+    /// which is why its albedo exceeds 1 near grazing), 0 for the others, whose shadowing
+    /// keeps the size bounded. Tables blend view slices scaled by `(cos θ_k / cos θ_o)^e`.
+    pub fn view_amplitude_exponent(&self) -> f32 {
+        match self {
+            Brdf::Ward { .. } => 0.5,
+            _ => 0.0,
+        }
+    }
+
     /// Angular width of the specular lobe in radians (about one standard deviation of the
     /// lobe around its peak), used to choose tabulation resolution and sub-cell sampling.
     /// `None` for a Lambertian BRDF.

@@ -91,12 +91,14 @@ pub struct BrdfTable {
     /// `i` are then always the four consecutive entries from `i`. The fourth lane is zero
     /// padding, so that a tap is one 4-wide vector operation.
     sat: Vec<Vec<[f64; 4]>>,
-    /// For isotropic tables, each pair of neighbouring view slices `k`, `k + 1` interleaved:
-    /// entry `e` holds slice `k`'s then slice `k + 1`'s value, one 64-byte line, so that a
-    /// view between two slices reads both with one eight-lane operation (AVX-512). For a
-    /// single slice, its entries paired with the next row's (`e` and `e + N + 3`), so that
-    /// two rows of a box's taps take one operation.
+    /// For a single slice, its entries paired with the next row's (`e` and `e + N + 3`), so
+    /// that two rows of a box's taps take one eight-lane operation (AVX-512 only; empty
+    /// otherwise).
     pairs: Vec<Vec<Pair>>,
+    /// For an isotropic BRDF with a diffuse term, the index in `sat` of that term's one
+    /// view-independent slice (after the `V` specular slices, which then hold the specular
+    /// part alone).
+    diffuse: Option<usize>,
     /// Largest cell density (integral / cell solid angle), per channel, over all slices.
     max_density: Vec3,
 }
@@ -109,7 +111,9 @@ pub enum ViewLookup {
     /// A view-independent table.
     Single,
     /// Rotation to azimuth 0 (`cos φ`, `sin φ`) and the two polar slices `slice`, `slice + 1`
-    /// blended by `weight`.
+    /// blended by `weights`, each read with the light turned by `turn` (`cos β`, `sin β` of a
+    /// rotation about the y axis, `β = θ_v − θ_k`) so that the view's mirror direction lands
+    /// on the slice's.
     Isotropic {
         /// `cos φ_v`.
         cos: f32,
@@ -117,8 +121,12 @@ pub enum ViewLookup {
         sin: f32,
         /// Lower slice.
         slice: usize,
-        /// Weight of the upper slice.
-        weight: f32,
+        /// Weights of the lower and upper slice: `1 − f` and `f` for a view a fraction `f` of
+        /// the way between them, each scaled by `(cos θ_k / cos θ_v)^e`
+        /// ([`Brdf::view_amplitude_exponent`]).
+        weights: [f32; 2],
+        /// `(cos β, sin β)` for the lower and the upper slice.
+        turn: [Vec2; 2],
     },
     /// The view grid node below and left of the view, and the bilinear weights.
     Anisotropic {
@@ -142,7 +150,9 @@ pub struct SquareIntegral {
 
 impl BrdfTable {
     /// Tabulates `brdf` (which must validate) at `res`. Lambertian BRDFs get one slice and
-    /// isotropic BRDFs `res.views` polar slices; only anisotropic ones get `views²` slices.
+    /// isotropic BRDFs `res.views` polar slices of their specular part, plus one slice of
+    /// their diffuse term when they have one (view-independent, it must not follow the lobe
+    /// between views); only anisotropic ones get `views²` slices.
     pub fn build(brdf: &Brdf, res: Resolution) -> Result<Self, crate::model::ParamError> {
         brdf.validate()?;
         if res.n == 0 || res.views < 2 {
@@ -162,12 +172,22 @@ impl BrdfTable {
             Views::Isotropic((0..v).map(|k| theta_max() * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect())
         };
         let points = QuadraturePoints::of(&grid);
+        let mut diffuse = None;
         let slices: Vec<(Vec<[f64; 4]>, Vec3)> = match &views {
             Views::Single => vec![slice_sat(brdf, &grid, &points, Vec3::Z, true)],
-            Views::Isotropic(thetas) => thetas
-                .par_iter()
-                .map(|&t| slice_sat(brdf, &grid, &points, Vec3::new(t.sin(), 0.0, t.cos()), true))
-                .collect(),
+            Views::Isotropic(thetas) => {
+                let specular = brdf.specular_part();
+                let mut slices: Vec<_> = thetas
+                    .par_iter()
+                    .map(|&t| slice_sat(&specular, &grid, &points, Vec3::new(t.sin(), 0.0, t.cos()), true))
+                    .collect();
+                if brdf.diffuse() != Vec3::ZERO {
+                    diffuse = Some(slices.len());
+                    let lambert = Brdf::Lambert { albedo: brdf.diffuse() };
+                    slices.push(slice_sat(&lambert, &grid, &points, Vec3::Z, true));
+                }
+                slices
+            }
             Views::Anisotropic(v) => {
                 // The anisotropic models here are symmetric under x → −x and y → −y (Ward
                 // depends on h_x² and h_y²): the view at node (v−1−i, j) sees the cells of node
@@ -180,25 +200,23 @@ impl BrdfTable {
                     .collect()
             }
         };
-        let max_density = slices.iter().fold(Vec3::ZERO, |m, s| m.max(s.1));
+        // A square's specular and diffuse parts each stay within their own largest density.
+        let specular = slices.len() - usize::from(diffuse.is_some());
+        let max_density = slices[..specular].iter().fold(Vec3::ZERO, |m, s| m.max(s.1))
+            + diffuse.map_or(Vec3::ZERO, |d| slices[d].1);
         let n = grid.n();
         let sat: Vec<Vec<[f64; 4]>> = slices.into_iter().map(|(sat, _)| sat).collect();
         // Paired rows serve the AVX-512 kernels only; elsewhere they would double the
-        // memory written per build for nothing.
+        // memory written per build for nothing. A single slice pairs each row with the next
+        // (the last with zeros): two rows of a box's taps per eight-lane operation.
         let pairs = match views {
-            _ if !paired_kernels() => Vec::new(),
-            Views::Isotropic(_) => {
-                sat.windows(2).map(|w| w[0].iter().zip(&w[1]).map(|(a, b)| Pair::of(*a, *b)).collect()).collect()
-            }
-            // A single slice pairs each row with the next (the last with zeros): two rows
-            // of a box's taps per eight-lane operation.
-            Views::Single => {
+            Views::Single if paired_kernels() => {
                 let below = |e: usize| sat[0].get(e + n + 3).copied().unwrap_or([0.0; 4]);
                 vec![sat[0].iter().enumerate().map(|(e, a)| Pair::of(*a, below(e))).collect()]
             }
-            Views::Anisotropic(_) => Vec::new(),
+            _ => Vec::new(),
         };
-        Ok(Self { brdf: *brdf, grid, views, sat, pairs, max_density })
+        Ok(Self { brdf: *brdf, grid, views, sat, pairs, diffuse, max_density })
     }
 
     /// The tabulated BRDF.
@@ -217,9 +235,17 @@ impl BrdfTable {
     }
 
     /// Number of view slices stored: 1 (Lambertian), `V` (isotropic), or the quarter
-    /// `⌈V/2⌉²` of the `V×V` anisotropic views that symmetry leaves distinct.
+    /// `⌈V/2⌉²` of the `V×V` anisotropic views that symmetry leaves distinct. An isotropic
+    /// table's diffuse slice ([`BrdfTable::diffuse_slice`]) is not counted.
     pub fn slices(&self) -> usize {
-        self.sat.len()
+        self.sat.len() - usize::from(self.diffuse.is_some())
+    }
+
+    /// The index of an isotropic table's view-independent diffuse slice (`slices()`, after the
+    /// specular ones, for [`BrdfTable::slice_sat`]), if the BRDF has a diffuse term; its view
+    /// slices then hold the specular part alone.
+    pub fn diffuse_slice(&self) -> Option<usize> {
+        self.diffuse
     }
 
     /// Bytes of the summed-area tables.
@@ -242,11 +268,15 @@ impl BrdfTable {
         (0..=n).flat_map(|j| (0..=n).map(move |i| (j + 1) * w + i + 1)).map(|e| self.sat[k][e]).collect()
     }
 
-    /// Directional albedo of view slice `k`: the sum of all its cells.
+    /// Directional albedo of view slice `k`: the sum of all its cells (and of the diffuse
+    /// slice's, where the diffuse term has its own).
     pub fn slice_albedo(&self, k: usize) -> Vec3 {
         let n = self.grid.n();
-        let e = self.sat[k][(n + 1) * (n + 3) + n + 1];
-        Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32)
+        let total = |k: usize| {
+            let e = self.sat[k][(n + 1) * (n + 3) + n + 1];
+            Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32)
+        };
+        total(k) + self.diffuse.filter(|&d| d != k).map_or(Vec3::ZERO, total)
     }
 
     /// `∫ ρ(ω, v) cos θ dω` over the axis-aligned square of half-diagonal `r` centred on the
@@ -279,7 +309,14 @@ impl BrdfTable {
                 let t = (1.0 - (1.0 - theta / theta_max()).max(0.0).sqrt()) * (v - 1) as f32;
                 let k = (t.floor() as usize).min(v - 2);
                 let f = (t - k as f32).clamp(0.0, 1.0);
-                ViewLookup::Isotropic { cos, sin, slice: k, weight: f }
+                let turn = [k, k + 1].map(|k| {
+                    let (sin, cos) = (theta - thetas[k]).sin_cos();
+                    Vec2::new(cos, sin)
+                });
+                let e = self.brdf.view_amplitude_exponent();
+                let scale = |k: usize| if e == 0.0 { 1.0 } else { (thetas[k].cos() / theta.cos()).powf(e) };
+                let weights = [(1.0 - f) * scale(k), f * scale(k + 1)];
+                ViewLookup::Isotropic { cos, sin, slice: k, weights, turn }
             }
             Views::Anisotropic(v) => {
                 let v = *v;
@@ -324,18 +361,22 @@ impl BrdfTable {
                 }
                 self.box_integral(0, p, s)
             }
-            ViewLookup::Isotropic { cos: c, sin: sn, slice: k, weight: f } => {
+            ViewLookup::Isotropic { cos: c, sin: sn, slice: k, weights, turn } => {
                 // Rotate by −φ_v about z.
                 let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
-                let p = hemi_from_dir(l);
-                #[cfg(target_arch = "x86_64")]
-                if let Some(pair) = self.pairs.get(k).filter(|_| simd::available_512()) {
-                    #[allow(unsafe_code)]
-                    // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
-                    let out = unsafe { simd::box_pair(pair, [1.0 - f, f], p, s, self.grid.n()) };
-                    return self.clamp(Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32), r);
+                // Each slice is read where its lobe is: the light turned about y as the mirror
+                // direction turns from the view's to the slice's (the lobe follows the view).
+                let turned = |t: Vec2| Vec3::new(t.x * l.x + t.y * l.z, l.y, t.x * l.z - t.y * l.x);
+                let mut sum = Vec3::ZERO;
+                for (slice, w, t) in [(k, weights[0], turn[0]), (k + 1, weights[1], turn[1])] {
+                    if w > 0.0 {
+                        sum += self.box_blend(&[(slice, w)], hemi_from_dir(turned(t)), s);
+                    }
                 }
-                self.box_blend(&[(k, 1.0 - f), (k + 1, f)], p, s)
+                if let Some(d) = self.diffuse {
+                    sum += self.box_integral(d, hemi_from_dir(l), s);
+                }
+                sum
             }
             ViewLookup::Anisotropic { node: [i, j], weight: [fx, fy] } => {
                 let Views::Anisotropic(v) = self.views else { return Vec3::ZERO };
@@ -409,8 +450,8 @@ impl BrdfTable {
     }
 }
 
-/// Two view slices' entries side by side (slice `k`'s RGB and pad, then slice `k + 1`'s), on
-/// a 64-byte boundary: one cache line.
+/// Two entries side by side (a row's RGB and pad, then the next row's), on a 64-byte
+/// boundary: one cache line.
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(64))]
 struct Pair([f64; 8]);
@@ -475,8 +516,8 @@ fn paired_kernels() -> bool {
 }
 
 /// The box kernels in vector registers with fused multiply-adds: the four coordinates' spline
-/// taps at once (AVX2), then one register per row's partial sum, four lanes (AVX2, one
-/// slice) or eight (AVX-512: two slices, or two rows of one slice).
+/// taps at once (AVX2), then one register per row's partial sum, four lanes (AVX2) or eight
+/// (AVX-512: two rows of one slice).
 #[cfg(target_arch = "x86_64")]
 mod simd {
     use super::Taps;
@@ -565,37 +606,6 @@ mod simd {
             out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(weight)), acc, out);
         }
         bytemuck::cast(out)
-    }
-
-    /// [`box_blend`] of two neighbouring slices interleaved in `pair`, with weights `w`:
-    /// both slices in each eight-lane operation (the same sums, lane for lane).
-    #[target_feature(enable = "avx512f,avx2,fma")]
-    #[allow(unsafe_code)]
-    pub(super) fn box_pair(pair: &[super::Pair], w: [f32; 2], p: Vec2, s: f32, n: usize) -> [f64; 4] {
-        let width = n + 3;
-        assert_eq!(pair.len(), width * width, "a padded table of (n+3)² entries");
-        let Taps { rows, wy, cols, wx } = taps(p, s, n);
-        let wx = wx.map(|w| _mm512_set1_pd(w));
-        let mut lines = [_mm512_setzero_pd(); 8];
-        for (line, &row) in lines.iter_mut().zip(&rows) {
-            for (run, &col) in cols.iter().enumerate() {
-                for d in 0..4 {
-                    // SAFETY: as in `box_blend`: every index is below (n + 3)², the length
-                    // asserted above.
-                    let v: __m512d = bytemuck::cast(unsafe { *pair.get_unchecked(row + col + d) });
-                    *line = _mm512_fmadd_pd(wx[run * 4 + d], v, *line);
-                }
-            }
-        }
-        let weighted: [__m512d; 8] = std::array::from_fn(|r| _mm512_mul_pd(lines[r], _mm512_set1_pd(wy[r])));
-        let add = |a, b| _mm512_add_pd(a, b);
-        let acc = add(
-            add(add(weighted[0], weighted[4]), add(weighted[2], weighted[6])),
-            add(add(weighted[1], weighted[5]), add(weighted[3], weighted[7])),
-        );
-        let (low, high) = (_mm512_castpd512_pd256(acc), _mm512_extractf64x4_pd::<1>(acc));
-        let out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(w[0])), low, _mm256_setzero_pd());
-        bytemuck::cast(_mm256_fmadd_pd(_mm256_set1_pd(f64::from(w[1])), high, out))
     }
 
     /// [`box_blend`] of a single slice whose rows are paired in `rows` (entry `e` holds rows
@@ -924,14 +934,6 @@ mod tests {
                 "p = {p}, s = {s}: {} vs {want}",
                 table.box_blend(&slices, p, s)
             );
-            #[cfg(target_arch = "x86_64")]
-            if simd::available_512() {
-                #[allow(unsafe_code)]
-                // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
-                let out = unsafe { simd::box_pair(&table.pairs[k], [1.0 - f, f], p, s, 32) };
-                let got = Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32);
-                assert!(close(got), "pairs, p = {p}, s = {s}: {got} vs {want}");
-            }
             checked += 1;
         }
         assert_eq!(checked, 3000);

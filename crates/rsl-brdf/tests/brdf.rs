@@ -181,9 +181,11 @@ fn square_integrals_match_brute_force_at_table_views() {
     }
 }
 
-/// Between tabulated polar views the table interpolates linearly; with V = 32 the mirror
-/// direction moves up to 0.18 rad per slice near normal incidence, which bounds the error
-/// for lobes of 0.2 rad and wider at 0.1 (measured worst: 5.5e-2; README table).
+/// Between tabulated polar views the table blends the two neighbouring slices, each read
+/// with the light turned so that its lobe sits where the view's is (the mirror direction
+/// moves up to 0.18 rad per slice near normal incidence with V = 32; blended in place the
+/// error was 2–6·10⁻²). Measured worst at N = 64: 3.4·10⁻³ (README table); the bound leaves
+/// a factor of three.
 #[test]
 fn square_integrals_between_views_stay_within_the_documented_bound() {
     for brdf in models().into_iter().filter(|b| !b.is_anisotropic() && !b.is_lambertian()) {
@@ -202,7 +204,7 @@ fn square_integrals_between_views_stay_within_the_documented_bound() {
             }
         }
         eprintln!("{:<14} between views: worst relative error {worst:.2e}", brdf.name());
-        assert!(worst <= 0.1, "{}: {worst}", brdf.name());
+        assert!(worst <= 1e-2, "{}: {worst}", brdf.name());
     }
 }
 

@@ -159,7 +159,9 @@ fn gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders() {
     let Some(mut gpu) = renderer("gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders") else { return };
     // Twenty small balls over a brushed (Ward) plate under sky.exr: plate vertices have more
     // occluders nearby than the shader keeps per vertex (16), so the rest are located per
-    // light; the plate's table is anisotropic; Suzanne adds a stored self-visibility field.
+    // light; the plate's table is anisotropic; Suzanne adds a stored self-visibility field;
+    // every other ball is an isotropic Ward (its view slices scaled by the view amplitude,
+    // its diffuse term in a slice of its own).
     let mut text = String::from(
         r#"
         quality = "draft"
@@ -183,9 +185,14 @@ fn gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders() {
     );
     for k in 0..20 {
         let (x, z) = (((k % 5) as f32 - 2.0) * 0.13, ((k / 5) as f32 - 1.5) * 0.13);
+        let material = if k % 2 == 0 {
+            r#"{ model = "lambert", albedo = [0.7, 0.7, 0.7] }"#
+        } else {
+            r#"{ model = "ward", alpha_x = 0.2, alpha_y = 0.2, specular = [0.5, 0.5, 0.5], diffuse = [0.2, 0.3, 0.4] }"#
+        };
         text.push_str(&format!(
             "[[objects]]\nname = \"ball{k}\"\nprimitive = {{ kind = \"sphere\", radius = 0.06, resolution = 8 }}\n\
-             translation = [{x}, 0.08, {z}]\nmaterial = {{ model = \"lambert\", albedo = [0.7, 0.7, 0.7] }}\n"
+             translation = [{x}, 0.08, {z}]\nmaterial = {material}\n"
         ));
     }
     let scene = scene(&text);

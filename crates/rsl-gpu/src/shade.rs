@@ -74,7 +74,7 @@ pub struct GpuObject {
     pub bound_world: [f32; 4],
     /// Occluder bounding sphere, object: centre, reach of the field.
     pub bound_object: [f32; 4],
-    /// The table's largest cell density (rgb).
+    /// The table's largest cell density (rgb) and its BRDF's view amplitude exponent (w).
     pub max_density: [f32; 4],
     /// The occluder field's centre (xyz) and radius (w), object space.
     pub ovdf_centre: [f32; 4],
@@ -86,7 +86,8 @@ pub struct GpuObject {
     pub light_dirs: u32,
     /// Bit 0: stored self-visibility field; bit 1: occluder field.
     pub fields: u32,
-    /// 0 single, 1 isotropic, 2 anisotropic.
+    /// 0 single, 1 isotropic, 2 anisotropic; bit 8 set where a diffuse slice follows the
+    /// view slices (`BrdfTable::diffuse_slice`).
     pub table_kind: u32,
     /// `N` of the table.
     pub table_n: u32,
@@ -208,6 +209,7 @@ struct TablePlacement {
     views: u32,
     offset: u32,
     max_density: Vec3,
+    amplitude: f32,
 }
 
 const HAS_SVDF: u32 = 1;
@@ -541,7 +543,7 @@ impl GpuShading {
                 to_object: columns(pose.to_object),
                 normal_to_world: columns(pose.normal_to_world),
                 linear_to_world: columns(pose.linear_to_world),
-                max_density: vec4(t.max_density, 0.0),
+                max_density: vec4(t.max_density, t.amplitude),
                 vertex_offset: p.vertex_offset,
                 vertex_count: p.vertex_count,
                 light_dirs,
@@ -692,7 +694,8 @@ fn push_cube(fields: &mut Vec<u32>, m: usize) -> u32 {
     at
 }
 
-/// Appends a table: per slice its `(N+1)²` summed-area entries then its `N²` cells (f32).
+/// Appends a table: per slice (the view slices, then any diffuse slice) its `(N+1)²`
+/// summed-area entries then its `N²` cells (f32).
 fn push_table(data: &mut Vec<[f32; 4]>, table: &BrdfTable) -> TablePlacement {
     let offset = data.len() as u32;
     let n = table.grid().n();
@@ -701,8 +704,11 @@ fn push_table(data: &mut Vec<[f32; 4]>, table: &BrdfTable) -> TablePlacement {
         Views::Isotropic(t) => (1, t.len()),
         Views::Anisotropic(v) => (2, *v),
     };
+    // Bit 8: a diffuse slice follows the view slices.
+    let kind = kind | if table.diffuse_slice().is_some() { 0x100 } else { 0 };
+    let stored = table.slices() + usize::from(table.diffuse_slice().is_some());
     let f = |v: [f64; 4]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
-    for k in 0..table.slices() {
+    for k in 0..stored {
         let sat = table.slice_sat(k);
         data.extend(sat.iter().map(|&v| f(v)));
         let w = n + 1;
@@ -714,5 +720,12 @@ fn push_table(data: &mut Vec<[f32; 4]>, table: &BrdfTable) -> TablePlacement {
             }
         }
     }
-    TablePlacement { kind, n: n as u32, views: views as u32, offset, max_density: table.max_density() }
+    TablePlacement {
+        kind,
+        n: n as u32,
+        views: views as u32,
+        offset,
+        max_density: table.max_density(),
+        amplitude: table.brdf().view_amplitude_exponent(),
+    }
 }
