@@ -70,9 +70,13 @@ struct GpuVertex {
     shade_n: vec3<f32>,
     local: u32,
     shade_t: vec4<f32>,
-    // Object-space visibility frame, Frame::from_normal(normal).
-    vis_t: vec4<f32>,
-    vis_b: vec4<f32>,
+    // Object-space visibility frame, Frame::from_normal(normal); the word offset of the
+    // vertex's face mask in `fields` and its face count; in vis_n.w, sin τ of its largest
+    // face tilt.
+    vis_t: vec3<f32>,
+    mask_first: u32,
+    vis_b: vec3<f32>,
+    mask_count: u32,
     vis_n: vec4<f32>,
 }
 
@@ -103,6 +107,35 @@ fn table_of(o: GpuObject) -> TableRef {
     let kind = o.table_kind & 0xffu;
     let diffuse = (o.table_kind & 0x100u) != 0u;
     return TableRef(kind, o.table_n, o.table_views, o.table_offset, o.max_density.xyz, diffuse, o.max_density.w);
+}
+
+// VertexMask::share_above_horizon: the face-averaged mask's share of the square's part
+// above the horizon, Σ_f w_f·min(C_f / C_horizon, 1), C_f the coverage at the face plane's
+// distance 1 − √(1 − n_f·d); 1 without reading a face when every face sees the whole square.
+fn mask_share(vert: GpuVertex, p: vec2<f32>, r: f32) -> f32 {
+    let k = select(1.0 - (1.0 - r) * (1.0 - r), 1.0, r >= 1.0);
+    let cos_a = sqrt(max(1.0 - k * k, 0.0));
+    let sin_tilt = vert.vis_n.w;
+    let cos_tilt = sqrt(max(1.0 - sin_tilt * sin_tilt, 0.0));
+    let sin_e = 1.0 - dot(p, p);
+    if sin_e >= sin_tilt * cos_a + cos_tilt * k && sin_tilt * k < cos_tilt * cos_a {
+        return 1.0;
+    }
+    let horizon = coverage(1.0 - length(p), r);
+    if horizon <= 0.0 {
+        return 0.0;
+    }
+    let d = dir_from_hemi(p);
+    let first = vert.mask_first;
+    let count = vert.mask_count;
+    var share = 0.0;
+    for (var f = 0u; f < count; f++) {
+        let at = first + 4u * f;
+        let m = vec3<f32>(bitcast<f32>(fields[at]), bitcast<f32>(fields[at + 1u]), bitcast<f32>(fields[at + 2u]));
+        let c = coverage(1.0 - sqrt(max(1.0 - dot(m, d), 0.0)), r);
+        share += bitcast<f32>(fields[at + 3u]) * min(c / horizon, 1.0);
+    }
+    return min(share, 1.0);
 }
 
 fn ovdf_of(o: GpuObject) -> OvdfRef {
@@ -210,7 +243,7 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
             count++;
         }
     }
-    let vis = Frame(vert.vis_t.xyz, vert.vis_b.xyz, vert.vis_n.xyz);
+    let vis = Frame(vert.vis_t, vert.vis_b, vert.vis_n.xyz);
     var sum = vec3<f32>(0.0);
     for (var l = 0u; l < params.light_count; l++) {
         let light = frame[3u * l];
@@ -226,6 +259,7 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
             let p = hemi_from_dir(to_local(vis, frame[o.light_dirs + l].xyz));
             let horizon = coverage(1.0 - length(p), r);
             cover = select(0.0, min(coverage(svdf_distance(o, vert.local, p), r) / horizon, 1.0), horizon > 0.0);
+            cover *= mask_share(vert, p, r);
         }
         for (var k = 0u; k < count; k++) {
             if cover <= 0.0 {

@@ -12,7 +12,8 @@ use rsl_vis::store::fnv1a64;
 use std::path::Path;
 
 const MAGIC: [u8; 8] = *b"RSLTRUTH";
-const VERSION: u32 = 2;
+// 3: vertices' visibility is face-averaged (rsl_sphere::faces).
+const VERSION: u32 = 3;
 
 /// Per object, per vertex: the mean radiance and its standard error.
 #[derive(Clone, Debug, PartialEq)]

@@ -202,8 +202,8 @@ impl BrdfTable {
         };
         // A square's specular and diffuse parts each stay within their own largest density.
         let specular = slices.len() - usize::from(diffuse.is_some());
-        let max_density = slices[..specular].iter().fold(Vec3::ZERO, |m, s| m.max(s.1))
-            + diffuse.map_or(Vec3::ZERO, |d| slices[d].1);
+        let max_density =
+            slices[..specular].iter().fold(Vec3::ZERO, |m, s| m.max(s.1)) + diffuse.map_or(Vec3::ZERO, |d| slices[d].1);
         let n = grid.n();
         let sat: Vec<Vec<[f64; 4]>> = slices.into_iter().map(|(sat, _)| sat).collect();
         // Paired rows serve the AVX-512 kernels only; elsewhere they would double the

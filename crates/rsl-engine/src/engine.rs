@@ -29,7 +29,7 @@ use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, VertexFrames}
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
 use rsl_vis::store::FieldFileError;
-use rsl_vis::{Ovdf, OvdfParams, Svdf, SvdfParams};
+use rsl_vis::{FaceMask, Ovdf, OvdfParams, Svdf, SvdfParams};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -189,6 +189,8 @@ struct RslObject {
     table_key: u64,
     svdf: Arc<Svdf>,
     svdf_key: u64,
+    /// The face-averaged vertex mask (from the mesh alone).
+    mask: Arc<FaceMask>,
     ovdf: Option<(Arc<Ovdf>, u64)>,
 }
 
@@ -544,8 +546,9 @@ impl Engine {
             let rsl = if self.options.layers.rsl {
                 let (table, table_key) = self.table(&o.name, &brdf)?;
                 let (svdf, svdf_key) = self.svdf(&o.name, &o.mesh, mesh_key)?;
+                let mask = self.face_mask(&o.mesh, mesh_key);
                 let ovdf = if o.casts_shadows { Some(self.ovdf(&o.name, &o.mesh, mesh_key)?) } else { None };
-                Some(RslObject { table, table_key, svdf, svdf_key, ovdf })
+                Some(RslObject { table, table_key, svdf, svdf_key, mask, ovdf })
             } else {
                 None
             };
@@ -594,6 +597,21 @@ impl Engine {
         self.timings.add(stage::TABLES, start.elapsed().as_secs_f64() * 1e3, None);
         self.store.insert(key, t.clone(), t.bytes());
         Ok((t, key))
+    }
+
+    /// A mesh's face-averaged vertex mask: built in milliseconds, kept in memory, never on disk.
+    fn face_mask(&mut self, mesh: &TriMesh, mesh_key: u64) -> Arc<FaceMask> {
+        let key = KeyHasher::default().str("face mask").u64(mesh_key).finish();
+        let mask = match self.store.get::<FaceMask>(key) {
+            Some(m) => m,
+            None => {
+                let m = Arc::new(FaceMask::build(mesh));
+                self.store.insert(key, m.clone(), m.bytes());
+                m
+            }
+        };
+        self.store.pin_more([key]);
+        mask
     }
 
     fn svdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Svdf>, u64)> {
@@ -743,6 +761,7 @@ impl Engine {
                     frames: &p.frames,
                     table: &r.table,
                     svdf: &r.svdf,
+                    mask: &r.mask,
                     ovdf: r.ovdf.as_ref().map(|(f, _)| &**f),
                     transform,
                 })

@@ -24,7 +24,7 @@ use rsl_shade::{Light, OccluderBound, Pose, ShadeObject, Terms};
 use rsl_sphere::Frame;
 use rsl_sphere::cube::CubeGrid;
 use rsl_vis::cpca::Cpca;
-use rsl_vis::{Ovdf, Svdf};
+use rsl_vis::{FaceMask, Ovdf, Svdf};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Instant;
@@ -136,10 +136,14 @@ pub struct GpuVertex {
     /// Object-space shading tangent.
     pub shade_t: [f32; 4],
     /// Visibility frame tangent.
-    pub vis_t: [f32; 4],
+    pub vis_t: [f32; 3],
+    /// Word offset of the vertex's face mask in the fields buffer.
+    pub mask_first: u32,
     /// Visibility frame bitangent.
-    pub vis_b: [f32; 4],
-    /// Visibility frame normal.
+    pub vis_b: [f32; 3],
+    /// Faces in the vertex's mask.
+    pub mask_count: u32,
+    /// Visibility frame normal; w: `sin τ` of its largest face tilt.
     pub vis_n: [f32; 4],
 }
 
@@ -369,24 +373,41 @@ impl GpuShading {
         let mut fields: Vec<u32> = rsl_vis::coverage::table().iter().map(|v| v.to_bits()).collect();
         let mut segments: Vec<Compressed> = Vec::new();
         let mut svdfs: HashMap<*const Svdf, Option<(Compressed, u32, u32)>> = HashMap::new();
+        let mut masks: HashMap<*const FaceMask, u32> = HashMap::new();
         let mut ovdfs: HashMap<*const Ovdf, (Vec3, f32, [u32; 5])> = HashMap::new();
         let mut cubes: HashMap<usize, u32> = HashMap::new();
         let mut placements = Vec::with_capacity(objects.len());
         for (i, o) in objects.iter().enumerate() {
             let n = o.mesh.vertex_count();
             let offset = u32::try_from(vertices.len()).map_err(|_| GpuError::Scene("more than 2³² vertices".into()))?;
+            if o.mask.vertex_count() != n {
+                return Err(GpuError::Scene(format!(
+                    "object {i}: face mask has {} vertices, the mesh {n}",
+                    o.mask.vertex_count()
+                )));
+            }
+            // Four words per face: its normal in the vertex's frame and its weight.
+            let mask = *masks.entry(std::ptr::from_ref(o.mask)).or_insert_with(|| {
+                let at = fields.len() as u32;
+                fields.extend(o.mask.all_faces().iter().flatten().map(|v| v.to_bits()));
+                at
+            });
             for v in 0..n {
                 let s = o.frames.shading(v);
                 let f = &o.frames.visibility[v];
+                let first = mask + 4 * o.mask.first_face(v) as u32;
+                let count = o.mask.faces(v).len() as u32;
                 vertices.push(GpuVertex {
                     position: o.mesh.positions[v].to_array(),
                     object: i as u32,
                     shade_n: s.n.to_array(),
                     local: v as u32,
                     shade_t: vec4(s.t, 0.0),
-                    vis_t: vec4(f.t, 0.0),
-                    vis_b: vec4(f.b, 0.0),
-                    vis_n: vec4(f.n, 0.0),
+                    vis_t: f.t.to_array(),
+                    mask_first: first,
+                    vis_b: f.b.to_array(),
+                    mask_count: count,
+                    vis_n: vec4(f.n, o.mask.sin_tilt(v)),
                 });
             }
             indices.extend(o.mesh.indices.iter().map(|&k| k + offset));

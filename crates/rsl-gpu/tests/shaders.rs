@@ -83,7 +83,12 @@ fn shading_layouts_match_wgsl() {
         Params,
         [eye, vertex_count, object_count, light_count, terms, row_stride, pad0, pad1, pad2]
     );
-    assert_layout!(s, "GpuVertex", GpuVertex, [position, object, shade_n, local, shade_t, vis_t, vis_b, vis_n]);
+    assert_layout!(
+        s,
+        "GpuVertex",
+        GpuVertex,
+        [position, object, shade_n, local, shade_t, vis_t, mask_first, vis_b, mask_count, vis_n]
+    );
     assert_layout!(s, "Compressed", Compressed, [rows, coeffs, half, k]);
     assert_layout!(
         s,

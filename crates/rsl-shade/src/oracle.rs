@@ -7,14 +7,16 @@
 //! - **brdf**: `B_i` by direct quadrature over the same square ([`rsl_brdf::square_exact`])
 //!   instead of the table (no table resolution, view interpolation or spline);
 //! - **self**: `C_self,i` as the visible fraction of the square's part above the vertex's
-//!   horizon in its visibility frame, by shadow rays against the object itself, instead of
-//!   the SVDF's (whose coverage, horizon included, is divided by the horizon's alone);
+//!   horizon in its visibility frame, by shadow rays against the object itself weighted by
+//!   the vertex's face-averaged mask ([`Rays::mask`]), instead of the SVDF's (whose coverage,
+//!   horizon included, is divided by the horizon's alone);
 //! - **occluders**: each `C_j,i` as the fraction of the square, centred on the light, that
 //!   object `j` leaves visible, by shadow rays against `j` alone, instead of the OVDF (and
 //!   without its reach or culling);
 //! - **product**: the whole term as `I_i·∫_square ρ cos θ · V dω`, one quadrature with a
-//!   shadow ray per point against every object that shadows the vertex — the product
-//!   approximation itself (a product of averages) is gone, and with it the other three;
+//!   shadow ray per point against every object that shadows the vertex (weighted by the
+//!   vertex's mask where self-visibility is on) — the product approximation itself (a product
+//!   of averages) is gone, and with it the other three;
 //! - **light** is applied where the lights are made, not here: one RSL per texel of the
 //!   environment grid instead of the fitted set ([`Oracles::light`]).
 //!
@@ -132,6 +134,14 @@ pub trait Rays: Sync {
     /// Whether light from world direction `dir` (unit) reaches vertex `vertex` of object
     /// `object` past `blockers`.
     fn visible(&self, object: usize, vertex: usize, dir: Vec3, blockers: Blockers) -> bool;
+
+    /// The weight of world direction `dir` at the vertex besides its shadow ray: the truth's
+    /// face-averaged mask over the vertex's incident faces (`rsl_sphere::faces`). It belongs
+    /// with self-visibility: the self and product oracles apply it.
+    fn mask(&self, object: usize, vertex: usize, dir: Vec3) -> f32 {
+        let _ = (object, vertex, dir);
+        1.0
+    }
 }
 
 /// How finely the oracles integrate.
@@ -271,7 +281,11 @@ fn vertex<'a>(
         let mut rng = Pcg32::with_stream(params.seed ^ ((i as u64) << 40 | v as u64), l as u64);
         if oracles.product {
             let by = Blockers::All { own: terms.self_visibility, others: terms.occluders };
-            let w = |d: Vec3| if trace(frame.to_world(d), by) { 1.0 } else { 0.0 };
+            let w = |d: Vec3| {
+                let d = frame.to_world(d);
+                let h = if terms.self_visibility { rays.mask(i, v, d) } else { 1.0 };
+                if h > 0.0 && trace(d, by) { h } else { 0.0 }
+            };
             sum += light.radiance * square_exact_at(brdf, local, r, view, params.product_base, &w);
             continue;
         }
@@ -292,17 +306,18 @@ fn vertex<'a>(
                 // leaves visible (the BRDF integral already leaves out the rest).
                 let pts = rotated_points(params.samples, &mut rng);
                 let above: Vec<Vec2> = pts.iter().map(|u| c + *u * s).filter(|q| q.length_squared() < 1.0).collect();
-                let seen = above
+                let seen: f32 = above
                     .iter()
-                    .filter(|q| {
-                        let d = p.pose.linear_to_world * vis_frame.to_world(dir_from_hemi(**q));
-                        trace(d.normalize_or_zero(), Blockers::Own)
+                    .map(|q| {
+                        let d = (p.pose.linear_to_world * vis_frame.to_world(dir_from_hemi(*q))).normalize_or_zero();
+                        let h = rays.mask(i, v, d);
+                        if h > 0.0 && trace(d, Blockers::Own) { h } else { 0.0 }
                     })
-                    .count();
-                if above.is_empty() { 0.0 } else { seen as f32 / above.len() as f32 }
+                    .sum();
+                if above.is_empty() { 0.0 } else { seen / above.len() as f32 }
             } else {
                 stats.lookups.self_lookups += 1;
-                self_vis.coverage_above_horizon(c, r)
+                self_vis.coverage_above_horizon(c, r) * o.mask.vertex(v).share_above_horizon(c, r)
             };
         }
         if terms.occluders && cover > 0.0 {

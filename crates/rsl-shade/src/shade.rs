@@ -39,7 +39,7 @@ use rsl_sphere::Frame;
 use rsl_sphere::hemi::hemi_from_dir;
 use rsl_sphere::mesh::TriMesh;
 use rsl_vis::ovdf::OUTER;
-use rsl_vis::{Ovdf, OvdfLookup, Svdf};
+use rsl_vis::{FaceMask, Ovdf, OvdfLookup, Svdf};
 
 /// A rotatable square light in world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,6 +110,8 @@ pub struct ShadeObject<'a> {
     pub table: &'a BrdfTable,
     /// Self-visibility (a convex object's field is analytic and stores nothing).
     pub svdf: &'a Svdf,
+    /// The face-averaged vertex mask, part of self-visibility.
+    pub mask: &'a FaceMask,
     /// The occluder field, or `None` for an object that casts no shadows.
     pub ovdf: Option<&'a Ovdf>,
     /// The current transform.
@@ -335,6 +337,8 @@ pub struct FrameSetup<'a> {
     pub(crate) placed: Vec<Placed<'a>>,
     pub(crate) lights: Vec<Light>,
     cones: Vec<Cone>,
+    /// Per light, its [`rsl_vis::mask::reach`].
+    reaches: Vec<(f32, f32)>,
     pub(crate) eye: Vec3,
     pub(crate) terms: Terms,
 }
@@ -346,6 +350,7 @@ impl<'a> FrameSetup<'a> {
             placed: objects.iter().map(|&o| Placed::new(o, lights)).collect(),
             lights: lights.to_vec(),
             cones: lights.iter().map(|l| Cone::new(l.cone_half_angle())).collect(),
+            reaches: lights.iter().map(|l| rsl_vis::mask::reach(l.half_diagonal)).collect(),
             eye,
             terms,
         }
@@ -394,6 +399,7 @@ impl<'a> FrameSetup<'a> {
         }
         let vis_frame = &o.frames.visibility[v];
         let self_vis = o.svdf.vertex(v);
+        let mask = o.mask.vertex(v);
         let mut sum = Vec3::ZERO;
         for (l, light) in self.lights.iter().enumerate() {
             let r = light.half_diagonal;
@@ -405,7 +411,8 @@ impl<'a> FrameSetup<'a> {
             let mut cover = 1.0;
             if self.terms.self_visibility {
                 stats.self_lookups += 1;
-                cover = self_vis.coverage_above_horizon(hemi_from_dir(vis_frame.to_local(p.light_dirs[l])), r);
+                let q = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
+                cover = self_vis.coverage_above_horizon(q, r) * mask.share_above_horizon_with(q, r, self.reaches[l]);
             }
             cover = self.occluder_cover(nears, l, cover, stats);
             sum += light.radiance * brdf * cover;
@@ -519,7 +526,7 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                 if setup.terms.self_visibility {
                     let d = p.pose.direction_to_object(light.dir);
                     let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
-                    cover = o.svdf.coverage_above_horizon(v, q, r);
+                    cover = o.svdf.coverage_above_horizon(v, q, r) * o.mask.vertex(v).share_above_horizon(q, r);
                 }
                 if setup.terms.occluders {
                     for (j, q) in setup.placed.iter().enumerate() {

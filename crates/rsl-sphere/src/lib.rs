@@ -23,6 +23,7 @@
 
 pub mod approx;
 pub mod cube;
+pub mod faces;
 pub mod frame;
 pub mod hemi;
 pub mod latlong;

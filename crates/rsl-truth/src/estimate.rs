@@ -13,6 +13,11 @@
 //!
 //! Shadow rays start `1e-4` scene radii off the surface along the shading normal. An object
 //! with `casts_shadows = false` still shadows itself, not others, as in the RSL path.
+//!
+//! At a vertex, visibility is face-averaged: each direction's shadow-ray result is weighted
+//! by the vertex's mask `h(ω) = Σ_f w_f [ω·n_f > 0]` over its incident faces
+//! ([`rsl_sphere::faces`]), so that a vertex's value is the angle-weighted mean of what
+//! each incident face sees there. At a pixel, the mask is the hit face's: `[ω·n_f > 0]`.
 
 use glam::{Quat, Vec2, Vec3, Vec3A};
 use obvhs::{
@@ -23,6 +28,7 @@ use rsl_brdf::Brdf;
 use rsl_scene::{Camera, Transform};
 use rsl_shade::{Pose, VertexFrames};
 use rsl_sphere::Frame;
+use rsl_sphere::faces::IncidentFaces;
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
 use rsl_sphere::sampling::{EnvironmentSampler, Pcg32, luminance, uniform_sphere};
@@ -134,6 +140,8 @@ pub struct TruthStats {
 pub struct TruthScene {
     positions: Vec<Vec<Vec3>>,
     frames: Vec<Vec<Frame>>,
+    /// Per object, its vertices' incident faces in world space.
+    faces: Vec<IncidentFaces>,
     indices: Vec<Vec<u32>>,
     brdfs: Vec<Brdf>,
     casts: Vec<bool>,
@@ -145,6 +153,17 @@ pub struct TruthScene {
     env_from_world: Quat,
     world_from_env: Quat,
     offset: f32,
+}
+
+/// Which directions count at a point, besides the shadow ray.
+#[derive(Clone, Copy, Debug)]
+enum Mask {
+    /// Every direction.
+    None,
+    /// The face-averaged mask of this vertex of the receiver.
+    Vertex(usize),
+    /// The directions in front of this face (world unit normal).
+    Face(Vec3),
 }
 
 /// `n` points stratified in each coordinate (a Latin hypercube: one per row and column
@@ -181,7 +200,7 @@ impl TruthScene {
             return Err(TruthError::NoObjects);
         }
         let mut positions = Vec::new();
-        let mut frames = Vec::new();
+        let mut frames: Vec<Vec<Frame>> = Vec::new();
         let (mut tris, mut owners) = (Vec::new(), Vec::new());
         for (i, o) in objects.iter().enumerate() {
             let pose = Pose::new(&o.transform);
@@ -202,10 +221,20 @@ impl TruthScene {
         let (lo, hi) =
             positions.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| (l.min(p), h.max(p)));
         let radius = 0.5 * (hi - lo).length();
+        let faces = positions
+            .iter()
+            .zip(&frames)
+            .zip(objects)
+            .map(|((p, f), o)| {
+                let normals: Vec<Vec3> = f.iter().map(|f| f.n).collect();
+                IncidentFaces::new(p, &normals, &o.mesh.indices)
+            })
+            .collect();
         let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
         Ok(Self {
             positions,
             frames,
+            faces,
             indices: objects.iter().map(|o| o.mesh.indices.clone()).collect(),
             brdfs: objects.iter().map(|o| o.brdf).collect(),
             casts: objects.iter().map(|o| o.casts_shadows).collect(),
@@ -250,7 +279,8 @@ impl TruthScene {
     }
 
     /// The estimate at `x` on object `receiver` with shading frame `frame`, seen from
-    /// direction `view` (world, unit, toward the eye), with `spp` samples from `rng`.
+    /// direction `view` (world, unit, toward the eye), with `spp` samples from `rng` (no
+    /// face mask: every direction above the shading frame's horizon counts).
     pub fn estimate(
         &self,
         receiver: usize,
@@ -258,6 +288,27 @@ impl TruthScene {
         frame: &Frame,
         view: Vec3,
         spp: u32,
+        rng: &mut Pcg32,
+    ) -> (Estimate, u64) {
+        self.estimate_masked(receiver, x, frame, view, spp, Mask::None, rng)
+    }
+
+    /// The face-averaged mask of vertex `vertex` of object `object` for world direction `dir`
+    /// (`h(ω)`, see the module's documentation).
+    pub fn mask(&self, object: usize, vertex: usize, dir: Vec3) -> f32 {
+        self.faces[object].mask(vertex, dir)
+    }
+
+    /// [`TruthScene::estimate`] with every direction's visibility weighted by `mask`.
+    #[allow(clippy::too_many_arguments)]
+    fn estimate_masked(
+        &self,
+        receiver: usize,
+        x: Vec3,
+        frame: &Frame,
+        view: Vec3,
+        spp: u32,
+        mask: Mask,
         rng: &mut Pcg32,
     ) -> (Estimate, u64) {
         let wo = frame.to_local(view);
@@ -277,7 +328,7 @@ impl TruthScene {
             let (ul, ub) = (latin_hypercube(per, rng), latin_hypercube(per, rng));
             let mut sum = Vec3::ZERO;
             for k in 0..per {
-                let (y, r) = self.sample(receiver, origin, frame, wo, ul[k], ub[k], rng.next_f32());
+                let (y, r) = self.sample(receiver, origin, frame, wo, mask, [ul[k], ub[k]], rng.next_f32());
                 rays += r;
                 sum += y;
                 sum_all += y;
@@ -307,11 +358,24 @@ impl TruthScene {
         origin: Vec3,
         frame: &Frame,
         wo: Vec3,
-        ul: Vec2,
-        ub: Vec2,
+        mask: Mask,
+        [ul, ub]: [Vec2; 2],
         lobe: f32,
     ) -> (Vec3, u64) {
         let brdf = &self.brdfs[receiver];
+        // The direction's weight: its mask times whether the shadow ray gets through.
+        let seen = |w: Vec3, rays: &mut u64| {
+            let h = match mask {
+                Mask::None => 1.0,
+                Mask::Vertex(v) => self.faces[receiver].mask(v, w),
+                Mask::Face(n) => f32::from(u8::from(n.dot(w) > 0.0)),
+            };
+            if h <= 0.0 {
+                return 0.0;
+            }
+            *rays += 1;
+            if self.visible(receiver, origin, w) { h } else { 0.0 }
+        };
         let mut y = Vec3::ZERO;
         let mut rays = 0;
         // Environment sample.
@@ -321,11 +385,11 @@ impl TruthScene {
             let wi = frame.to_local(w);
             let f = brdf.eval_cos(wi, wo);
             if f != Vec3::ZERO {
-                rays += 1;
-                if self.visible(receiver, origin, w) {
+                let h = seen(w, &mut rays);
+                if h > 0.0 {
                     let pdf_b = brdf.pdf(wo, wi);
                     let weight = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
-                    y += self.env.radiance(d_env) * f * (weight / pdf_l);
+                    y += self.env.radiance(d_env) * f * (h * weight / pdf_l);
                 }
             }
         }
@@ -337,12 +401,12 @@ impl TruthScene {
             let f = brdf.eval_cos(wi, wo);
             if pdf_b > 0.0 && f != Vec3::ZERO {
                 let w = frame.to_world(wi).normalize();
-                rays += 1;
-                if self.visible(receiver, origin, w) {
+                let h = seen(w, &mut rays);
+                if h > 0.0 {
                     let d_env = self.env_from_world * w;
                     let pdf_l = self.env.pdf(d_env);
                     let weight = pdf_b * pdf_b / (pdf_l * pdf_l + pdf_b * pdf_b);
-                    y += self.env.radiance(d_env) * f * (weight / pdf_b);
+                    y += self.env.radiance(d_env) * f * (h * weight / pdf_b);
                 }
             }
         }
@@ -378,7 +442,7 @@ impl TruthScene {
                         Pcg32::new(seed ^ ((i as u64) << 40) ^ (v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
                     let x = self.positions[i][v];
                     let view = (eye - x).normalize_or_zero();
-                    let e = self.estimate(i, x, &self.frames[i][v], view, spp, &mut rng);
+                    let e = self.estimate_masked(i, x, &self.frames[i][v], view, spp, Mask::Vertex(v), &mut rng);
                     let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                     if d.is_multiple_of(256) || d == total {
                         progress(d, total);
@@ -393,9 +457,9 @@ impl TruthScene {
         Ok((out, stats))
     }
 
-    /// The closest surface along a ray: object, world position and interpolated shading
-    /// frame.
-    fn hit(&self, origin: Vec3, dir: Vec3) -> Option<(usize, Vec3, Frame)> {
+    /// The closest surface along a ray: object, world position, interpolated shading frame
+    /// and the hit face's unit normal (on the shading normal's side).
+    fn hit(&self, origin: Vec3, dir: Vec3) -> Option<(usize, Vec3, Frame, Vec3)> {
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
         let mut hit = RayHit::none();
         if !self
@@ -418,7 +482,9 @@ impl TruthScene {
         let [fa, fb, fc] = [0, 1, 2].map(|m| self.frames[i][idx[m] as usize]);
         let normal = fa.n * wa + fb.n * wb + fc.n * wc;
         let tangent = fa.t * wa + fb.t * wb + fc.t * wc;
-        Some((i, p, Frame::from_normal_tangent(normal, tangent)))
+        let frame = Frame::from_normal_tangent(normal, tangent);
+        let face = n.normalize_or_zero();
+        Some((i, p, frame, if face.dot(frame.n) < 0.0 { -face } else { face }))
     }
 
     /// Per pixel (row-major, row 0 at the top): the estimate along the primary ray through
@@ -457,9 +523,9 @@ impl TruthScene {
                 let dir = rsl_shade::raster::pixel_ray(camera, k % w, k / w);
                 match self.hit(camera.eye, dir) {
                     None => (Estimate { mean: self.background(dir), std_error: Vec3::ZERO }, false, 0),
-                    Some((i, p, frame)) => {
+                    Some((i, p, frame, face)) => {
                         let mut rng = Pcg32::new(seed ^ u64::from(k).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-                        let (e, rays) = self.estimate(i, p, &frame, -dir, spp, &mut rng);
+                        let (e, rays) = self.estimate_masked(i, p, &frame, -dir, spp, Mask::Face(face), &mut rng);
                         (e, true, rays)
                     }
                 }
@@ -485,5 +551,9 @@ impl rsl_shade::Rays for TruthScene {
                 self.visible_past(x, dir, |o| if o == object { own } else { others && self.casts[o] })
             }
         }
+    }
+
+    fn mask(&self, object: usize, vertex: usize, dir: Vec3) -> f32 {
+        self.faces[object].mask(vertex, dir)
     }
 }
