@@ -116,6 +116,10 @@ fn mask_share(vert: GpuVertex, p: vec2<f32>, r: f32) -> f32 {
     let k = select(1.0 - (1.0 - r) * (1.0 - r), 1.0, r >= 1.0);
     let cos_a = sqrt(max(1.0 - k * k, 0.0));
     let sin_tilt = vert.vis_n.w;
+    if sin_tilt == 0.0 {
+        // Every face is the tangent plane: each sees all of the square's part above the horizon.
+        return 1.0;
+    }
     let cos_tilt = sqrt(max(1.0 - sin_tilt * sin_tilt, 0.0));
     let sin_e = 1.0 - dot(p, p);
     if sin_e >= sin_tilt * cos_a + cos_tilt * k && sin_tilt * k < cos_tilt * cos_a {
@@ -132,7 +136,9 @@ fn mask_share(vert: GpuVertex, p: vec2<f32>, r: f32) -> f32 {
     for (var f = 0u; f < count; f++) {
         let at = first + 4u * f;
         let m = vec3<f32>(bitcast<f32>(fields[at]), bitcast<f32>(fields[at + 1u]), bitcast<f32>(fields[at + 2u]));
-        let c = coverage(1.0 - sqrt(max(1.0 - dot(m, d), 0.0)), r);
+        let x = dot(m, d);
+        // In front of the face by at least r: all of it.
+        let c = select(coverage(1.0 - sqrt(max(1.0 - x, 0.0)), r), 1.0, x >= k);
         share += bitcast<f32>(fields[at + 3u]) * min(c / horizon, 1.0);
     }
     return min(share, 1.0);
@@ -259,7 +265,9 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
             let p = hemi_from_dir(to_local(vis, frame[o.light_dirs + l].xyz));
             let horizon = coverage(1.0 - length(p), r);
             cover = select(0.0, min(coverage(svdf_distance(o, vert.local, p), r) / horizon, 1.0), horizon > 0.0);
-            cover *= mask_share(vert, p, r);
+            if cover > 0.0 {
+                cover *= mask_share(vert, p, r);
+            }
         }
         for (var k = 0u; k < count; k++) {
             if cover <= 0.0 {

@@ -412,7 +412,10 @@ impl<'a> FrameSetup<'a> {
             if self.terms.self_visibility {
                 stats.self_lookups += 1;
                 let q = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
-                cover = self_vis.coverage_above_horizon(q, r) * mask.share_above_horizon_with(q, r, self.reaches[l]);
+                cover = self_vis.coverage_above_horizon(q, r);
+                if cover > 0.0 {
+                    cover *= mask.share_above_horizon_with(q, r, self.reaches[l]);
+                }
             }
             cover = self.occluder_cover(nears, l, cover, stats);
             sum += light.radiance * brdf * cover;

@@ -43,18 +43,26 @@ impl FaceMask {
         let incident = IncidentFaces::of(mesh);
         let nv = mesh.vertex_count();
         let mut offsets = Vec::with_capacity(nv + 1);
-        let mut faces = Vec::new();
+        let mut faces: Vec<[f32; 4]> = Vec::new();
         let mut sin_tilt = Vec::with_capacity(nv);
         offsets.push(0);
         for v in 0..nv {
             let frame = Frame::from_normal(mesh.normals[v]);
             let mut tilt = 0.0f32;
+            let first = faces.len();
             for ((n, w), &rising) in incident.faces(v).zip(incident.rising(v)) {
                 // A face that rises above the tangent plane (a concave corner) blocks what its
                 // plane hides on its side by itself: the self-visibility field's rays find it
                 // there. Counting it again would square it, so it counts as the tangent plane,
                 // which adds its weight wherever the square is above the horizon.
                 let m = if rising { Vec3::Z } else { frame.to_local(n) };
+                // Faces in one plane (a quad's two triangles) are one face of their summed
+                // weight.
+                if let Some(same) = faces[first..].iter_mut().find(|f| Vec3::new(f[0], f[1], f[2]).dot(m) > 1.0 - 1e-6)
+                {
+                    same[3] += w;
+                    continue;
+                }
                 // cos τ = m.z; τ ≤ 90° for a face on the normal's side.
                 tilt = tilt.max((1.0 - m.z.clamp(-1.0, 1.0).powi(2)).max(0.0).sqrt());
                 faces.push([m.x, m.y, m.z, w]);
@@ -119,13 +127,6 @@ pub fn reach(r: f32) -> (f32, f32) {
     ((1.0 - k * k).max(0.0).sqrt(), k)
 }
 
-/// The signed plane distance of direction `d` from the great circle of unit normal `m`
-/// (positive in front): the horizon's `1 − |p|` in `m`'s own hemisphere map.
-#[inline]
-fn plane_distance(m: Vec3, d: Vec3) -> f32 {
-    1.0 - (1.0 - m.dot(d)).max(0.0).sqrt()
-}
-
 impl VertexMask<'_> {
     /// The mask's weighted share of the part above the horizon of the square of
     /// half-diagonal `r` at plane point `p` (vertex frame): `Σ_f w_f · C_f`, each face's
@@ -141,6 +142,11 @@ impl VertexMask<'_> {
         // The centre's angle from each face's plane is at least e − τ (e its elevation,
         // sin e = 1 − |p|²): every face sees the square whole when e − τ ≥ a, i.e.
         // sin e ≥ sin(τ + a) with τ + a < 90° (and then the square is above the horizon too).
+        if self.sin_tilt == 0.0 {
+            // Every face is the tangent plane (a flat vertex, or only rising faces): each
+            // sees all of the square's part above the horizon.
+            return 1.0;
+        }
         let sin_e = 1.0 - p.length_squared();
         let cos_tilt = (1.0 - self.sin_tilt * self.sin_tilt).max(0.0).sqrt();
         let bound = self.sin_tilt * cos_a + cos_tilt * sin_a;
@@ -152,10 +158,13 @@ impl VertexMask<'_> {
             return 0.0;
         }
         let d = dir_from_hemi(p);
+        let inv = 1.0 / horizon;
         let mut share = 0.0;
         for f in self.faces {
-            let c = coverage(plane_distance(Vec3::new(f[0], f[1], f[2]), d), r);
-            share += f[3] * (c / horizon).min(1.0);
+            let x = Vec3::new(f[0], f[1], f[2]).dot(d);
+            // In front of the face by at least r (its distance 1 − √(1 − x) ≥ r): all of it.
+            let c = if x >= sin_a { 1.0 } else { coverage(1.0 - (1.0 - x).max(0.0).sqrt(), r) };
+            share += f[3] * (c * inv).min(1.0);
         }
         share.min(1.0)
     }
