@@ -90,9 +90,11 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     assert!(rows.iter().all(|r| r.pixel_l2.is_some_and(|(e, n)| e.is_finite() && e > 0.0 && n > 0.0)), "{rows:?}");
     let grid = image_size(&out.join("small_grid_t0.png"));
     assert_eq!(grid, (2 * 32 + 12, 3 * (24 + 16 + 4) + 4 + 40), "truth row, two configuration rows, legend");
-    // The few-light configurations are further from the truth than its noise: a Monte
-    // Carlo estimate of equal error and its time exist.
-    assert!(rows.iter().all(|r| r.mc_spp.is_some_and(|s| s > 0.0) && r.mc_ms.is_some_and(|m| m > 0.0)), "{rows:?}");
+    // Two lights are further from the truth than its noise (8.2 % against 7.3 %): a Monte
+    // Carlo estimate of equal error and its time exist. (Eight lights are within the
+    // truth's noise on this small scene: there is none for them.)
+    let two = rows.iter().find(|r| r.rsl == 2).expect("a two-light row");
+    assert!(two.mc_spp.is_some_and(|s| s > 0.0) && two.mc_ms.is_some_and(|m| m > 0.0), "{rows:?}");
     // Run again: nothing is measured, and nothing is estimated (the images are drawn again
     // from the cached per-pixel truth).
     let again = run(&options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"])).unwrap();
