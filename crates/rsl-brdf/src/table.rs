@@ -65,17 +65,18 @@ impl Resolution {
     /// The paper's resolution: `N = 32`, `V = 32`.
     pub const PAPER: Resolution = Resolution { n: 32, views: 32 };
 
-    /// Chooses `N` from the lobe width `w` and `V = 32`: the power of two at least `48/w`,
+    /// Chooses `N` from the lobe width `w`, and `V = 16`: the power of two at least `48/w`,
     /// within `[32, 128]` (32 for Lambertian BRDFs). A cell spans at most `4/N` radians, so
     /// that is about twelve cells per lobe width, where square integrals of two cells and
     /// more are within 10⁻³ of direct integration at tabulated views (README: measured per
-    /// model and `N`).
+    /// model and `N`). Sixteen views suffice since lookups follow the lobe between them
+    /// (32 changed no accuracy scene's error by more than 0.01 points; README).
     pub fn auto(brdf: &Brdf) -> Self {
         let n = match brdf.lobe_width() {
             None => 32,
             Some(w) => ((48.0 / w).ceil() as usize).next_power_of_two().clamp(32, 128),
         };
-        Self { n, views: 32 }
+        Self { n, views: 16 }
     }
 }
 

@@ -150,17 +150,22 @@ fn square_integrals_match_brute_force_at_table_views() {
         let t = BrdfTable::build(&brdf, res).unwrap();
         let views: Vec<Vec3> = match t.views() {
             rsl_brdf::Views::Isotropic(thetas) => {
-                [3, 12, 20, 28].iter().map(|&k| Vec3::new(thetas[k].sin(), 0.0, thetas[k].cos())).collect()
+                let v = thetas.len();
+                [v / 10, v * 2 / 5, v * 2 / 3, v - 2]
+                    .iter()
+                    .map(|&k| Vec3::new(thetas[k].sin(), 0.0, thetas[k].cos()))
+                    .collect()
             }
             _ => vec![view(0.0, 0.0), view(45.0, 0.0)],
         };
-        let views = if brdf.is_anisotropic() {
-            // Anisotropic tables are exact at their view nodes only; node (16, 16) of 32 is
-            // near the pole and (24, 16) about 45° off in x.
+        let views = if let rsl_brdf::Views::Anisotropic(v) = *t.views() {
+            // Anisotropic tables are exact at their view nodes only: node (v/2, v/2) of v is
+            // near the pole and (3v/4, v/2) about 45° off in x.
+            let last = (v - 1) as f32;
             let node = |i: usize, j: usize| {
-                dir_from_hemi(Vec2::new(-1.0 + 2.0 * i as f32 / 31.0, -1.0 + 2.0 * j as f32 / 31.0))
+                dir_from_hemi(Vec2::new(-1.0 + 2.0 * i as f32 / last, -1.0 + 2.0 * j as f32 / last))
             };
-            vec![node(16, 16), node(24, 16)]
+            vec![node(v / 2, v / 2), node(3 * v / 4, v / 2)]
         } else {
             views
         };
