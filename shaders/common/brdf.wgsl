@@ -2,9 +2,9 @@
 // square_for, box_blend). Xu et al. 2006, §4.2.
 //
 // A table's slices live in `tables` from `offset`, each `(n+1)²` summed-area entries (RGB,
-// prefix sums) followed by its `n²` cells (RGB, cell integrals). An isotropic table with a
-// diffuse term holds its specular part in the `views` polar slices and the diffuse term in
-// one more slice after them (view-independent: it does not follow the lobe). The CPU evaluates a box as
+// prefix sums) followed by its `n²` cells (RGB, cell integrals). A Lambertian table has no
+// slices and an isotropic one holds its specular part alone: the Lambertian term is
+// integrated in closed form (box_cosine, rsl_brdf::cosine). The CPU evaluates a box as
 // Σ wy·wx·SAT over Catmull–Rom taps of its four corners, in f64. The same linear combination
 // rearranged, Σ cell·Wy·Wx with Wx_i = Σ_{taps c > i} wx_c, touches only the cells under
 // the box and its spline margin and has no cancellation, so small boxes (a sun) keep their
@@ -24,6 +24,7 @@ const VIEW_ANISOTROPIC: u32 = 3u;
 const DIRECT_SPAN: u32 = 8u;
 
 const SQRT_2: f32 = 1.41421356237;
+const PI_BRDF: f32 = 3.14159265358979;
 
 struct TableRef {
     kind: u32,
@@ -31,8 +32,8 @@ struct TableRef {
     views: u32,
     offset: u32,
     max_density: vec3<f32>,
-    // Isotropic: whether slice `views` holds a diffuse term, and Brdf::view_amplitude_exponent.
-    diffuse: bool,
+    // The albedo of the closed-form Lambertian term, and Brdf::view_amplitude_exponent.
+    diffuse: vec3<f32>,
     amplitude: f32,
 }
 
@@ -202,6 +203,73 @@ fn box_blend(table: TableRef, k0: u32, w0: f32, k1: u32, w1: f32, p: vec2<f32>, 
     return out;
 }
 
+// Gauss–Legendre nodes and weights on [−1, 1], 8 points (the positive half; symmetric).
+const GL8_T = array<f32, 4>(0.18343464, 0.52553241, 0.79666648, 0.96028986);
+const GL8_W = array<f32, 4>(0.36268378, 0.31370665, 0.22238103, 0.10122854);
+
+// ∫∫ (1 − x² − y²)⁺ over [a0, a1]×[b0, b1] in the positive quadrant (0 ≤ a0 ≤ a1 ≤ 1,
+// 0 ≤ b0 ≤ b1 ≤ 1). rsl_brdf::cosine has the same integral in closed form in f64; its
+// inclusion–exclusion of quadrant integrals, O(1) each, would cost f32 its precision for a
+// sun-sized box on the rim. Here, with x* (b) = √(1 − b²) where the rim crosses height b:
+// for x ≤ x*(b1) the column is whole, Δb·(1 − x² − (b1² + b1b0 + b0²)/3), a polynomial
+// integrated exactly; for x*(b1) ≤ x ≤ x*(b0) it is clipped by the rim w = √(1 − x²),
+// (w − b0)²(2w + b0)/3, integrated over φ = asin x (dx = w dφ), where it is a smooth
+// trigonometric polynomial, by 8-point Gauss–Legendre. Every part is a sum of positive terms.
+fn cosine_quadrant_box(a0: f32, a1: f32, b0: f32, b1: f32) -> f32 {
+    let db = b1 - b0;
+    if a1 <= a0 || db <= 0.0 {
+        return 0.0;
+    }
+    let x1s = sqrt(max((1.0 - b1) * (1.0 + b1), 0.0));
+    let x0s = sqrt(max((1.0 - b0) * (1.0 + b0), 0.0));
+    var out = 0.0;
+    let u = min(a1, x1s);
+    if u > a0 {
+        let l = a0;
+        let mb = (b1 * b1 + b1 * b0 + b0 * b0) / 3.0;
+        out += db * (u - l) * (1.0 - (u * u + u * l + l * l) / 3.0 - mb);
+    }
+    let l2 = max(a0, x1s);
+    let u2 = min(a1, x0s);
+    if u2 > l2 {
+        let pl = atan2(l2, sqrt(max((1.0 - l2) * (1.0 + l2), 0.0)));
+        let pu = atan2(u2, sqrt(max((1.0 - u2) * (1.0 + u2), 0.0)));
+        let mid = 0.5 * (pl + pu);
+        let half = 0.5 * (pu - pl);
+        var sum = 0.0;
+        for (var i = 0u; i < 4u; i++) {
+            for (var sgn = -1.0; sgn <= 1.0; sgn += 2.0) {
+                let w = cos(mid + sgn * half * GL8_T[i]);
+                let d = max(w - b0, 0.0);
+                sum += GL8_W[i] * d * d * (2.0 * w + b0) * w;
+            }
+        }
+        out += half * sum / 3.0;
+    }
+    return out;
+}
+
+// ∫ cos⁺θ dω over the box [p − s, p + s]² of the hemisphere plane (rsl_brdf::cosine::box_cosine):
+// 2·∫∫ (1 − x² − y²)⁺ dx dy, the integrand even in x and y, so the box's parts in the four
+// quadrants are folded into the positive one.
+fn box_cosine(p: vec2<f32>, s: f32) -> f32 {
+    let lo = p - vec2<f32>(s);
+    let hi = p + vec2<f32>(s);
+    // Positive and (mirrored) negative parts of each coordinate's range, clamped to [0, 1].
+    let xp = clamp(vec2<f32>(lo.x, hi.x), vec2<f32>(0.0), vec2<f32>(1.0));
+    let xn = clamp(vec2<f32>(-hi.x, -lo.x), vec2<f32>(0.0), vec2<f32>(1.0));
+    let yp = clamp(vec2<f32>(lo.y, hi.y), vec2<f32>(0.0), vec2<f32>(1.0));
+    let yn = clamp(vec2<f32>(-hi.y, -lo.y), vec2<f32>(0.0), vec2<f32>(1.0));
+    let sum = cosine_quadrant_box(xp.x, xp.y, yp.x, yp.y) + cosine_quadrant_box(xn.x, xn.y, yp.x, yp.y)
+        + cosine_quadrant_box(xp.x, xp.y, yn.x, yn.y) + cosine_quadrant_box(xn.x, xn.y, yn.x, yn.y);
+    return 2.0 * sum;
+}
+
+// The closed-form Lambertian term, ∫ (a/π) cos θ dω over the box [p − s, p + s]².
+fn lambertian(table: TableRef, p: vec2<f32>, s: f32) -> vec3<f32> {
+    return table.diffuse * (box_cosine(p, s) / PI_BRDF);
+}
+
 // ∫ ρ cos θ dω over the square of half-diagonal r around `light` (unit, local frame) for a
 // view located by view_lookup.
 fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) -> vec3<f32> {
@@ -211,7 +279,7 @@ fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) ->
     var integral = vec3<f32>(0.0);
     switch view.kind {
         case VIEW_SINGLE: {
-            integral = box_blend(table, 0u, 1.0, 0u, 0.0, hemi_from_dir(light), s);
+            integral = lambertian(table, hemi_from_dir(light), s);
         }
         case VIEW_ISOTROPIC: {
             // Rotate by −φ_v about z.
@@ -228,9 +296,7 @@ fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) ->
                 let l1 = vec3<f32>(view.turn.z * l.x + view.turn.w * l.z, l.y, view.turn.z * l.z - view.turn.w * l.x);
                 integral += box_blend(table, view.slice + 1u, view.weight.y, 0u, 0.0, hemi_from_dir(l1), s);
             }
-            if table.diffuse {
-                integral += box_blend(table, table.views, 1.0, 0u, 0.0, hemi_from_dir(l), s);
-            }
+            integral += lambertian(table, hemi_from_dir(l), s);
         }
         case VIEW_ANISOTROPIC: {
             let p = hemi_from_dir(light);

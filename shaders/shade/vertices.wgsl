@@ -35,6 +35,8 @@ struct GpuObject {
     bound_object: vec4<f32>,
     // rgb: the table's largest cell density; w: its BRDF's view amplitude exponent.
     max_density: vec4<f32>,
+    // rgb: the albedo of the table's closed-form Lambertian term (BrdfTable::analytic_diffuse).
+    diffuse: vec4<f32>,
     // xyz: the occluder field's centre (object space); w: its radius.
     ovdf_centre: vec4<f32>,
     // First vertex (global), vertex count, first object-space light direction in `frame`.
@@ -103,10 +105,7 @@ const PI: f32 = 3.14159265358979;
 const MAX_NEAR: u32 = 16u;
 
 fn table_of(o: GpuObject) -> TableRef {
-    // table_kind: the kind in bits 0–7, bit 8 set where a diffuse slice follows the views.
-    let kind = o.table_kind & 0xffu;
-    let diffuse = (o.table_kind & 0x100u) != 0u;
-    return TableRef(kind, o.table_n, o.table_views, o.table_offset, o.max_density.xyz, diffuse, o.max_density.w);
+    return TableRef(o.table_kind, o.table_n, o.table_views, o.table_offset, o.max_density.xyz, o.diffuse.xyz, o.max_density.w);
 }
 
 // VertexMask::share_above_horizon: the face-averaged mask's share of the square's part

@@ -5,11 +5,12 @@
 //! rebuilds its table ([`BrdfTable::build`]). The tabulated quantity is `ρ·cos θ` (docs/conventions.md, BRDF tables);
 //! a square's integral is returned with its average over the square and its solid angle.
 //!
-//! `unsafe` is confined to `table`'s vector kernels (AVX2/FMA and AVX-512, detected at run
+//! `unsafe` is confined to `table`'s vector kernels (AVX2/FMA, detected at run
 //! time): calling them, and reading the padded summed-area tables without bounds checks,
 //! where every index is below the table's length by construction and the length is
 //! asserted per call. Square lookups are most of a frame's time.
 
+pub mod cosine;
 pub mod exact;
 pub mod model;
 pub mod sample;

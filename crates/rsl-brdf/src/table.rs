@@ -8,7 +8,9 @@
 //! a lobe narrower than a cell keeps its energy; elsewhere a 2×2 Gauss–Legendre rule is used.
 //!
 //! View directions:
-//! - Lambertian BRDFs: one slice (view-independent).
+//! - Lambertian BRDFs: no slice at all. A Lambertian term (a Lambertian BRDF, or the diffuse
+//!   term of an isotropic one) is view-independent and its box integral has a closed form
+//!   ([`crate::cosine`]), exact and cheaper than any lookup.
 //! - Isotropic BRDFs: `V` polar angles `θ_k = θ_max·(1 − (1 − k/(V−1))²)`, denser toward
 //!   grazing (the spacing shrinks linearly to zero at `θ_max = acos(10⁻³) ≈ 89.94°`); the view
 //!   is rotated to azimuth 0, which an RSL allows because its square may take any rotation.
@@ -92,14 +94,10 @@ pub struct BrdfTable {
     /// `i` are then always the four consecutive entries from `i`. The fourth lane is zero
     /// padding, so that a tap is one 4-wide vector operation.
     sat: Vec<Vec<[f64; 4]>>,
-    /// For a single slice, its entries paired with the next row's (`e` and `e + N + 3`), so
-    /// that two rows of a box's taps take one eight-lane operation (AVX-512 only; empty
-    /// otherwise).
-    pairs: Vec<Vec<Pair>>,
-    /// For an isotropic BRDF with a diffuse term, the index in `sat` of that term's one
-    /// view-independent slice (after the `V` specular slices, which then hold the specular
-    /// part alone).
-    diffuse: Option<usize>,
+    /// The albedo of the Lambertian term integrated in closed form (a Lambertian BRDF's, or
+    /// an isotropic BRDF's diffuse term, which then is not in the slices); zero for
+    /// anisotropic BRDFs, whose slices hold the whole BRDF.
+    diffuse: Vec3,
     /// Largest cell density (integral / cell solid angle), per channel, over all slices.
     max_density: Vec3,
 }
@@ -109,7 +107,7 @@ pub struct BrdfTable {
 pub enum ViewLookup {
     /// The view is at or below the horizon: nothing is reflected.
     Below,
-    /// A view-independent table.
+    /// A view-independent (Lambertian) table.
     Single,
     /// Rotation to azimuth 0 (`cos φ`, `sin φ`) and the two polar slices `slice`, `slice + 1`
     /// blended by `weights`, each read with the light turned by `turn` (`cos β`, `sin β` of a
@@ -150,10 +148,11 @@ pub struct SquareIntegral {
 }
 
 impl BrdfTable {
-    /// Tabulates `brdf` (which must validate) at `res`. Lambertian BRDFs get one slice and
-    /// isotropic BRDFs `res.views` polar slices of their specular part, plus one slice of
-    /// their diffuse term when they have one (view-independent, it must not follow the lobe
-    /// between views); only anisotropic ones get `views²` slices.
+    /// Tabulates `brdf` (which must validate) at `res`. Lambertian BRDFs need no slice (their
+    /// integral is in closed form), isotropic BRDFs get `res.views` polar slices of their
+    /// specular part (the diffuse term, view-independent, is in closed form and must not
+    /// follow the lobe between views), and anisotropic ones `views²` slices of the whole
+    /// BRDF.
     pub fn build(brdf: &Brdf, res: Resolution) -> Result<Self, crate::model::ParamError> {
         brdf.validate()?;
         if res.n == 0 || res.views < 2 {
@@ -173,21 +172,18 @@ impl BrdfTable {
             Views::Isotropic((0..v).map(|k| theta_max() * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect())
         };
         let points = QuadraturePoints::of(&grid);
-        let mut diffuse = None;
+        let diffuse = match &views {
+            Views::Anisotropic(_) => Vec3::ZERO,
+            _ => brdf.diffuse(),
+        };
         let slices: Vec<(Vec<[f64; 4]>, Vec3)> = match &views {
-            Views::Single => vec![slice_sat(brdf, &grid, &points, Vec3::Z, true)],
+            Views::Single => Vec::new(),
             Views::Isotropic(thetas) => {
                 let specular = brdf.specular_part();
-                let mut slices: Vec<_> = thetas
+                thetas
                     .par_iter()
                     .map(|&t| slice_sat(&specular, &grid, &points, Vec3::new(t.sin(), 0.0, t.cos()), true))
-                    .collect();
-                if brdf.diffuse() != Vec3::ZERO {
-                    diffuse = Some(slices.len());
-                    let lambert = Brdf::Lambert { albedo: brdf.diffuse() };
-                    slices.push(slice_sat(&lambert, &grid, &points, Vec3::Z, true));
-                }
-                slices
+                    .collect()
             }
             Views::Anisotropic(v) => {
                 // The anisotropic models here are symmetric under x → −x and y → −y (Ward
@@ -201,23 +197,11 @@ impl BrdfTable {
                     .collect()
             }
         };
-        // A square's specular and diffuse parts each stay within their own largest density.
-        let specular = slices.len() - usize::from(diffuse.is_some());
-        let max_density =
-            slices[..specular].iter().fold(Vec3::ZERO, |m, s| m.max(s.1)) + diffuse.map_or(Vec3::ZERO, |d| slices[d].1);
-        let n = grid.n();
+        // A square's specular and diffuse parts each stay within their own largest density
+        // (the Lambertian term's is `a/π`, at the pole).
+        let max_density = slices.iter().fold(Vec3::ZERO, |m, s| m.max(s.1)) + diffuse * std::f32::consts::FRAC_1_PI;
         let sat: Vec<Vec<[f64; 4]>> = slices.into_iter().map(|(sat, _)| sat).collect();
-        // Paired rows serve the AVX-512 kernels only; elsewhere they would double the
-        // memory written per build for nothing. A single slice pairs each row with the next
-        // (the last with zeros): two rows of a box's taps per eight-lane operation.
-        let pairs = match views {
-            Views::Single if paired_kernels() => {
-                let below = |e: usize| sat[0].get(e + n + 3).copied().unwrap_or([0.0; 4]);
-                vec![sat[0].iter().enumerate().map(|(e, a)| Pair::of(*a, below(e))).collect()]
-            }
-            _ => Vec::new(),
-        };
-        Ok(Self { brdf: *brdf, grid, views, sat, pairs, diffuse, max_density })
+        Ok(Self { brdf: *brdf, grid, views, sat, diffuse, max_density })
     }
 
     /// The tabulated BRDF.
@@ -235,24 +219,23 @@ impl BrdfTable {
         &self.views
     }
 
-    /// Number of view slices stored: 1 (Lambertian), `V` (isotropic), or the quarter
-    /// `⌈V/2⌉²` of the `V×V` anisotropic views that symmetry leaves distinct. An isotropic
-    /// table's diffuse slice ([`BrdfTable::diffuse_slice`]) is not counted.
+    /// Number of view slices stored: none (Lambertian), `V` (isotropic), or the quarter
+    /// `⌈V/2⌉²` of the `V×V` anisotropic views that symmetry leaves distinct.
     pub fn slices(&self) -> usize {
-        self.sat.len() - usize::from(self.diffuse.is_some())
+        self.sat.len()
     }
 
-    /// The index of an isotropic table's view-independent diffuse slice (`slices()`, after the
-    /// specular ones, for [`BrdfTable::slice_sat`]), if the BRDF has a diffuse term; its view
-    /// slices then hold the specular part alone.
-    pub fn diffuse_slice(&self) -> Option<usize> {
+    /// The albedo `a` of the Lambertian term that is integrated in closed form rather than
+    /// tabulated (`∫ (a/π) cos θ dω` over each box, [`crate::cosine`]): a Lambertian BRDF's
+    /// albedo, an isotropic BRDF's diffuse term (its slices then hold the specular part
+    /// alone); zero for anisotropic BRDFs.
+    pub fn analytic_diffuse(&self) -> Vec3 {
         self.diffuse
     }
 
     /// Bytes of the summed-area tables.
     pub fn bytes(&self) -> usize {
         self.sat.iter().map(|s| std::mem::size_of_val(s.as_slice())).sum::<usize>()
-            + self.pairs.iter().map(|s| std::mem::size_of_val(s.as_slice())).sum::<usize>()
     }
 
     /// Largest cell density `∫ρcos / Ω` in any slice, per channel: no square's average can
@@ -269,15 +252,16 @@ impl BrdfTable {
         (0..=n).flat_map(|j| (0..=n).map(move |i| (j + 1) * w + i + 1)).map(|e| self.sat[k][e]).collect()
     }
 
-    /// Directional albedo of view slice `k`: the sum of all its cells (and of the diffuse
-    /// slice's, where the diffuse term has its own).
+    /// Directional albedo of view slice `k`: the sum of all its cells, plus the closed-form
+    /// term's albedo ([`BrdfTable::analytic_diffuse`]). A Lambertian table, which has no
+    /// slice, answers its albedo for any `k`.
     pub fn slice_albedo(&self, k: usize) -> Vec3 {
         let n = self.grid.n();
-        let total = |k: usize| {
-            let e = self.sat[k][(n + 1) * (n + 3) + n + 1];
+        let total = self.sat.get(k).map_or(Vec3::ZERO, |sat| {
+            let e = sat[(n + 1) * (n + 3) + n + 1];
             Vec3::new(e[0] as f32, e[1] as f32, e[2] as f32)
-        };
-        total(k) + self.diffuse.filter(|&d| d != k).map_or(Vec3::ZERO, total)
+        });
+        total + self.diffuse
     }
 
     /// `∫ ρ(ω, v) cos θ dω` over the axis-aligned square of half-diagonal `r` centred on the
@@ -351,17 +335,7 @@ impl BrdfTable {
         let s = r / std::f32::consts::SQRT_2;
         let integral = match *view {
             ViewLookup::Below => return Vec3::ZERO,
-            ViewLookup::Single => {
-                let p = hemi_from_dir(light);
-                #[cfg(target_arch = "x86_64")]
-                if let Some(rows) = self.pairs.first().filter(|_| simd::available_512()) {
-                    #[allow(unsafe_code)]
-                    // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
-                    let out = unsafe { simd::box_rows(rows, p, s, self.grid.n()) };
-                    return self.clamp(Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32), r);
-                }
-                self.box_integral(0, p, s)
-            }
+            ViewLookup::Single => self.lambertian(hemi_from_dir(light), s),
             ViewLookup::Isotropic { cos: c, sin: sn, slice: k, weights, turn } => {
                 // Rotate by −φ_v about z.
                 let l = Vec3::new(c * light.x + sn * light.y, -sn * light.x + c * light.y, light.z);
@@ -374,8 +348,8 @@ impl BrdfTable {
                         sum += self.box_blend(&[(slice, w)], hemi_from_dir(turned(t)), s);
                     }
                 }
-                if let Some(d) = self.diffuse {
-                    sum += self.box_integral(d, hemi_from_dir(l), s);
+                if self.diffuse != Vec3::ZERO {
+                    sum += self.lambertian(hemi_from_dir(l), s);
                 }
                 sum
             }
@@ -401,6 +375,12 @@ impl BrdfTable {
     #[inline]
     fn clamp(&self, integral: Vec3, r: f32) -> Vec3 {
         integral.clamp(Vec3::ZERO, self.max_density * (4.0 * r * r))
+    }
+
+    /// The closed-form Lambertian term's `∫ (a/π) cos θ dω` over the box `[p − s, p + s]²`.
+    #[inline]
+    fn lambertian(&self, p: Vec2, s: f32) -> Vec3 {
+        self.diffuse * (crate::cosine::box_cosine(p, s) / std::f64::consts::PI) as f32
     }
 
     /// `∫` over the box `[p − s, p + s]²` (plane coordinates) of slice `k`.
@@ -451,19 +431,6 @@ impl BrdfTable {
     }
 }
 
-/// Two entries side by side (a row's RGB and pad, then the next row's), on a 64-byte
-/// boundary: one cache line.
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-#[repr(C, align(64))]
-struct Pair([f64; 8]);
-
-impl Pair {
-    /// `a`'s lanes, then `b`'s.
-    fn of(a: [f64; 4], b: [f64; 4]) -> Self {
-        Pair([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
-    }
-}
-
 /// The 8×8 taps of a box on a padded summed-area table: eight rows (entry offsets) with
 /// signed weights, and two runs of four consecutive columns with signed weights.
 struct Taps {
@@ -508,17 +475,8 @@ fn pairwise(v: [[f64; 4]; 8]) -> [f64; 4] {
     pair(pair(pair(v[0], v[4]), pair(v[2], v[6])), pair(pair(v[1], v[5]), pair(v[3], v[7])))
 }
 
-/// Whether the kernels that read [`BrdfTable`]'s paired rows run on this processor.
-fn paired_kernels() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return simd::available_512();
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
 /// The box kernels in vector registers with fused multiply-adds: the four coordinates' spline
-/// taps at once (AVX2), then one register per row's partial sum, four lanes (AVX2) or eight
-/// (AVX-512: two rows of one slice).
+/// taps at once, then one register per row's partial sum (AVX2).
 #[cfg(target_arch = "x86_64")]
 mod simd {
     use super::Taps;
@@ -529,12 +487,6 @@ mod simd {
     #[inline]
     pub(super) fn available() -> bool {
         rsl_sphere::simd::level() >= rsl_sphere::simd::Level::Avx2
-    }
-
-    /// Whether the AVX-512 kernels run ([`rsl_sphere::simd::level`]).
-    #[inline]
-    pub(super) fn available_512() -> bool {
-        rsl_sphere::simd::level() >= rsl_sphere::simd::Level::Avx512
     }
 
     /// The spline taps of the box `[p − s, p + s]²` on a padded table of width `n + 3`, as
@@ -606,41 +558,6 @@ mod simd {
             );
             out = _mm256_fmadd_pd(_mm256_set1_pd(f64::from(weight)), acc, out);
         }
-        bytemuck::cast(out)
-    }
-
-    /// [`box_blend`] of a single slice whose rows are paired in `rows` (entry `e` holds rows
-    /// `e` and `e + n + 3`): the box's rows two at a time, the same sums in the same order.
-    #[target_feature(enable = "avx512f,avx2,fma")]
-    #[allow(unsafe_code)]
-    pub(super) fn box_rows(rows_paired: &[super::Pair], p: Vec2, s: f32, n: usize) -> [f64; 4] {
-        let width = n + 3;
-        assert_eq!(rows_paired.len(), width * width, "a padded table of (n+3)² entries");
-        let Taps { rows, wy, cols, wx } = taps(p, s, n);
-        let wx = wx.map(|w| _mm512_set1_pd(w));
-        // Lines q = 0..4 hold rows 2q and 2q + 1 (each run of four rows is consecutive).
-        let mut lines = [_mm512_setzero_pd(); 4];
-        for (q, line) in lines.iter_mut().enumerate() {
-            let row = rows[2 * q];
-            for (run, &col) in cols.iter().enumerate() {
-                for d in 0..4 {
-                    // SAFETY: as in `box_blend`: every index is below (n + 3)², the length
-                    // asserted above.
-                    let v: __m512d = bytemuck::cast(unsafe { *rows_paired.get_unchecked(row + col + d) });
-                    *line = _mm512_fmadd_pd(wx[run * 4 + d], v, *line);
-                }
-            }
-        }
-        let weight = |q: usize| {
-            let (a, b) = (_mm256_set1_pd(wy[2 * q]), _mm256_set1_pd(wy[2 * q + 1]));
-            _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(a), b)
-        };
-        let weighted: [__m512d; 4] = std::array::from_fn(|q| _mm512_mul_pd(lines[q], weight(q)));
-        // Rows 0, 2, 4, 6 in the low halves and 1, 3, 5, 7 in the high: the portable pairwise
-        // order, ((0 + 4) + (2 + 6)) + ((1 + 5) + (3 + 7)).
-        let acc = _mm512_add_pd(_mm512_add_pd(weighted[0], weighted[2]), _mm512_add_pd(weighted[1], weighted[3]));
-        let (low, high) = (_mm512_castpd512_pd256(acc), _mm512_extractf64x4_pd::<1>(acc));
-        let out = _mm256_fmadd_pd(_mm256_set1_pd(1.0), _mm256_add_pd(low, high), _mm256_setzero_pd());
         bytemuck::cast(out)
     }
 }
@@ -938,27 +855,5 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, 3000);
-    }
-
-    #[test]
-    fn a_single_slice_reads_the_same_with_paired_rows() {
-        let brdf = Brdf::Lambert { albedo: Vec3::new(0.8, 0.5, 0.2) };
-        let table = BrdfTable::build(&brdf, Resolution { n: 32, views: 16 }).unwrap();
-        let mut rng = Pcg32::new(6);
-        for _ in 0..3000 {
-            let p = Vec2::new(rng.next_f32() * 2.6 - 1.3, rng.next_f32() * 2.6 - 1.3);
-            let s = 10f32.powf(-3.0 + 3.3 * rng.next_f32());
-            let want = table.box_blend_portable(&[(0, 1.0)], p, s);
-            let close = |got: Vec3| (got - want).abs().max_element() <= 1e-6 * want.abs().max_element() + 1e-10;
-            assert!(close(table.box_blend(&[(0, 1.0)], p, s)));
-            #[cfg(target_arch = "x86_64")]
-            if simd::available_512() {
-                #[allow(unsafe_code)]
-                // SAFETY: the processor has AVX-512F, AVX2 and FMA (checked just above).
-                let out = unsafe { simd::box_rows(&table.pairs[0], p, s, 32) };
-                let got = Vec3::new(out[0] as f32, out[1] as f32, out[2] as f32);
-                assert!(close(got), "paired rows, p = {p}, s = {s}: {got} vs {want}");
-            }
-        }
     }
 }

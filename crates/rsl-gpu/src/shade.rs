@@ -76,6 +76,9 @@ pub struct GpuObject {
     pub bound_object: [f32; 4],
     /// The table's largest cell density (rgb) and its BRDF's view amplitude exponent (w).
     pub max_density: [f32; 4],
+    /// The albedo of the table's closed-form Lambertian term (rgb,
+    /// `BrdfTable::analytic_diffuse`); w unused.
+    pub diffuse: [f32; 4],
     /// The occluder field's centre (xyz) and radius (w), object space.
     pub ovdf_centre: [f32; 4],
     /// First vertex (global).
@@ -86,8 +89,7 @@ pub struct GpuObject {
     pub light_dirs: u32,
     /// Bit 0: stored self-visibility field; bit 1: occluder field.
     pub fields: u32,
-    /// 0 single, 1 isotropic, 2 anisotropic; bit 8 set where a diffuse slice follows the
-    /// view slices (`BrdfTable::diffuse_slice`).
+    /// 0 single (Lambertian, no slices), 1 isotropic, 2 anisotropic.
     pub table_kind: u32,
     /// `N` of the table.
     pub table_n: u32,
@@ -213,6 +215,7 @@ struct TablePlacement {
     views: u32,
     offset: u32,
     max_density: Vec3,
+    diffuse: Vec3,
     amplitude: f32,
 }
 
@@ -565,6 +568,7 @@ impl GpuShading {
                 normal_to_world: columns(pose.normal_to_world),
                 linear_to_world: columns(pose.linear_to_world),
                 max_density: vec4(t.max_density, t.amplitude),
+                diffuse: vec4(t.diffuse, 0.0),
                 vertex_offset: p.vertex_offset,
                 vertex_count: p.vertex_count,
                 light_dirs,
@@ -715,8 +719,8 @@ fn push_cube(fields: &mut Vec<u32>, m: usize) -> u32 {
     at
 }
 
-/// Appends a table: per slice (the view slices, then any diffuse slice) its `(N+1)²`
-/// summed-area entries then its `N²` cells (f32).
+/// Appends a table: per view slice its `(N+1)²` summed-area entries then its `N²` cells
+/// (f32); a Lambertian table has none.
 fn push_table(data: &mut Vec<[f32; 4]>, table: &BrdfTable) -> TablePlacement {
     let offset = data.len() as u32;
     let n = table.grid().n();
@@ -725,9 +729,7 @@ fn push_table(data: &mut Vec<[f32; 4]>, table: &BrdfTable) -> TablePlacement {
         Views::Isotropic(t) => (1, t.len()),
         Views::Anisotropic(v) => (2, *v),
     };
-    // Bit 8: a diffuse slice follows the view slices.
-    let kind = kind | if table.diffuse_slice().is_some() { 0x100 } else { 0 };
-    let stored = table.slices() + usize::from(table.diffuse_slice().is_some());
+    let stored = table.slices();
     let f = |v: [f64; 4]| [v[0] as f32, v[1] as f32, v[2] as f32, 0.0];
     for k in 0..stored {
         let sat = table.slice_sat(k);
@@ -747,6 +749,7 @@ fn push_table(data: &mut Vec<[f32; 4]>, table: &BrdfTable) -> TablePlacement {
         views: views as u32,
         offset,
         max_density: table.max_density(),
+        diffuse: table.analytic_diffuse(),
         amplitude: table.brdf().view_amplitude_exponent(),
     }
 }

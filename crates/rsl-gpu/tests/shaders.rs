@@ -102,6 +102,7 @@ fn shading_layouts_match_wgsl() {
             bound_world,
             bound_object,
             max_density,
+            diffuse,
             ovdf_centre,
             vertex_offset,
             vertex_count,
