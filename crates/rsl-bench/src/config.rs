@@ -10,6 +10,8 @@ pub enum MethodKind {
     Cpu,
     /// The wgpu compute pass (any adapter).
     Gpu,
+    /// vMF lobes × RSL visibility on every object, CPU (`rsl_engine::lobe::Hybrid`).
+    Hybrid,
 }
 
 impl MethodKind {
@@ -18,6 +20,7 @@ impl MethodKind {
         match self {
             MethodKind::Cpu => "cpu",
             MethodKind::Gpu => "gpu",
+            MethodKind::Hybrid => "hybrid",
         }
     }
 
@@ -25,6 +28,7 @@ impl MethodKind {
         match s {
             "cpu" => Some(MethodKind::Cpu),
             "gpu" => Some(MethodKind::Gpu),
+            "hybrid" => Some(MethodKind::Hybrid),
             _ => None,
         }
     }
@@ -140,8 +144,9 @@ pub fn configs(sweeps: &[Sweep]) -> Result<Vec<Config>> {
                         })?);
                     }
                     "method" => {
-                        c.method = MethodKind::from_name(v)
-                            .ok_or_else(|| anyhow::anyhow!("--sweep method: `{v}` is not a method (cpu, gpu)"))?;
+                        c.method = MethodKind::from_name(v).ok_or_else(|| {
+                            anyhow::anyhow!("--sweep method: `{v}` is not a method (cpu, gpu, hybrid)")
+                        })?;
                     }
                     knob => {
                         let n = QualitySettings::parse_value(knob, v)

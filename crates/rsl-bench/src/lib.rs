@@ -219,6 +219,7 @@ pub const GRID_ROWS: usize = 24;
 /// its per-pixel error filled into its row; and the grid `<scene>_grid_t<time>.png` of the
 /// first [`GRID_ROWS`] configurations.
 fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: &mut Option<GpuRsl>) -> Result<()> {
+    let mut hybrid = rsl_engine::lobe::Hybrid::new();
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
         let full = Scene::load(scene_path)?;
@@ -243,6 +244,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
                 let method: &mut dyn Method = match config.method {
                     MethodKind::Cpu => cpu,
                     MethodKind::Gpu => gpu.as_mut().context("the GPU was opened while measuring")?,
+                    MethodKind::Hybrid => &mut hybrid,
                 };
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
                 let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
@@ -335,6 +337,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
     let budget_file = options.out.join("budget.csv");
     let mut budget_rows = budget::read_rows(&budget_file)?;
     let mut cpu = CpuRsl;
+    let mut hybrid = rsl_engine::lobe::Hybrid::new();
     let mut gpu: Option<GpuRsl> = None;
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
@@ -411,6 +414,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     }
                     gpu.as_mut().expect("opened above")
                 }
+                MethodKind::Hybrid => &mut hybrid,
             };
             let request = Request { time: t, image: false, vertices: true, exposure: None };
             let mut times = Vec::with_capacity(options.frames);

@@ -12,6 +12,7 @@
 pub mod cache;
 pub mod engine;
 pub mod gpu;
+pub mod lobe;
 pub mod method;
 pub mod output;
 pub mod ply;

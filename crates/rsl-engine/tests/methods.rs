@@ -6,12 +6,16 @@
 //! - the RSL paths (CPU, GPU) to the resolution of their tables: the Lambert table and the
 //!   light set reproduce a constant environment to 1 % ([`BASE`]), and a visibility boundary
 //!   is placed to within half a cell of the `N×N` hemisphere grid (see [`cap_bound`]);
-//! - the Monte Carlo truth to its own standard error: 5σ per vertex, from the replicates.
+//! - the Monte Carlo truth to its own standard error: 5σ per vertex, from the replicates;
+//! - the lobe × RSL-visibility hybrid to the RSL paths' bounds: its Lambertian objects keep
+//!   the RSL path's value, and its glossy ones (the rotation case's GGX Suzanne) must turn
+//!   with the scene like the RSL path's (the lobes' own furnace is rsl-lobe's test).
 //!
 //! The GPU tests need an adapter (Mesa's llvmpipe in CI); without one they print
 //! "skipped: no adapter", and fail under RSL_REQUIRE_GPU=1.
 
 use glam::{Quat, Vec3};
+use rsl_engine::lobe::Hybrid;
 use rsl_engine::method::{CpuRsl, Frame, GpuRsl, Method, Request, Truth};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, Layers};
@@ -25,6 +29,7 @@ enum Kind {
     Cpu,
     Gpu,
     Truth,
+    Hybrid,
 }
 
 /// The RSL paths' error under a constant environment, relative: the light set's quadrature
@@ -45,6 +50,7 @@ fn prepare(kind: Kind, scene: &Scene, test: &str) -> Option<(Engine, Box<dyn Met
             Box::new(GpuRsl { renderer: GpuRenderer::with_context(Arc::new(ctx)).expect("pipelines build") })
         }
         Kind::Truth => Box::new(Truth::new(&engine, SPP, 7).expect("truth")),
+        Kind::Hybrid => Box::new(Hybrid::new()),
     };
     Some((engine, method))
 }
@@ -238,7 +244,7 @@ fn moving_occluder(kind: Kind, test: &str) {
 }
 
 macro_rules! matrix {
-    ($($case:ident: $cpu:ident, $gpu:ident, $truth:ident;)*) => {$(
+    ($($case:ident: $cpu:ident, $gpu:ident, $truth:ident, $hybrid:ident;)*) => {$(
         #[test]
         fn $cpu() {
             $case(Kind::Cpu, stringify!($cpu));
@@ -251,12 +257,16 @@ macro_rules! matrix {
         fn $truth() {
             $case(Kind::Truth, stringify!($truth));
         }
+        #[test]
+        fn $hybrid() {
+            $case(Kind::Hybrid, stringify!($hybrid));
+        }
     )*};
 }
 
 matrix! {
-    furnace: furnace_cpu, furnace_gpu, furnace_truth;
-    cap: cap_cpu, cap_gpu, cap_truth;
-    rotation: rotation_cpu, rotation_gpu, rotation_truth;
-    moving_occluder: moving_occluder_cpu, moving_occluder_gpu, moving_occluder_truth;
+    furnace: furnace_cpu, furnace_gpu, furnace_truth, furnace_hybrid;
+    cap: cap_cpu, cap_gpu, cap_truth, cap_hybrid;
+    rotation: rotation_cpu, rotation_gpu, rotation_truth, rotation_hybrid;
+    moving_occluder: moving_occluder_cpu, moving_occluder_gpu, moving_occluder_truth, moving_occluder_hybrid;
 }
