@@ -40,6 +40,21 @@ pub fn theta_max() -> f32 {
     (1e-3f32).acos()
 }
 
+/// `v ≥ 2` polar view angles `θ_k = θ_max·(1 − (1 − k/(v−1))²)`, denser toward grazing.
+pub fn polar_views(v: usize, theta_max: f32) -> Vec<f32> {
+    (0..v).map(|k| theta_max * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect()
+}
+
+/// Where the polar angle `theta` falls among [`polar_views`]`(v, theta_max)`: the lower view
+/// `k ≤ v − 2` and the fraction `f ∈ [0, 1]` of the way to `k + 1` (angles beyond `θ_max`
+/// take the last view).
+pub fn polar_view_between(theta: f32, v: usize, theta_max: f32) -> (usize, f32) {
+    // Invert θ = θ_max(1 − (1 − t)²): t = 1 − √(1 − θ/θ_max).
+    let t = (1.0 - (1.0 - theta.min(theta_max) / theta_max).max(0.0).sqrt()) * (v - 1) as f32;
+    let k = (t.floor() as usize).min(v - 2);
+    (k, (t - k as f32).clamp(0.0, 1.0))
+}
+
 /// Deepest recursion of the adaptive cell quadrature (a cell split into up to 4⁸ parts).
 const MAX_DEPTH: u32 = 8;
 
@@ -169,7 +184,7 @@ impl BrdfTable {
             Views::Anisotropic(res.views)
         } else {
             let v = res.views;
-            Views::Isotropic((0..v).map(|k| theta_max() * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect())
+            Views::Isotropic(polar_views(v, theta_max()))
         };
         let points = QuadraturePoints::of(&grid);
         let diffuse = match &views {
@@ -289,11 +304,7 @@ impl BrdfTable {
                 let rxy = Vec2::new(view.x, view.y).length();
                 let (cos, sin) = if rxy > 1e-12 { (view.x / rxy, view.y / rxy) } else { (1.0, 0.0) };
                 let theta = view.z.clamp(-1.0, 1.0).acos().min(theta_max());
-                // Invert θ = θ_max(1 − (1 − t)²): t = 1 − √(1 − θ/θ_max).
-                let v = thetas.len();
-                let t = (1.0 - (1.0 - theta / theta_max()).max(0.0).sqrt()) * (v - 1) as f32;
-                let k = (t.floor() as usize).min(v - 2);
-                let f = (t - k as f32).clamp(0.0, 1.0);
+                let (k, f) = polar_view_between(theta, thetas.len(), theta_max());
                 let turn = [k, k + 1].map(|k| {
                     let (sin, cos) = (theta - thetas[k]).sin_cos();
                     Vec2::new(cos, sin)

@@ -22,6 +22,7 @@ use crate::vmf::Vmf;
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 use rsl_brdf::Brdf;
+use rsl_brdf::table::{polar_view_between, polar_views};
 use rsl_sphere::Frame;
 use rsl_sphere::sampling::luminance;
 
@@ -143,8 +144,7 @@ impl MaterialLobes {
             return Err(format!("{}: material lobes are fitted for isotropic BRDFs only", brdf.name()));
         }
         let v = params.views.max(2);
-        let thetas: Vec<f32> =
-            (0..v).map(|k| theta_max() * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect();
+        let thetas = polar_views(v, theta_max());
         let specular_part = brdf.specular_part();
         let has_specular = !brdf.is_lambertian();
         let specular = thetas
@@ -180,15 +180,19 @@ impl MaterialLobes {
     /// lobe interpolated between the two nearest tabulated views and turned to the view's
     /// azimuth, then the diffuse lobe. Views at or below the horizon reflect nothing.
     pub fn lobes(&self, view: Vec3) -> Vec<WeightedLobe> {
-        let mut out = Vec::with_capacity(2);
-        if view.z.is_nan() || view.z <= 0.0 {
-            return out;
-        }
+        self.lobes_at(view).collect()
+    }
+
+    /// [`MaterialLobes::lobes`] without allocating.
+    fn lobes_at(&self, view: Vec3) -> impl Iterator<Item = WeightedLobe> {
+        let above = !(view.z.is_nan() || view.z <= 0.0);
+        above.then(|| self.specular_at(view)).flatten().into_iter().chain(self.diffuse.filter(|_| above))
+    }
+
+    /// The specular lobe for a view above the horizon (see [`MaterialLobes::lobes`]).
+    fn specular_at(&self, view: Vec3) -> Option<WeightedLobe> {
         let theta = view.z.clamp(-1.0, 1.0).acos().min(theta_max());
-        let v = self.thetas.len();
-        let t = (1.0 - (1.0 - theta / theta_max()).max(0.0).sqrt()) * (v - 1) as f32;
-        let k = (t.floor() as usize).min(v - 2);
-        let f = (t - k as f32).clamp(0.0, 1.0);
+        let (k, f) = polar_view_between(theta, self.thetas.len(), theta_max());
         let rxy = Vec2::new(view.x, view.y).length();
         let (c, s) = if rxy > 1e-12 { (view.x / rxy, view.y / rxy) } else { (1.0, 0.0) };
         let turn = |d: Vec3| Vec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z);
@@ -197,23 +201,20 @@ impl MaterialLobes {
                 let mean = (a.lobe.mean * (1.0 - f) + b.lobe.mean * f).normalize_or(a.lobe.mean);
                 let kappa = a.lobe.kappa * (1.0 - f) + b.lobe.kappa * f;
                 let weight = a.weight * (1.0 - f) + b.weight * f;
-                out.push(WeightedLobe { weight, lobe: Vmf::new(turn(mean), kappa) });
+                Some(WeightedLobe { weight, lobe: Vmf::new(turn(mean), kappa) })
             }
             (Some(a), None) | (None, Some(a)) => {
-                out.push(WeightedLobe { lobe: Vmf::new(turn(a.lobe.mean), a.lobe.kappa), ..a })
+                Some(WeightedLobe { lobe: Vmf::new(turn(a.lobe.mean), a.lobe.kappa), ..a })
             }
-            (None, None) => {}
+            (None, None) => None,
         }
-        out.extend(self.diffuse);
-        out
     }
 
     /// Unshadowed reflected radiance toward `view` at a point with shading frame `frame`
     /// (world space), under `env` whose environment-from-world rotation is applied by
     /// `to_env`: `Σ_j α_j P_{κ_j}(μ_j)`, one lookup per lobe.
     pub fn radiance(&self, env: &Prefiltered, frame: &Frame, view_world: Vec3, to_env: impl Fn(Vec3) -> Vec3) -> Vec3 {
-        self.lobes(frame.to_local(view_world))
-            .iter()
+        self.lobes_at(frame.to_local(view_world))
             .map(|l| l.weight * env.lookup(to_env(frame.to_world(l.lobe.mean)), l.lobe.kappa))
             .sum()
     }

@@ -18,12 +18,12 @@
 //! levels in `log₂ κ` (in `κ` between levels 0 and 1). Rotating the environment rotates the
 //! lookup direction; nothing is rebuilt.
 
-use crate::vmf::{density_at, peak_density};
+use crate::vmf::peak_density;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use rsl_env::cube_env::CubeEnv;
 use rsl_sphere::Frame;
-use rsl_sphere::cube::{CubeGrid, face_uv_from_dir};
+use rsl_sphere::cube::{CubeGrid, face_axes};
 use rsl_sphere::latlong::LatLongMap;
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -135,14 +135,6 @@ fn support(grid: &CubeGrid, mean: DVec3, cos_min: f64) -> [(usize, usize, usize,
         *range = (cell(lo[0], false), cell(hi[0], true), cell(lo[1], false), cell(hi[1], true));
     }
     out
-}
-
-/// A face's outward axis and its `u`, `v` axes, as `rsl_sphere::cube` places them.
-fn face_axes(face: usize) -> (DVec3, DVec3, DVec3) {
-    let n = rsl_sphere::cube::dir_from_face_uv(face, 0.0, 0.0);
-    let u = (rsl_sphere::cube::dir_from_face_uv(face, 1.0, 0.0) * 2f64.sqrt() - n).normalize();
-    let v = (rsl_sphere::cube::dir_from_face_uv(face, 0.0, 1.0) * 2f64.sqrt() - n).normalize();
-    (n, u, v)
 }
 
 /// A source grid: per texel, its energy (RGB) and where its light lies.
@@ -375,28 +367,9 @@ impl Prefiltered {
 
 /// Bilinear interpolation of a level between texel centres, across face seams.
 fn bilinear(level: &Level, dir: Vec3) -> Vec3 {
-    let grid = &level.grid;
-    let m = grid.r();
-    if m == 1 {
+    if level.grid.r() == 1 {
         return level.values[0];
     }
-    let (face, fu, fv) = face_uv_from_dir(dir.as_dvec3());
-    let (gx, gy) = ((fu + 1.0) * 0.5 * m as f64 - 0.5, (fv + 1.0) * 0.5 * m as f64 - 0.5);
-    let (i0, j0) = (gx.floor() as i64, gy.floor() as i64);
-    let (fx, fy) = ((gx - i0 as f64) as f32, (gy - j0 as f64) as f32);
-    let texel = |i: i64, j: i64| {
-        let last = m as i64 - 1;
-        let (ci, cj) = (i.clamp(0, last), j.clamp(0, last));
-        let t = grid.index(face, ci as usize, cj as usize);
-        if (ci, cj) == (i, j) { t } else { grid.neighbour(t, (i - ci) as i32, (j - cj) as i32) }
-    };
-    let v = |i, j| level.values[texel(i, j)];
-    (v(i0, j0) * (1.0 - fx) + v(i0 + 1, j0) * fx) * (1.0 - fy)
-        + (v(i0, j0 + 1) * (1.0 - fx) + v(i0 + 1, j0 + 1) * fx) * fy
-}
-
-/// `P_κ(μ)` of a single texel-sized light (energy `energy`, direction `d`) in closed form,
-/// for tests and the README's check: `energy · γ_κ(μ·d)`.
-pub fn single_light(mean: Vec3, kappa: f32, d: Vec3, energy: f64) -> f64 {
-    energy * density_at(f64::from(kappa), f64::from(mean.dot(d)))
+    let (texels, weights) = level.grid.bilinear(dir.as_dvec3());
+    texels.iter().zip(weights).map(|(&t, w)| level.values[t] * w).sum()
 }

@@ -18,7 +18,8 @@ const FACES: [[[f64; 3]; 3]; 6] = [
     [[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
 ];
 
-fn axes(face: usize) -> (DVec3, DVec3, DVec3) {
+/// Face `face`'s outward axis `N` and in-face axes `U`, `V` (module docs).
+pub fn face_axes(face: usize) -> (DVec3, DVec3, DVec3) {
     let [n, u, v] = FACES[face];
     (DVec3::from(n), DVec3::from(u), DVec3::from(v))
 }
@@ -38,14 +39,14 @@ pub fn face_uv_from_dir(d: DVec3) -> (usize, f64, f64) {
     } else {
         5
     };
-    let (n, u, v) = axes(face);
+    let (n, u, v) = face_axes(face);
     let m = d.dot(n);
     (face, (d.dot(u) / m).clamp(-1.0, 1.0), (d.dot(v) / m).clamp(-1.0, 1.0))
 }
 
 /// Unit direction of face coordinates.
 pub fn dir_from_face_uv(face: usize, u: f64, v: f64) -> DVec3 {
-    let (n, ua, va) = axes(face);
+    let (n, ua, va) = face_axes(face);
     (n + ua * u + va * v).normalize()
 }
 
@@ -117,6 +118,27 @@ impl CubeGrid {
         dir_from_face_uv(face, 0.5 * (u0 + u1), 0.5 * (v0 + v1)).as_vec3()
     }
 
+    /// The four texels whose centres surround direction `d` and their bilinear weights,
+    /// stepping across face seams (a tap just outside the face is its neighbour there):
+    /// corners `(i0, j0)`, `(i0 + 1, j0)`, `(i0, j0 + 1)`, `(i0 + 1, j0 + 1)`.
+    pub fn bilinear(&self, d: DVec3) -> ([usize; 4], [f32; 4]) {
+        let m = self.r;
+        let (face, fu, fv) = face_uv_from_dir(d);
+        let (gx, gy) = ((fu + 1.0) * 0.5 * m as f64 - 0.5, (fv + 1.0) * 0.5 * m as f64 - 0.5);
+        let (i0, j0) = (gx.floor() as i64, gy.floor() as i64);
+        let (fx, fy) = ((gx - i0 as f64) as f32, (gy - j0 as f64) as f32);
+        let texel = |i: i64, j: i64| {
+            let last = m as i64 - 1;
+            let (ci, cj) = (i.clamp(0, last), j.clamp(0, last));
+            let t = self.index(face, ci as usize, cj as usize);
+            if (ci, cj) == (i, j) { t } else { self.neighbour(t, (i - ci) as i32, (j - cj) as i32) }
+        };
+        (
+            [texel(i0, j0), texel(i0 + 1, j0), texel(i0, j0 + 1), texel(i0 + 1, j0 + 1)],
+            [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy],
+        )
+    }
+
     /// Texel containing a direction.
     pub fn texel_of_dir(&self, d: Vec3) -> usize {
         let (face, u, v) = face_uv_from_dir(d.as_dvec3());
@@ -132,7 +154,7 @@ impl CubeGrid {
         let h = 2.0 / self.r as f64;
         let u = 0.5 * (u0 + u1) + di as f64 * h;
         let v = 0.5 * (v0 + v1) + dj as f64 * h;
-        let (n, ua, va) = axes(face);
+        let (n, ua, va) = face_axes(face);
         self.texel_of_dir((n + ua * u + va * v).as_vec3())
     }
 

@@ -354,38 +354,15 @@ impl Ovdf {
         let m = self.params.m;
         let grid = CubeGrid::new(m);
         let u = if v.length_squared() > 0.0 { v.normalize() } else { Vec3::Y };
-        let (face, fu, fv) = rsl_sphere::cube::face_uv_from_dir(u.as_dvec3());
-        let (gx, gy) = ((fu + 1.0) * 0.5 * m as f64 - 0.5, (fv + 1.0) * 0.5 * m as f64 - 0.5);
-        let (i0, j0) = (gx.floor() as i64, gy.floor() as i64);
-        let (fx, fy) = ((gx - i0 as f64) as f32, (gy - j0 as f64) as f32);
+        let (texels, weights) = grid.bilinear(u.as_dvec3());
         let half = m / 2;
-        // The texel at (i, j) of this face, stepping across a seam for i or j just outside,
-        // and its place: its segment within a shell (face·4 + quadrant) and its index there.
-        let texel = |i: i64, j: i64| {
-            let last = m as i64 - 1;
-            let (ci, cj) = (i.clamp(0, last), j.clamp(0, last));
-            let t = grid.index(face, ci as usize, cj as usize);
-            let (t, (f, i, j)) = if (ci, cj) == (i, j) {
-                (t, (face, ci as usize, cj as usize))
-            } else {
-                let t = grid.neighbour(t, (i - ci) as i32, (j - cj) as i32);
-                (t, grid.coords(t))
-            };
+        // Each texel's place: its segment within a shell (face·4 + quadrant) and its index there.
+        let places = texels.map(|t| {
+            let (f, i, j) = grid.coords(t);
             let (qi, qj) = (usize::from(i >= half), usize::from(j >= half));
-            let place = ((f * 4 + qj * 2 + qi) as u32, ((j - qj * half) * half + i - qi * half) as u32);
-            (t, place)
-        };
-        let corners = [texel(i0, j0), texel(i0 + 1, j0), texel(i0, j0 + 1), texel(i0 + 1, j0 + 1)];
-        let texels = [corners[0].0, corners[1].0, corners[2].0, corners[3].0];
-        let places = [corners[0].1, corners[1].1, corners[2].1, corners[3].1];
-        Some(OvdfPoint {
-            x,
-            shell: s0,
-            shell_weight: fs,
-            texels,
-            places,
-            weights: [(1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy, fx * fy],
-        })
+            ((f * 4 + qj * 2 + qi) as u32, ((j - qj * half) * half + i - qi * half) as u32)
+        });
+        Some(OvdfPoint { x, shell: s0, shell_weight: fs, texels, places, weights })
     }
 
     /// The signed distance at a located point for light from `dir` (object space):
