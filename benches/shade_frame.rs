@@ -1,6 +1,7 @@
 //! `shade_frame`: one CPU frame of the benchmark scene (data/scenes/bench.toml: 59,551
 //! vertices in 12 objects, 30 RSLs, paper preset), and the same frame with terms left out
-//! for a breakdown: BRDF lookups alone, BRDF + self-visibility, everything.
+//! for a breakdown: BRDF lookups alone, BRDF + self-visibility, everything (the preset's two
+//! brightest lights with traced shadows), and everything from the occluder fields alone.
 //!
 //! Precomputation comes from the disk cache (`RSL_CACHE_DIR`, else the user cache folder);
 //! the first run builds the paper-resolution fields (about a minute and a half on 2 cores).
@@ -8,7 +9,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions};
-use rsl_shade::Terms;
+use rsl_shade::{Terms, Traced};
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
@@ -41,6 +42,12 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    g.bench_function("full_fields", |b| {
+        b.iter(|| {
+            let setup = engine.setup(&scene, &state, eye, Terms::default()).unwrap().with_traced(Traced::default());
+            black_box(rsl_shade::shade(&setup))
+        })
+    });
     g.finish();
 }
 

@@ -17,7 +17,8 @@ pub struct BenchArgs {
     pub out: PathBuf,
     /// A sweep `KEY=V1,V2,…` over `rsl`, `quality` (draft, paper, high), `method` (cpu, gpu, hybrid)
     /// or a quality knob (table_resolution, view_samples, env_grid, ovdf_directions,
-    /// ovdf_shells, ovdf_vectors, cpca_clusters, cpca_vectors); repeat for more. Default:
+    /// ovdf_shells, ovdf_vectors, cpca_clusters, cpca_vectors, traced_lights, shadow_rays);
+    /// repeat for more. Default:
     /// rsl=10,30,60,100,300 and quality=draft,paper.
     #[arg(long = "sweep")]
     pub sweeps: Vec<Sweep>,

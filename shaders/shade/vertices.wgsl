@@ -18,7 +18,8 @@ struct Params {
     terms: u32,
     // Invocations per row of the dispatch grid (a large scene dispatches rows of groups).
     row_stride: u32,
-    pad0: u32,
+    // Traced lights: covers per vertex in `traced`.
+    traced_count: u32,
     pad1: u32,
     pad2: u32,
 }
@@ -84,7 +85,8 @@ struct GpuVertex {
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Per light l: at 3l its direction (xyz, world) and half-diagonal (w); at 3l+1 its radiance;
-// at 3l+2 its cone (α, cos α, sin α). Then per object its light directions in object space.
+// at 3l+2 its cone (α, cos α, sin α) and its slot among the traced lights plus one (w; 0 when
+// not traced). Then per object its light directions in object space.
 @group(0) @binding(1) var<storage, read> frame: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> objects: array<GpuObject>;
 @group(0) @binding(3) var<storage, read> vertices: array<GpuVertex>;
@@ -93,6 +95,9 @@ struct GpuVertex {
 @group(0) @binding(6) var<storage, read> segments: array<Compressed>;
 // [0, V): world positions; [V, 2V): radiance toward the eye.
 @group(0) @binding(7) var<storage, read_write> shaded: array<vec4<f32>>;
+// Traced lights (rsl_shade::FrameSetup::traced_covers): at g·traced_count + k, the fraction
+// of traced light k's shadow rays from vertex g that no other object blocks.
+@group(0) @binding(8) var<storage, read> traced: array<f32>;
 
 override WORKGROUP_SIZE: u32 = 64u;
 
@@ -267,6 +272,15 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
             if cover > 0.0 {
                 cover *= mask_share(vert, p, r);
             }
+        }
+        let slot = u32(frame[3u * l + 2u].w);
+        if slot > 0u {
+            // A traced light: the other objects' shadows come from rays, not the fields.
+            if (params.terms & TERM_OCCLUDERS) != 0u && cover > 0.0 {
+                cover *= traced[g * params.traced_count + slot - 1u];
+            }
+            sum += frame[3u * l + 1u].xyz * brdf * cover;
+            continue;
         }
         for (var k = 0u; k < count; k++) {
             if cover <= 0.0 {

@@ -187,7 +187,7 @@ fn raising_any_single_knob_never_raises_the_error_beyond_the_truths_noise() {
     );
     // From a coarse base, each knob alone at a low and a higher value.
     let base = "quality=draft";
-    let pairs: [(&str, &str, &str, &PathBuf); 10] = [
+    let pairs: [(&str, &str, &str, &PathBuf); 12] = [
         ("rsl", "4", "32", &scene),
         ("brdf_resolution", "16", "64", &scene),
         ("view_samples", "4", "16", &scene),
@@ -198,6 +198,8 @@ fn raising_any_single_knob_never_raises_the_error_beyond_the_truths_noise() {
         ("env_grid", "8", "16", &scene),
         ("cpca_clusters", "1", "16", &torus),
         ("cpca_vectors", "1", "6", &torus),
+        ("traced_lights", "0", "2", &scene),
+        ("shadow_rays", "1", "16", &scene),
     ];
     for (knob, low, high, scene) in pairs {
         let sweep = format!("{knob}={low},{high}");

@@ -25,9 +25,10 @@ use glam::Vec3;
 use rsl_brdf::{Brdf, BrdfTable, Resolution};
 use rsl_env::{CubeEnv, Decomposition, Rsl};
 use rsl_scene::{EnvironmentSource, Material, Preset, QualitySettings, Scene, SceneState};
-use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, VertexFrames};
+use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, Traced, VertexFrames};
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
+use rsl_vis::rays::Occluder;
 use rsl_vis::store::FieldFileError;
 use rsl_vis::{FaceMask, Ovdf, OvdfParams, Svdf, SvdfParams};
 use std::path::{Path, PathBuf};
@@ -192,6 +193,9 @@ struct RslObject {
     /// The face-averaged vertex mask (from the mesh alone).
     mask: Arc<FaceMask>,
     ovdf: Option<(Arc<Ovdf>, u64)>,
+    /// The triangles in a BVH, for traced shadows (when the object casts shadows and the
+    /// quality traces lights).
+    bvh: Option<Arc<Occluder>>,
 }
 
 /// One object's prepared data.
@@ -548,7 +552,12 @@ impl Engine {
                 let (svdf, svdf_key) = self.svdf(&o.name, &o.mesh, mesh_key)?;
                 let mask = self.face_mask(&o.mesh, mesh_key);
                 let ovdf = if o.casts_shadows { Some(self.ovdf(&o.name, &o.mesh, mesh_key)?) } else { None };
-                Some(RslObject { table, table_key, svdf, svdf_key, mask, ovdf })
+                let bvh = if o.casts_shadows && self.traced().lights > 0 && self.traced().rays > 0 {
+                    Some(self.bvh(&o.name, &o.mesh, mesh_key)?)
+                } else {
+                    None
+                };
+                Some(RslObject { table, table_key, svdf, svdf_key, mask, ovdf, bvh })
             } else {
                 None
             };
@@ -612,6 +621,27 @@ impl Engine {
         };
         self.store.pin_more([key]);
         mask
+    }
+
+    /// A mesh's triangles in a BVH for traced shadows: built in milliseconds, kept in memory,
+    /// never on disk.
+    fn bvh(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<Arc<Occluder>> {
+        let key = KeyHasher::default().str("bvh").u64(mesh_key).finish();
+        let bvh = match self.store.get::<Occluder>(key) {
+            Some(b) => b,
+            None => {
+                let b = Arc::new(Occluder::new(mesh).with_context(|| format!("object {name}: shadow-ray BVH"))?);
+                self.store.insert(key, b.clone(), b.bytes());
+                b
+            }
+        };
+        self.store.pin_more([key]);
+        Ok(bvh)
+    }
+
+    /// The traced lights of the quality settings.
+    pub fn traced(&self) -> Traced {
+        Traced { lights: self.settings.traced_lights as usize, rays: self.settings.shadow_rays as usize }
     }
 
     fn svdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Svdf>, u64)> {
@@ -763,6 +793,7 @@ impl Engine {
                     svdf: &r.svdf,
                     mask: &r.mask,
                     ovdf: r.ovdf.as_ref().map(|(f, _)| &**f),
+                    occluder: r.bvh.as_deref(),
                     transform,
                 })
             })
@@ -772,7 +803,7 @@ impl Engine {
     /// The shading inputs of `scene` at `state`, seen from `eye`.
     pub fn setup(&self, scene: &Scene, state: &SceneState, eye: Vec3, terms: Terms) -> Result<FrameSetup<'_>> {
         let objects = self.objects(scene, state)?;
-        Ok(FrameSetup::new(&objects, &self.lights(state), eye, terms))
+        Ok(FrameSetup::new(&objects, &self.lights(state), eye, terms).with_traced(self.traced()))
     }
 
     /// Shades every vertex of `scene` at time `t` (the CPU fast path), seen from the camera.

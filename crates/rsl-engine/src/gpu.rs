@@ -14,7 +14,7 @@ use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
 use rsl_gpu::{GpuContext, GpuError};
 use rsl_scene::Scene;
 use rsl_shade::Image;
-use rsl_shade::{FrameStats, Pose, Terms};
+use rsl_shade::{FrameSetup, FrameStats, Pose, Terms};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -218,7 +218,11 @@ impl GpuRenderer {
             self.shading.load_tables(&objects).context("uploading BRDF tables")?;
             self.tables = Some(k);
         }
-        self.last = self.shading.shade(&objects, &engine.lights(&state), scene.camera.eye, terms)?;
+        let lights = engine.lights(&state);
+        // Traced lights' shadow rays run on the CPU; the shader reads their covers.
+        let traced = FrameSetup::new(&objects, &lights, scene.camera.eye, terms).with_traced(engine.traced());
+        let covers = traced.traced_covers();
+        self.last = self.shading.shade(&objects, &lights, scene.camera.eye, terms, &covers)?;
         Ok(self.last)
     }
 }

@@ -95,10 +95,14 @@ fn gpu_matches_cpu_on_the_default_scene_over_time() {
         let g = gpu.shade(&engine, &scene, t).unwrap();
         check(&format!("t = {t}"), absolute(&engine, &scene, t), &cpu, &g);
     }
-    // Moving objects uploaded the geometry and tables once, then only per-frame data.
+    // Moving objects uploaded the geometry and tables once, then only per-frame data: lights
+    // and poses (small), and the traced lights' covers (a float per vertex and traced light).
     let up = gpu.uploads();
     assert_eq!((up.geometry_loads, up.table_loads, up.frames), (1, 1, 3));
-    assert!(up.frame_bytes < 3 * 64 * 1024, "per-frame uploads are small: {up:?}");
+    let vertices: usize = (0..engine.object_count()).map(|i| engine.mesh(i).vertex_count()).sum();
+    let covers = 4 * vertices * engine.traced().lights;
+    assert!(engine.traced().lights > 0, "the default scene's preset traces its brightest lights");
+    assert!(up.frame_bytes < 3 * (64 * 1024 + covers as u64), "per-frame uploads are small: {up:?}");
 }
 
 #[test]
@@ -294,15 +298,21 @@ fn shading_objects_that_were_not_loaded_is_an_error() {
     let objects = engine.objects(&scene, &state).unwrap();
     let mut shading = rsl_gpu::shade::GpuShading::new(Arc::new(ctx)).unwrap();
     let lights = engine.lights(&state);
-    let e = shading.shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap_err();
+    let e = shading
+        .shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default(), &Default::default())
+        .unwrap_err();
     assert!(e.to_string().contains("load_geometry"), "{e}");
     shading.load_geometry(&objects).unwrap();
-    let e = shading.shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap_err();
+    let e = shading
+        .shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default(), &Default::default())
+        .unwrap_err();
     assert!(e.to_string().contains("load_tables"), "{e}");
     shading.load_tables(&objects).unwrap();
-    shading.shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap();
+    shading.shade(&objects, &lights, scene.camera.eye, rsl_shade::Terms::default(), &Default::default()).unwrap();
     // Fewer objects than loaded: refused, not read out of bounds.
-    let e = shading.shade(&objects[..2], &lights, scene.camera.eye, rsl_shade::Terms::default()).unwrap_err();
+    let e = shading
+        .shade(&objects[..2], &lights, scene.camera.eye, rsl_shade::Terms::default(), &Default::default())
+        .unwrap_err();
     assert!(e.to_string().contains("load_geometry"), "{e}");
 }
 

@@ -20,7 +20,7 @@ use crate::{GpuContext, GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
 use rsl_brdf::{BrdfTable, Views};
-use rsl_shade::{Light, OccluderBound, Pose, ShadeObject, Terms};
+use rsl_shade::{Light, OccluderBound, Pose, ShadeObject, Terms, TracedCovers};
 use rsl_sphere::Frame;
 use rsl_sphere::cube::CubeGrid;
 use rsl_vis::cpca::Cpca;
@@ -50,8 +50,8 @@ pub struct Params {
     pub terms: u32,
     /// Invocations per row of the dispatch grid (workgroups in x × workgroup size).
     pub row_stride: u32,
-    /// Padding.
-    pub pad0: u32,
+    /// Traced lights: covers per vertex in the traced buffer.
+    pub traced_count: u32,
     /// Padding.
     pub pad1: u32,
     /// Padding.
@@ -249,6 +249,7 @@ pub struct GpuShading {
     fields: Slot,
     segments: Slot,
     shaded: Slot,
+    traced: Slot,
     indices: Slot,
     index_count: u32,
     bind: Option<wgpu::BindGroup>,
@@ -302,6 +303,7 @@ impl GpuShading {
                 "shaded vertices",
                 wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC,
             ),
+            traced: slot("shade traced covers", storage),
             indices: slot("scene indices", wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
             index_count: 0,
             bind: None,
@@ -515,6 +517,7 @@ impl GpuShading {
             &self.fields.buffer,
             &self.segments.buffer,
             &self.shaded.buffer,
+            &self.traced.buffer,
         ]
         .iter()
         .enumerate()
@@ -531,12 +534,15 @@ impl GpuShading {
 
     /// Shades every vertex of `objects` (the ones loaded, at their current transforms) under
     /// `lights`, seen from `eye`, and waits for the result. Uploads only per-frame data.
+    /// Traced lights take their occluders' shadows from `traced` (rays traced on the CPU,
+    /// [`rsl_shade::FrameSetup::traced_covers`]) instead of the occluder fields.
     pub fn shade(
         &mut self,
         objects: &[ShadeObject<'_>],
         lights: &[Light],
         eye: Vec3,
         terms: Terms,
+        traced: &TracedCovers,
     ) -> Result<PassTime, GpuError> {
         self.ctx.check_alive()?;
         if objects.len() != self.placements.len()
@@ -548,12 +554,24 @@ impl GpuShading {
             return Err(GpuError::Scene("the objects differ from the loaded tables: call load_tables".into()));
         }
         let nl = lights.len();
+        let traced_ok = if traced.count == 0 {
+            traced.covers.is_empty()
+        } else {
+            traced.slots.len() == nl
+                && traced.covers.len() == self.vertex_count as usize * traced.count as usize
+                && traced.slots.iter().flatten().all(|&k| k < traced.count)
+        };
+        if !traced_ok {
+            return Err(GpuError::Scene("the traced covers do not fit the lights and the loaded vertices".into()));
+        }
         let mut frame: Vec<[f32; 4]> = Vec::with_capacity(3 * nl + objects.len() * nl);
-        for l in lights {
+        for (k, l) in lights.iter().enumerate() {
             let alpha = l.cone_half_angle();
+            // w: the light's slot among the traced lights plus one (0: not traced).
+            let slot = traced.slots.get(k).copied().flatten().map_or(0.0, |s| (s + 1) as f32);
             frame.push(vec4(l.dir, l.half_diagonal));
             frame.push(vec4(l.radiance, 0.0));
-            frame.push([alpha, alpha.cos(), alpha.sin(), 0.0]);
+            frame.push([alpha, alpha.cos(), alpha.sin(), slot]);
         }
         let mut gpu_objects = Vec::with_capacity(objects.len());
         for (i, o) in objects.iter().enumerate() {
@@ -603,13 +621,16 @@ impl GpuShading {
             light_count: nl as u32,
             terms: u32::from(terms.self_visibility) | (u32::from(terms.occluders) << 1),
             row_stride: gx * WORKGROUP_SIZE,
+            traced_count: traced.count,
             ..Default::default()
         };
         self.upload(|s| &mut s.frame, "shade frame", &frame)?;
+        self.upload(|s| &mut s.traced, "shade traced covers", &traced.covers)?;
         self.upload(|s| &mut s.objects, "shade objects", &gpu_objects)?;
         self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
         self.uploads.frame_bytes += (std::mem::size_of_val(frame.as_slice())
             + std::mem::size_of_val(gpu_objects.as_slice())
+            + std::mem::size_of_val(traced.covers.as_slice())
             + std::mem::size_of::<Params>()) as u64;
         self.uploads.frames += 1;
         let bind = self.bind_group();

@@ -81,7 +81,7 @@ fn shading_layouts_match_wgsl() {
         s,
         "Params",
         Params,
-        [eye, vertex_count, object_count, light_count, terms, row_stride, pad0, pad1, pad2]
+        [eye, vertex_count, object_count, light_count, terms, row_stride, traced_count, pad1, pad2]
     );
     assert_layout!(
         s,

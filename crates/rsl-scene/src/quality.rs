@@ -65,6 +65,11 @@ pub struct QualitySettings {
     pub cpca_clusters: u32,
     /// Principal vectors per self-visibility cluster.
     pub cpca_vectors: u32,
+    /// Lights whose shadows from other objects are traced per frame instead of read from
+    /// the occluder fields: the ones of highest radiance (a sun); 0 traces none.
+    pub traced_lights: u32,
+    /// Shadow rays per traced light per vertex (0 traces none).
+    pub shadow_rays: u32,
 }
 
 impl QualitySettings {
@@ -81,6 +86,8 @@ impl QualitySettings {
                 ovdf_vectors: 4,
                 cpca_clusters: 32,
                 cpca_vectors: 4,
+                traced_lights: 2,
+                shadow_rays: 16,
             },
             Preset::Paper => Self {
                 brdf_resolution: AUTO,
@@ -94,6 +101,8 @@ impl QualitySettings {
                 ovdf_vectors: 8,
                 cpca_clusters: 256,
                 cpca_vectors: 8,
+                traced_lights: 2,
+                shadow_rays: 16,
             },
             Preset::High => Self {
                 brdf_resolution: AUTO,
@@ -105,13 +114,15 @@ impl QualitySettings {
                 ovdf_vectors: 16,
                 cpca_clusters: 512,
                 cpca_vectors: 16,
+                traced_lights: 4,
+                shadow_rays: 32,
             },
         }
     }
 
     /// `(name, value)` of every knob, for summaries and overrides (`brdf_resolution` is
     /// [`AUTO`] when automatic; [`QualitySettings::value_text`] writes it).
-    pub fn knobs(&self) -> [(&'static str, u32); 9] {
+    pub fn knobs(&self) -> [(&'static str, u32); 11] {
         [
             ("brdf_resolution", self.brdf_resolution),
             ("view_samples", self.view_samples),
@@ -122,6 +133,8 @@ impl QualitySettings {
             ("ovdf_vectors", self.ovdf_vectors),
             ("cpca_clusters", self.cpca_clusters),
             ("cpca_vectors", self.cpca_vectors),
+            ("traced_lights", self.traced_lights),
+            ("shadow_rays", self.shadow_rays),
         ]
     }
 
@@ -165,6 +178,8 @@ impl QualitySettings {
             "ovdf_shells" => (2, 256),
             "ovdf_vectors" | "cpca_vectors" => (1, 256),
             "cpca_clusters" => (1, 65_536),
+            "traced_lights" => (0, 64),
+            "shadow_rays" => (0, 4096),
             _ => {
                 return Err(format!("unknown quality setting `{name}`; known: {}", Self::names().join(", ")));
             }
@@ -187,6 +202,8 @@ impl QualitySettings {
             "ovdf_shells" => self.ovdf_shells = v,
             "ovdf_vectors" => self.ovdf_vectors = v,
             "cpca_clusters" => self.cpca_clusters = v,
+            "traced_lights" => self.traced_lights = v,
+            "shadow_rays" => self.shadow_rays = v,
             _ => self.cpca_vectors = v,
         }
         Ok(())

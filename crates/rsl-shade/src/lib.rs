@@ -10,5 +10,6 @@ pub mod tonemap;
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
 pub use raster::{Image, RasterMesh, rasterise};
 pub use shade::{
-    FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, VertexFrames, shade, shade_reference,
+    FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, Traced, TracedCovers, VertexFrames, shade,
+    shade_reference,
 };

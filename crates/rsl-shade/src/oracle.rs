@@ -333,7 +333,7 @@ fn vertex<'a>(
                     cover *= seen as f32 / pts.len() as f32;
                 }
             } else {
-                cover = setup.occluder_cover(nears, l, cover, &mut stats.lookups);
+                cover = setup.others_cover(nears, i, v, l, cover, &mut stats.lookups);
             }
         }
         sum += light.radiance * b * cover;

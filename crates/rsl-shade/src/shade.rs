@@ -30,15 +30,27 @@
 //! crates' public lookups; [`shade`] is the fast path (rayon over vertex blocks, the view's
 //! table slices and each occluder's proximity found once per vertex, zero terms skipped).
 //! They agree to float rounding.
+//!
+//! **Traced lights** ([`Traced`], [`FrameSetup::with_traced`]): for the few lights of highest
+//! radiance — a sun, a studio lamp: the sharp shadows — the occluder fields can be replaced
+//! per frame by shadow rays against the other objects' triangles (their BVHs, in their own
+//! object spaces at their current transforms). Each traced light gets `K` rays per vertex
+//! spread over its square (a 2D low-discrepancy set, the first at the centre), from the
+//! vertex lifted along its normal by `1e-4` of the scene's radius as the truth's rays are;
+//! the occluders' product of coverages becomes the fraction of rays that no other object
+//! blocks (their joint visibility, not a product of averages). Self-visibility stays with
+//! the field.
 
 use glam::{Mat3, Vec2, Vec3};
 use rayon::prelude::*;
 use rsl_brdf::{BrdfTable, ViewLookup};
 use rsl_scene::Transform;
 use rsl_sphere::Frame;
+use rsl_sphere::hemi::dir_from_hemi;
 use rsl_sphere::hemi::hemi_from_dir;
 use rsl_sphere::mesh::TriMesh;
 use rsl_vis::ovdf::OUTER;
+use rsl_vis::rays::Occluder;
 use rsl_vis::{FaceMask, Ovdf, OvdfLookup, Svdf};
 
 /// A rotatable square light in world space.
@@ -114,6 +126,9 @@ pub struct ShadeObject<'a> {
     pub mask: &'a FaceMask,
     /// The occluder field, or `None` for an object that casts no shadows.
     pub ovdf: Option<&'a Ovdf>,
+    /// The object's triangles in a BVH (object space), for the shadow rays of traced lights;
+    /// `None` when no light is traced or the object casts no shadows.
+    pub occluder: Option<&'a Occluder>,
     /// The current transform.
     pub transform: Transform,
 }
@@ -134,6 +149,75 @@ impl Default for Terms {
     }
 }
 
+/// Which lights get traced shadows from other objects instead of occluder fields (module
+/// docs): the `lights` of highest radiance (luminance per steradian), `rays` rays each per
+/// vertex. Either at zero traces nothing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Traced {
+    /// How many lights are traced.
+    pub lights: usize,
+    /// Rays per traced light per vertex.
+    pub rays: usize,
+}
+
+impl Traced {
+    /// Which of `lights` are traced: the `self.lights` of highest luminance (the earlier
+    /// light on ties), as a flag per light.
+    pub fn select(&self, lights: &[Light]) -> Vec<bool> {
+        let mut flags = vec![false; lights.len()];
+        if self.rays == 0 {
+            return flags;
+        }
+        let luminance = |l: &Light| l.radiance.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let mut order: Vec<usize> = (0..lights.len()).collect();
+        order.sort_by(|&a, &b| luminance(&lights[b]).total_cmp(&luminance(&lights[a])).then(a.cmp(&b)));
+        for &l in order.iter().take(self.lights) {
+            flags[l] = true;
+        }
+        flags
+    }
+
+    /// `rays` offsets in the square `[-1, 1]²`: the R2 sequence (Roberts 2018) started at
+    /// the centre, so that one ray goes to the light's centre and more fill the square evenly.
+    pub fn pattern(&self) -> Vec<Vec2> {
+        // 1/φ₂ and 1/φ₂², φ₂ the plastic number.
+        const A: Vec2 = Vec2::new(0.754_877_7, 0.569_840_3);
+        (0..self.rays)
+            .map(|k| {
+                let u = (Vec2::splat(0.5) + A * k as f32).fract();
+                2.0 * u - Vec2::ONE
+            })
+            .collect()
+    }
+}
+
+/// Every vertex's traced covers ([`FrameSetup::traced_covers`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TracedCovers {
+    /// Per light, its slot among the traced lights (`None`: not traced).
+    pub slots: Vec<Option<u32>>,
+    /// Traced lights.
+    pub count: u32,
+    /// `covers[g·count + k]`: the cover of traced light `k` at vertex `g` (all objects'
+    /// vertices in order).
+    pub covers: Vec<f32>,
+    /// Rays traced.
+    pub rays: u64,
+}
+
+/// The traced lights of a frame (see [`Traced`]).
+#[derive(Clone, Debug, Default)]
+struct TracedSetup {
+    /// Per light, whether it is traced.
+    flags: Vec<bool>,
+    /// Per traced light, the world directions of its rays.
+    dirs: Vec<Vec<Vec3>>,
+    /// Per light, its index in `dirs` when traced.
+    index: Vec<usize>,
+    /// How far rays start from a vertex, along its normal (world units).
+    lift: f32,
+}
+
 /// What a frame cost, in lookups.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FrameStats {
@@ -149,6 +233,8 @@ pub struct FrameStats {
     pub occluder_lookups: u64,
     /// (vertex, RSL, occluder) triples skipped by culling.
     pub occluders_culled: u64,
+    /// Shadow rays traced toward traced lights.
+    pub traced_rays: u64,
 }
 
 impl FrameStats {
@@ -160,6 +246,7 @@ impl FrameStats {
         self.self_lookups += o.self_lookups;
         self.occluder_lookups += o.occluder_lookups;
         self.occluders_culled += o.occluders_culled;
+        self.traced_rays += o.traced_rays;
         self
     }
 }
@@ -313,6 +400,19 @@ fn culled(near: &Near, dir: Vec3, cone: Cone) -> bool {
     }
 }
 
+/// Whether the cone of half-angle `cone` around unit `dir` from `x` misses the sphere
+/// (`centre`, `radius`); never when `x` is inside it.
+fn cone_misses_sphere(x: Vec3, dir: Vec3, cone: Cone, centre: Vec3, radius: f32) -> bool {
+    let offset = centre - x;
+    let dist = offset.length();
+    if dist <= radius {
+        return false;
+    }
+    let sb = (radius / dist).clamp(0.0, 1.0);
+    let (beta, cb) = (sb.asin(), (1.0 - sb * sb).max(0.0).sqrt());
+    cone.0 + beta < std::f32::consts::PI && dir.dot(offset / dist) < cone.1 * cb - cone.2 * sb
+}
+
 /// The occluder `j` as seen from the world point `x`, or `None` when `x` lies beyond its
 /// field (which then occludes nothing).
 fn near(placed: &Placed<'_>, j: usize, x: Vec3) -> Option<Near> {
@@ -341,6 +441,7 @@ pub struct FrameSetup<'a> {
     reaches: Vec<(f32, f32)>,
     pub(crate) eye: Vec3,
     pub(crate) terms: Terms,
+    traced: TracedSetup,
 }
 
 impl<'a> FrameSetup<'a> {
@@ -353,6 +454,150 @@ impl<'a> FrameSetup<'a> {
             reaches: lights.iter().map(|l| rsl_vis::mask::reach(l.half_diagonal)).collect(),
             eye,
             terms,
+            traced: TracedSetup { flags: vec![false; lights.len()], ..TracedSetup::default() },
+        }
+    }
+
+    /// Traces the shadows that other objects cast from the lights `traced` selects, instead
+    /// of reading the occluder fields (module docs; replaces an earlier choice, and
+    /// `Traced::default()` traces nothing). Objects without a BVH
+    /// ([`ShadeObject::occluder`]) cast no traced shadows.
+    pub fn with_traced(mut self, traced: Traced) -> Self {
+        let flags = traced.select(&self.lights);
+        if !flags.contains(&true) {
+            self.traced = TracedSetup { flags, ..TracedSetup::default() };
+            return self;
+        }
+        let pattern = traced.pattern();
+        let mut index = vec![usize::MAX; flags.len()];
+        let mut dirs = Vec::new();
+        for (l, _) in flags.iter().enumerate().filter(|(_, f)| **f) {
+            let light = &self.lights[l];
+            let frame = Frame::from_normal(light.dir);
+            let s = light.half_diagonal / std::f32::consts::SQRT_2;
+            index[l] = dirs.len();
+            dirs.push(pattern.iter().map(|u| frame.to_world(dir_from_hemi(*u * s)).normalize_or_zero()).collect());
+        }
+        // The truth's lift: 1e-4 of half the diagonal of the scene's bounding box.
+        let (lo, hi) = self
+            .placed
+            .iter()
+            .flat_map(|p| (0..p.object.mesh.vertex_count()).map(|v| p.position(v)))
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+        let radius = if lo.x <= hi.x { 0.5 * (hi - lo).length() } else { 0.0 };
+        self.traced = TracedSetup { flags, dirs, index, lift: 1e-4 * radius.max(1e-6) };
+        self
+    }
+
+    /// Whether light `l` is traced.
+    pub fn is_traced(&self, l: usize) -> bool {
+        self.traced.flags.get(l).copied().unwrap_or(false)
+    }
+
+    /// The lights that are traced, in light order.
+    pub fn traced_lights(&self) -> Vec<usize> {
+        (0..self.lights.len()).filter(|&l| self.is_traced(l)).collect()
+    }
+
+    /// The fraction of traced light `l`'s rays from vertex `v` of object `i` that no other
+    /// object blocks; `rays` counts the rays traced.
+    pub fn traced_cover(&self, i: usize, v: usize, l: usize, rays: &mut u64) -> f32 {
+        let p = &self.placed[i];
+        let x = p.position(v) + p.pose.normal(p.object.mesh.normals[v]).normalize_or_zero() * self.traced.lift;
+        let dirs = &self.traced.dirs[self.traced.index[l]];
+        let cone = self.cones[l];
+        // The other objects the light's cone from `x` can meet, with `x` in their spaces.
+        let mut casters: [(usize, Vec3); 8] = [(0, Vec3::ZERO); 8];
+        let mut more: Vec<(usize, Vec3)> = Vec::new();
+        let mut count = 0;
+        for (j, q) in self.placed.iter().enumerate() {
+            let (Some(_), Some(b)) = (q.object.occluder, q.bound) else { continue };
+            if j == i || cone_misses_sphere(x, self.lights[l].dir, cone, b.centre_world, b.radius_world) {
+                continue;
+            }
+            let at = (j, q.point_to_object(x));
+            if count < casters.len() {
+                casters[count] = at;
+            } else {
+                more.push(at);
+            }
+            count += 1;
+        }
+        if count == 0 {
+            return 1.0;
+        }
+        let casters = casters[..count.min(8)].iter().chain(&more);
+        let mut seen = 0usize;
+        for &d in dirs {
+            let blocked = casters.clone().any(|&(j, xo)| {
+                *rays += 1;
+                let q = &self.placed[j];
+                let dir = q.pose.direction_to_object(d);
+                let length = dir.length();
+                length > 0.0 && q.object.occluder.is_some_and(|o| o.occluded(xo, dir / length, f32::INFINITY))
+            });
+            seen += usize::from(!blocked);
+        }
+        seen as f32 / dirs.len() as f32
+    }
+
+    /// Every vertex's [`FrameSetup::traced_cover`] of every traced light, for a shader that
+    /// cannot trace rays itself (the GPU's); 1 where occluders are off or the light's square
+    /// lies wholly below the vertex's horizon (no light to shadow).
+    pub fn traced_covers(&self) -> TracedCovers {
+        let traced = self.traced_lights();
+        let mut slots = vec![None; self.lights.len()];
+        for (k, &l) in traced.iter().enumerate() {
+            slots[l] = Some(k as u32);
+        }
+        let count = traced.len();
+        if count == 0 {
+            return TracedCovers { slots, count: 0, covers: Vec::new(), rays: 0 };
+        }
+        let blocks = self.blocks(BLOCK);
+        let done: Vec<(Vec<f32>, u64)> = blocks
+            .par_iter()
+            .map(|&(i, b)| {
+                let p = &self.placed[i];
+                let n = p.object.mesh.vertex_count();
+                let mut rays = 0;
+                let mut out = Vec::with_capacity(BLOCK * count);
+                for v in b * BLOCK..((b + 1) * BLOCK).min(n) {
+                    let normal = p.pose.normal(p.object.mesh.normals[v]).normalize_or_zero();
+                    for &l in &traced {
+                        let below = normal.dot(self.lights[l].dir) < -self.cones[l].2;
+                        out.push(if !self.terms.occluders || below {
+                            1.0
+                        } else {
+                            self.traced_cover(i, v, l, &mut rays)
+                        });
+                    }
+                }
+                (out, rays)
+            })
+            .collect();
+        let rays = done.iter().map(|d| d.1).sum();
+        TracedCovers { slots, count: count as u32, covers: done.into_iter().flat_map(|d| d.0).collect(), rays }
+    }
+
+    /// `cover` times what the other objects leave of light `l` at vertex `v` of object `i`
+    /// (world point `x`): traced rays for a traced light, else the occluder fields at `nears`.
+    pub(crate) fn others_cover(
+        &self,
+        nears: &mut [(Near, Lazy<'a>)],
+        i: usize,
+        v: usize,
+        l: usize,
+        cover: f32,
+        stats: &mut FrameStats,
+    ) -> f32 {
+        if self.is_traced(l) {
+            if cover <= 0.0 {
+                return cover;
+            }
+            cover * self.traced_cover(i, v, l, &mut stats.traced_rays)
+        } else {
+            self.occluder_cover(nears, l, cover, stats)
         }
     }
 
@@ -417,7 +662,9 @@ impl<'a> FrameSetup<'a> {
                     cover *= mask.share_above_horizon_with(q, r, self.reaches[l]);
                 }
             }
-            cover = self.occluder_cover(nears, l, cover, stats);
+            if self.terms.occluders {
+                cover = self.others_cover(nears, i, v, l, cover, stats);
+            }
             sum += light.radiance * brdf * cover;
         }
         sum
@@ -531,7 +778,11 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                     let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
                     cover = o.svdf.coverage_above_horizon(v, q, r) * o.mask.vertex(v).share_above_horizon(q, r);
                 }
-                if setup.terms.occluders {
+                if setup.terms.occluders && setup.is_traced(l) {
+                    if cover > 0.0 {
+                        cover *= setup.traced_cover(i, v, l, &mut 0);
+                    }
+                } else if setup.terms.occluders {
                     for (j, q) in setup.placed.iter().enumerate() {
                         if j == i {
                             continue;

@@ -37,6 +37,12 @@ pub struct Occluder {
     pub degenerate: usize,
 }
 
+impl std::fmt::Debug for Occluder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Occluder").field("triangles", &self.tris.len()).field("degenerate", &self.degenerate).finish()
+    }
+}
+
 impl Occluder {
     /// Builds the BVH over the mesh's triangles (object space). NaN vertices, empty meshes
     /// and meshes whose triangles all have zero area are errors; individual zero-area
@@ -66,6 +72,13 @@ impl Occluder {
         }
         let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
         Ok(Self { bvh, tris, degenerate })
+    }
+
+    /// Bytes held (triangles and BVH nodes).
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.tris.as_slice())
+            + std::mem::size_of_val(self.bvh.nodes.as_slice())
+            + std::mem::size_of_val(self.bvh.primitive_indices.as_slice())
     }
 
     /// Number of triangles in the BVH.

@@ -1,0 +1,169 @@
+//! Traced lights (rsl_shade::Traced): the other objects' shadows of the brightest lights by
+//! rays, against an analytic answer, through the GPU as through the CPU, and only when asked.
+
+use glam::{Vec2, Vec3};
+use rsl_engine::scene::Scene;
+use rsl_engine::{Engine, EngineOptions};
+use rsl_shade::Terms;
+use rsl_sphere::Frame;
+use rsl_sphere::hemi::dir_from_hemi;
+
+mod common;
+use common::scene;
+
+/// A ground plane under a thin box (1 × 0.02 × 0.5, turned 90° about y: 0.5 wide in x, 1 in
+/// z, its middle at height 0.5), lit by a constant environment cut into 6 RSLs (squares a
+/// cube face across, so that the box's penumbra is wide), `traced` lights traced with
+/// `rays` rays each.
+fn plate(traced: u32, rays: u32) -> Scene {
+    scene(&format!(
+        r#"
+        [quality]
+        preset = "draft"
+        env_grid = 4
+        traced_lights = {traced}
+        shadow_rays = {rays}
+        [environment]
+        constant = [1.0, 1.0, 1.0]
+        rsl_count = 6
+        [camera]
+        eye = [0.0, 3.0, 0.5]
+        target = [0.0, 0.0, 0.0]
+        [[objects]]
+        name = "ground"
+        primitive = {{ kind = "plane", size = 3.0, resolution = 24 }}
+        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
+        casts_shadows = false
+        [[objects]]
+        name = "plate"
+        primitive = {{ kind = "box", size = [1.0, 0.02, 0.5] }}
+        translation = [0.1, 0.5, -0.2]
+        rotation = {{ axis = [0.0, 1.0, 0.0], degrees = 90.0 }}
+        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
+        "#
+    ))
+}
+
+/// Whether the ray from `x` along `d` meets the axis-aligned box `lo..hi` (slab test).
+fn hits_box(x: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> bool {
+    let (mut t0, mut t1) = (0.0f32, f32::INFINITY);
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            if x[k] < lo[k] || x[k] > hi[k] {
+                return false;
+            }
+            continue;
+        }
+        let (a, b) = ((lo[k] - x[k]) / d[k], (hi[k] - x[k]) / d[k]);
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    t0 <= t1
+}
+
+/// The fraction of the square of half-diagonal `r` around `dir` (in the hemisphere plane of
+/// `Frame::from_normal(dir)`, as RSLs are laid out) whose directions from `x` miss the box,
+/// by a 400×400 midpoint rule.
+fn unblocked_fraction(x: Vec3, dir: Vec3, r: f32, lo: Vec3, hi: Vec3) -> f32 {
+    let frame = Frame::from_normal(dir);
+    let s = r / std::f32::consts::SQRT_2;
+    let n = 400;
+    let mut seen = 0usize;
+    for a in 0..n {
+        for b in 0..n {
+            let u = Vec2::new((a as f32 + 0.5) / n as f32, (b as f32 + 0.5) / n as f32) * 2.0 - Vec2::ONE;
+            let d = frame.to_world(dir_from_hemi(u * s)).normalize();
+            seen += usize::from(!hits_box(x, d, lo, hi));
+        }
+    }
+    seen as f32 / (n * n) as f32
+}
+
+#[test]
+fn a_traced_lights_cover_is_the_fraction_of_its_square_that_the_box_leaves_open() {
+    let s = plate(1, 1024);
+    let engine = Engine::new(&s, EngineOptions::default()).unwrap();
+    let state = s.at(0.0);
+    let setup = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap();
+    let traced = setup.traced_lights();
+    assert_eq!(traced.len(), 1, "one light traced");
+    let l = traced[0];
+    let light = engine.lights(&state)[l];
+    // The box turned 90° about y: 0.5 across in x, 1 in z.
+    let (lo, hi) = (Vec3::new(-0.15, 0.49, -0.7), Vec3::new(0.35, 0.51, 0.3));
+    let (mut rays, mut worst, mut partial, mut upward) = (0u64, 0.0f32, 0, 0);
+    for v in 0..engine.mesh(0).vertex_count() {
+        let x = setup.position(0, v);
+        if light.dir.y <= 0.0 {
+            continue;
+        }
+        upward += 1;
+        let got = setup.traced_cover(0, v, l, &mut rays);
+        let want = unblocked_fraction(x, light.dir, light.half_diagonal, lo, hi);
+        if want > 0.05 && want < 0.95 {
+            partial += 1;
+        }
+        worst = worst.max((got - want).abs());
+    }
+    eprintln!("light {l}: {upward} vertices, {partial} in the penumbra, worst |traced − analytic| {worst:.4}");
+    assert!(light.dir.y > 0.0, "the traced light is above the ground");
+    assert!(partial > 20, "the test needs vertices in the penumbra ({partial})");
+    // 1,024 rays from a low-discrepancy set against a 400² midpoint rule.
+    assert!(worst < 0.02, "worst difference {worst}");
+    assert!(rays > 0);
+}
+
+#[test]
+fn traced_shadows_are_off_at_zero_lights_or_rays_and_then_change_nothing() {
+    let base = plate(0, 16);
+    let engine = Engine::new(&base, EngineOptions::default()).unwrap();
+    let state = base.at(0.0);
+    let setup = engine.setup(&base, &state, base.camera.eye, Terms::default()).unwrap();
+    assert!(setup.traced_lights().is_empty());
+    let none = engine.shade(&base, 0.0).unwrap();
+    assert_eq!(none.stats.traced_rays, 0);
+    let no_rays = plate(2, 0);
+    let e = Engine::new(&no_rays, EngineOptions::default()).unwrap();
+    let f = e.shade(&no_rays, 0.0).unwrap();
+    assert_eq!(f.stats.traced_rays, 0);
+    assert_eq!(f.radiance, none.radiance, "zero rays traces nothing");
+    // Traced: the ground under the plate changes, the plate's own vertices do not (nothing
+    // else casts a shadow on it).
+    let traced = plate(2, 16);
+    let e = Engine::new(&traced, EngineOptions::default()).unwrap();
+    let f = e.shade(&traced, 0.0).unwrap();
+    assert!(f.stats.traced_rays > 0);
+    assert_ne!(f.radiance[0], none.radiance[0], "the ground's shadow is traced");
+    assert_eq!(f.radiance[1], none.radiance[1], "no other object shadows the plate");
+}
+
+#[test]
+fn the_fast_path_and_the_reference_agree_with_traced_lights() {
+    let s = plate(3, 16);
+    let engine = Engine::new(&s, EngineOptions::default()).unwrap();
+    let state = s.at(0.0);
+    let setup = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap();
+    assert_eq!(setup.traced_lights().len(), 3);
+    let (fast, stats) = rsl_shade::shade(&setup);
+    let reference = rsl_shade::shade_reference(&setup);
+    assert!(stats.traced_rays > 0);
+    for (f, r) in fast.iter().flatten().zip(reference.iter().flatten()) {
+        assert!((*f - *r).abs().max_element() <= 1e-5 * r.abs().max_element().max(1e-3), "{f} vs {r}");
+    }
+    // The covers a GPU reads are the ones the CPU multiplies in.
+    let covers = setup.traced_covers();
+    assert_eq!(covers.count, 3);
+    assert_eq!(covers.covers.len(), 3 * (engine.mesh(0).vertex_count() + engine.mesh(1).vertex_count()));
+    assert!(covers.covers.iter().all(|c| (0.0..=1.0).contains(c)));
+    assert!(covers.covers.iter().any(|&c| c > 0.0 && c < 1.0), "some penumbra");
+    for (k, &l) in setup.traced_lights().iter().enumerate() {
+        assert_eq!(covers.slots[l], Some(k as u32));
+        let v = (0..engine.mesh(0).vertex_count())
+            .find(|&v| {
+                let c = covers.covers[v * 3 + k];
+                c > 0.0 && c < 1.0
+            })
+            .unwrap_or(0);
+        assert_eq!(covers.covers[v * 3 + k], setup.traced_cover(0, v, l, &mut 0));
+    }
+}
