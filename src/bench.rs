@@ -84,7 +84,7 @@ const MAX_TIMES: usize = 100;
 /// Most frames timed per configuration.
 const MAX_FRAMES: usize = 1000;
 /// Most samples per vertex of the truth.
-const MAX_SPP: u32 = 1 << 16;
+const MAX_SPP: u32 = rsl_truth::MAX_SPP;
 
 /// `rsl bench`.
 pub fn bench(args: &BenchArgs) -> Result<()> {

@@ -8,6 +8,9 @@ use std::path::PathBuf;
 #[derive(Debug, Parser)]
 #[command(name = "rsl", version, about)]
 pub struct Cli {
+    /// Print errors only: no warnings (RUST_LOG, when set, decides instead).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,

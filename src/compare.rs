@@ -42,8 +42,17 @@ fn kind(p: &Path) -> Option<&'static str> {
 }
 
 fn read_ply(p: &Path) -> Result<ply::PlyData> {
-    let bytes = std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?;
+    let bytes = rsl_sphere::io::read_bounded(p, rsl_sphere::io::MAX_DATA_BYTES)
+        .with_context(|| format!("cannot read {}", p.display()))?;
     ply::read(&bytes).with_context(|| format!("{}", p.display()))
+}
+
+/// Fails, naming the file and the value (`what(k)`), at the first non-finite one.
+fn finite(file: &Path, values: &[Vec3], what: &dyn Fn(usize) -> String) -> Result<()> {
+    if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+        bail!("{}: {} is not finite ({}): nothing can be compared against it", file.display(), what(k), values[k]);
+    }
+    Ok(())
 }
 
 /// Runs `rsl compare`.
@@ -53,6 +62,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         bail!("compare needs two .ply or two .exr files, got {} and {}", args.a.display(), args.b.display());
     };
     if let Some(h) = &args.heatmap {
+        crate::render::check_png(h, "--heatmap")?;
         crate::render::check_writable(h, "--heatmap")?;
     }
     if k == "ply" {
@@ -68,6 +78,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         }
         let rad = |d: &ply::PlyData| d.vertices.iter().map(|v| Vec3::new(v[6], v[7], v[8])).collect::<Vec<_>>();
         let (ra, rb) = (rad(&a), rad(&b));
+        finite(&args.a, &ra, &|k| format!("vertex {k}'s radiance"))?;
+        finite(&args.b, &rb, &|k| format!("vertex {k}'s radiance"))?;
         let m = metrics::compare(&ra, &rb, None)?;
         println!("vertices: {m}");
         if args.breakdown {
@@ -94,6 +106,9 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             bail!("{} is {wa}×{ha}, {} is {wb}×{hb}", args.a.display(), args.b.display());
         }
         let mask = if args.all_pixels { None } else { mask };
+        let pixel = |k: usize| format!("pixel ({}, {})", k % wa as usize, k / wa as usize);
+        finite(&args.a, &pa, &pixel)?;
+        finite(&args.b, &pb, &pixel)?;
         let m = metrics::compare(&pa, &pb, mask.as_deref())?;
         println!("{}: {m}", if mask.is_some() { "covered pixels" } else { "pixels" });
         if let Some(h) = &args.heatmap {

@@ -58,6 +58,13 @@ pub fn run(args: &DecomposeArgs) -> Result<()> {
     if !(1..=texels).contains(&args.rsl) {
         bail!("--rsl must be between 1 and {texels} (the texels of a 6×{g}×{g} grid), got {}", args.rsl, g = args.grid);
     }
+    if let Some(path) = &args.png {
+        crate::render::check_png(path, "--png")?;
+        crate::render::check_writable(path, "--png")?;
+    }
+    if let Some(path) = &args.json {
+        crate::render::check_writable(path, "--json")?;
+    }
     let t = Instant::now();
     let loaded = load_latlong(&args.map)?;
     let load_ms = ms(t);
@@ -92,12 +99,7 @@ pub fn run(args: &DecomposeArgs) -> Result<()> {
         error.fit_error,
         g = args.grid,
     );
-    if loaded.clamped_negative > 0 {
-        println!(
-            "note: {} negative channel values were clamped to 0 (most negative {})",
-            loaded.clamped_negative, loaded.most_negative
-        );
-    }
+    // Negative texels clamped to 0 are a warning of the loader's (on stderr, once).
     if let Some(path) = &args.json {
         let report = Report {
             map: args.map.display().to_string(),

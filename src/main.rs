@@ -4,17 +4,60 @@ use clap::Parser;
 
 fn main() -> std::process::ExitCode {
     runtime_dir();
-    tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
-        .with_writer(std::io::stderr)
-        .init();
-    match rsl::cli::run(rsl::cli::Cli::parse()) {
+    let cli = rsl::cli::Cli::parse();
+    logging(cli.quiet);
+    match rsl::cli::run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// rsl's own crates, whose warnings (a clamped map, a rejected cache file, a cache that
+/// cannot be written) are shown by default.
+const OWN: [&str; 12] = [
+    "rsl",
+    "rsl_engine",
+    "rsl_env",
+    "rsl_scene",
+    "rsl_bench",
+    "rsl_gpu",
+    "rsl_vis",
+    "rsl_truth",
+    "rsl_lobe",
+    "rsl_shade",
+    "rsl_brdf",
+    "rsl_sphere",
+];
+
+/// Diagnostics on stderr: with RUST_LOG set, what it asks for, in full; otherwise rsl's own
+/// warnings and everyone's errors (`--quiet`: errors only), each once, as `warning: …`
+/// lines, coloured only on a terminal.
+fn logging(quiet: bool) {
+    use std::io::IsTerminal;
+    let ansi = std::io::stderr().is_terminal();
+    if std::env::var_os("RUST_LOG").is_some_and(|v| !v.is_empty()) {
+        tracing_subscriber::fmt()
+            .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+            .with_writer(std::io::stderr)
+            .with_ansi(ansi)
+            .init();
+        return;
+    }
+    let level = if quiet { "error" } else { "warn" };
+    let directives: Vec<String> =
+        std::iter::once("error".to_string()).chain(OWN.iter().map(|c| format!("{c}={level}"))).collect();
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::new(directives.join(",")))
+        .with_writer(std::io::stderr)
+        .with_ansi(ansi)
+        .without_time()
+        .with_target(false)
+        .with_level(true)
+        .compact()
+        .init();
 }
 
 /// Gives the process a private runtime folder when `XDG_RUNTIME_DIR` is unset or not a

@@ -1,5 +1,6 @@
-//! Progress bars on standard error for the library's [`Progress`] reports: a percentage and
-//! a time estimate per task, hidden when standard error is not a terminal.
+//! Progress on standard error for the library's [`Progress`] reports: on a terminal a bar per
+//! task with a percentage and a time estimate; otherwise (a log, a pipe, CI) a line when a
+//! task has run for 2 s and then one every 10 s, and one when it ends.
 
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use rsl_engine::{Event, Progress};
@@ -9,6 +10,10 @@ use std::sync::Mutex;
 /// A [`Progress`] that draws one bar per running task on standard error (nested tasks,
 /// such as a field build inside a bench, stack below the outer one).
 pub fn bars() -> Progress {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return lines(std::time::Duration::from_secs(2), std::time::Duration::from_secs(10));
+    }
     let running: Mutex<HashMap<String, ProgressBar>> = Mutex::new(HashMap::new());
     let multi = MultiProgress::new();
     Progress::new(move |e| {
@@ -37,4 +42,75 @@ pub fn bars() -> Progress {
             }
         }
     })
+}
+
+/// A [`Progress`] that writes plain lines on standard error: the first once a task has run
+/// for `first`, then one every `every`, and a last line when a task that printed one ends.
+pub fn lines(first: std::time::Duration, every: std::time::Duration) -> Progress {
+    lines_to(first, every, |line| eprintln!("{line}"))
+}
+
+/// [`lines`] into `out`.
+pub fn lines_to(
+    first: std::time::Duration,
+    every: std::time::Duration,
+    out: impl Fn(String) + Send + Sync + 'static,
+) -> Progress {
+    use std::time::Instant;
+    // Per task: when it started, when a line was last printed.
+    let running: Mutex<HashMap<String, (Instant, Option<Instant>)>> = Mutex::new(HashMap::new());
+    Progress::new(move |e| {
+        let Ok(mut running) = running.lock() else { return };
+        match *e {
+            Event::Started { task } => {
+                running.insert(task.to_string(), (Instant::now(), None));
+            }
+            Event::Advanced { task, done, total } => {
+                if let Some((start, last)) = running.get_mut(task) {
+                    let due = match last {
+                        None => start.elapsed() >= first,
+                        Some(t) => t.elapsed() >= every,
+                    };
+                    if due && total > 0 {
+                        let pct = 100.0 * done as f64 / total as f64;
+                        out(format!("{task}: {pct:.0}% ({done}/{total}) after {:.0} s", start.elapsed().as_secs_f64()));
+                        *last = Some(Instant::now());
+                    }
+                }
+            }
+            Event::Finished { task } => {
+                if let Some((start, Some(_))) = running.remove(task) {
+                    out(format!("{task}: done in {:.1} s", start.elapsed().as_secs_f64()));
+                }
+            }
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+    use std::time::Duration;
+
+    #[test]
+    fn without_a_terminal_long_tasks_print_lines_and_short_ones_nothing() {
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let sink = seen.clone();
+        let p = lines_to(Duration::ZERO, Duration::ZERO, move |l| sink.lock().unwrap().push(l));
+        p.task("building a field", |advance| {
+            advance(1, 4);
+            advance(4, 4);
+        });
+        let got = seen.lock().unwrap().clone();
+        assert_eq!(got.len(), 3, "{got:?}");
+        assert!(got[0].starts_with("building a field: 25% (1/4)"), "{got:?}");
+        assert!(got[2].starts_with("building a field: done in"), "{got:?}");
+        // A task shorter than `first` says nothing.
+        let quiet = Arc::new(Mutex::new(Vec::new()));
+        let sink = quiet.clone();
+        let p = lines_to(Duration::from_secs(3600), Duration::ZERO, move |l| sink.lock().unwrap().push(l));
+        p.task("quick", |advance| advance(1, 1));
+        assert!(quiet.lock().unwrap().is_empty());
+    }
 }

@@ -172,7 +172,18 @@ fn format_of(path: &Path) -> Result<Format> {
 pub(crate) fn check_writable(path: &Path, what: &str) -> Result<()> {
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     if !dir.is_dir() {
-        bail!("{what} {}: folder {} does not exist", path.display(), dir.display());
+        bail!("{what} {}: cannot write: folder {} does not exist", path.display(), dir.display());
+    }
+    // Before any work: a folder in the way or a folder that takes no file is found now, not
+    // after the render.
+    output::check_writable(path).with_context(|| format!("{what} {}", path.display()))
+}
+
+/// Fails unless `path` ends in `.png` (the only format the option writes: PNG bytes under
+/// another name would mislead every program that opens the file).
+pub(crate) fn check_png(path: &Path, what: &str) -> Result<()> {
+    if path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() != Some("png") {
+        bail!("{what} {}: writes PNG images; the file name must end in .png", path.display());
     }
     Ok(())
 }
@@ -327,8 +338,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     if args.method == MethodArg::Truth && args.device == Device::Gpu {
         bail!("--method truth runs on the CPU only; drop --device gpu");
     }
-    if args.method == MethodArg::Truth && args.spp == 0 {
-        bail!("--spp must be at least 1");
+    if args.method == MethodArg::Truth && !(1..=rsl_truth::MAX_SPP).contains(&args.spp) {
+        bail!("--spp must be in 1..={} samples per point, got {}", rsl_truth::MAX_SPP, args.spp);
     }
     if args.oracle.is_some() && (args.method != MethodArg::Rsl || args.device == Device::Gpu) {
         bail!("--oracle replaces parts of the RSL path on the CPU: use it with --method rsl and without --device gpu");
@@ -337,16 +348,37 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     if args.method == MethodArg::Truth && scene.objects.is_empty() {
         bail!("{}: the scene has no objects; there is nothing to estimate", args.scene.display());
     }
-    let times: Vec<(Option<u32>, f32)> = match (args.frames, args.time) {
-        (Some((a, b)), _) => (a..b).map(|k| (Some(k), k as f32 / args.fps)).collect(),
+    // Frames are taken one at a time (a range of billions holds nothing up front); an
+    // animation's GIF is written as its frames come.
+    let (frames, single): (std::ops::Range<u32>, Option<f32>) = match (args.frames, args.time) {
+        (Some((a, b)), _) => (a..b, None),
         (None, t) => {
             let t = t.unwrap_or(0.0);
             if !t.is_finite() {
                 bail!("--time must be a finite number of seconds, got {t}");
             }
-            vec![(None, t)]
+            (0..1, Some(t))
         }
     };
+    let fps = args.fps;
+    let times = frames.clone().map(move |k| match single {
+        Some(t) => (None, t),
+        None => (Some(k), k as f32 / fps),
+    });
+    let count = frames.len();
+    let mut gif = None;
+    if let (None, Some(out)) = (single, &args.out) {
+        check_writable(&numbered(out, frames.start), "--out")?;
+        let path = out.with_extension("gif");
+        check_writable(&path, "the animation's GIF")?;
+        if count > 1000 {
+            eprintln!(
+                "rendering {count} frames (about {:.0} s of animation at {fps} fps)",
+                count as f64 / f64::from(fps)
+            );
+        }
+        gif = Some(path);
+    }
     let layers = Layers { rsl: args.method != MethodArg::Truth };
     let mut engine = Engine::new(&scene, EngineOptions { layers, ..args.prepare.options() })?;
     let mut method = match args.oracle {
@@ -362,9 +394,12 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         print_preparation(&engine);
     }
     let mut exposure = args.exposure;
-    let mut gif_frames = Vec::new();
+    let mut gif = match &gif {
+        Some(path) => Some(output::GifWriter::create(path, scene.camera.width, scene.camera.height, fps)?),
+        None => None,
+    };
     let mut spent = rsl_engine::Timings::default();
-    for &(k, t) in &times {
+    for (k, t) in times {
         let start = Instant::now();
         let request = Request { time: t, image: args.out.is_some(), vertices: args.vertex_out.is_some(), exposure };
         let mut frame = method.render(&engine, &scene, &request)?;
@@ -386,8 +421,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
                 Format::Png => output::write_png(&out, image.width, image.height, rgb.clone())?,
                 Format::Exr => output::write_exr(&out, image.width, image.height, &image.pixels, &image.covered)?,
             }
-            if k.is_some() {
-                gif_frames.push(rgb);
+            if let Some(g) = &mut gif {
+                g.push(&rgb)?;
             }
             written.push(out);
         }
@@ -399,15 +434,14 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
         eprintln!("wrote {} (t = {t:.3} s, {:.1} ms)", names.join(", "), start.elapsed().as_secs_f64() * 1e3);
     }
-    if let (false, Some(out)) = (gif_frames.is_empty(), &args.out) {
-        let gif = out.with_extension("gif");
-        output::write_gif(&gif, scene.camera.width, scene.camera.height, &gif_frames, args.fps)?;
-        eprintln!("wrote {}", gif.display());
+    if let (Some(g), Some(out)) = (gif, &args.out) {
+        g.finish()?;
+        eprintln!("wrote {}", out.with_extension("gif").display());
     }
-    let n = times.len() as f64;
+    let n = count as f64;
     let per_frame: Vec<String> =
         spent.stages.iter().map(|s| format!("{} {:.1} ms/frame", s.name, s.ms() / n)).collect();
-    eprintln!("{} frame(s) by {}: {}", times.len(), method.describe(), per_frame.join(", "));
+    eprintln!("{count} frame(s) by {}: {}", method.describe(), per_frame.join(", "));
     Ok(())
 }
 

@@ -50,6 +50,82 @@ fn scene_errors_are_reported_not_panicked() {
 }
 
 #[test]
+fn objects_too_large_for_f32_geometry_are_errors_not_panics() {
+    // A sphere 10²⁰ across passed the scene check and then panicked in the BVH builder; a
+    // scale of 10³⁰, or a motion that carries an object that far, is the same.
+    let dir = out_dir("huge-objects");
+    let head = "[environment]\nconstant = [1.0, 1.0, 1.0]\nrsl_count = 4\n[camera]\neye = [0.0, 0.0, 5.0]\n\
+                target = [0.0, 0.0, 0.0]\nwidth = 16\nheight = 12\n[[objects]]\nname = \"ball\"\n";
+    let cases = [
+        ("primitive = { kind = \"sphere\", radius = 1e20 }\n", "primitive", "beyond ±1e9"),
+        ("primitive = { kind = \"sphere\", radius = 1.0 }\nscale = 1e30\n", "scale", "limit is 1e9"),
+        ("primitive = { kind = \"sphere\", radius = 1.0 }\ntranslation = [3e9, 0.0, 0.0]\n", "translation", "1e9"),
+        (
+            "primitive = { kind = \"sphere\", radius = 1.0 }\n\
+             motion = { orbit = { centre = [2e9, 0.0, 0.0], axis = [0.0, 1.0, 0.0], degrees_per_second = 1.0 } }\n",
+            "motion.orbit",
+            "1e9",
+        ),
+    ];
+    for (k, (object, field, expect)) in cases.into_iter().enumerate() {
+        let path = dir.join(format!("huge{k}.toml"));
+        std::fs::write(&path, format!("{head}{object}")).unwrap();
+        for command in ["scene", "render"] {
+            let mut c = rsl();
+            c.arg(command).arg(&path);
+            if command == "render" {
+                c.arg("--out").arg(dir.join(format!("huge{k}.png")));
+            }
+            let (ok, _, err) = run(&mut c);
+            assert!(!ok, "{command} {object}: accepted");
+            assert!(
+                err.contains(&format!("huge{k}.toml")) && err.contains(field) && err.contains(expect),
+                "{command} {object}: {err}"
+            );
+            assert!(!err.contains("panicked"), "{err}");
+        }
+    }
+}
+
+#[test]
+fn warnings_show_by_default_once_without_colour_and_quiet_hides_them() {
+    // A cache "folder" that is a file: every field and light set "cannot be cached", which
+    // used to be said only with RUST_LOG set.
+    let dir = out_dir("warnings");
+    let not_a_folder = dir.join("cache-file");
+    std::fs::write(&not_a_folder, b"not a folder").unwrap();
+    let scene = dir.join("s.toml");
+    std::fs::write(
+        &scene,
+        "[environment]\nconstant = [1.0, 1.0, 1.0]\nrsl_count = 4\n[camera]\neye = [0.0, 1.0, 3.0]\n\
+         target = [0.0, 0.0, 0.0]\nwidth = 16\nheight = 12\n[[objects]]\nname = \"torus\"\n\
+         primitive = { kind = \"torus\", major_radius = 0.5, minor_radius = 0.2, resolution = 8 }\n",
+    )
+    .unwrap();
+    let render = |quiet: bool| {
+        let mut c = rsl();
+        c.env_remove("RUST_LOG").arg("render").arg(&scene).arg("--out").arg(dir.join("s.png"));
+        c.arg("--cache").arg(&not_a_folder);
+        if quiet {
+            c.arg("--quiet");
+        }
+        run(&mut c)
+    };
+    let (ok, _, err) = render(false);
+    assert!(ok, "{err}");
+    let warnings: Vec<&str> = err.lines().filter(|l| l.contains("WARN") && l.contains("cannot cache")).collect();
+    assert!(!warnings.is_empty(), "no warning shown: {err}");
+    assert!(!err.contains('\u{1b}'), "colour codes in a pipe: {err:?}");
+    let mut unique = warnings.clone();
+    unique.sort();
+    unique.dedup();
+    assert_eq!(unique.len(), warnings.len(), "a warning printed twice: {warnings:?}");
+    let (ok, _, err) = render(true);
+    assert!(ok, "{err}");
+    assert!(!err.contains("WARN"), "--quiet still warns: {err}");
+}
+
+#[test]
 fn decompose_writes_json_and_png() {
     let dir = out_dir("decompose");
     let (json, png) = (dir.join("sky.json"), dir.join("sky.png"));
@@ -102,6 +178,113 @@ fn unwritable_outputs_are_errors_and_leave_nothing() {
     let (ok, _, err) = run(rsl().args(["decompose", "data/hdri/city.exr", "--grid", "8", "--json"]).arg(&target));
     assert!(!ok && err.contains("cannot write") && err.contains("out.json"), "{err}");
     assert!(!Path::new(&target).exists());
+}
+
+#[test]
+fn inputs_that_would_run_away_are_refused_before_any_work() {
+    let dir = out_dir("bounded");
+    let scene = small_scene(&dir);
+    let fails = |c: &mut Command, expect: &[&str]| {
+        let (ok, _, err) = run(c);
+        assert!(!ok, "accepted: {c:?}");
+        for e in expect {
+            assert!(err.contains(e), "{c:?}: no \"{e}\" in {err}");
+        }
+        assert!(!err.contains("panicked"), "{err}");
+    };
+    // Samples per point that would size buffers by billions.
+    let png = dir.join("p.png");
+    fails(
+        rsl().arg("render").arg(&scene).args(["--method", "truth", "--spp", "4294967295", "--out"]).arg(&png),
+        &["--spp", "65536"],
+    );
+    // An animation whose GIF has a folder in its way: found before the first frame, and no
+    // numbered frame is left behind.
+    let anim = dir.join("anim");
+    std::fs::create_dir_all(anim.join("f.gif")).unwrap();
+    fails(
+        rsl().arg("render").arg(&scene).args(["--frames", "0..4294967295", "--out"]).arg(anim.join("f.png")),
+        &["f.gif", "folder is in the way"],
+    );
+    assert_eq!(std::fs::read_dir(&anim).unwrap().count(), 1, "only the folder in the way");
+    // Outputs that would carry PNG bytes under another format's name.
+    fails(
+        rsl().args(["compare", "a.exr", "b.exr", "--heatmap"]).arg(dir.join("h.jpg")),
+        &["--heatmap", "h.jpg", ".png"],
+    );
+    fails(rsl().args(["decompose", "data/hdri/city.exr", "--grid", "8", "--png"]).arg(dir.join("fig.exr")), &[".png"]);
+    assert!(!png.exists());
+    // More RSLs than the environment grid has texels: an error, not a silent cap.
+    fails(rsl().arg("render").arg(&scene).args(["--rsl", "100000", "--out"]).arg(&png), &["100000", "texels"]);
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let head = "[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n";
+    let ball = "[[objects]]\nname = \"ball\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\n\
+                material = { model = \"ggx\", alpha = 0.2 }\n";
+    // A frame of 16384² pixels.
+    let huge = write(
+        "huge.toml",
+        &format!("[environment]\nconstant = [1.0, 1.0, 1.0]\n{head}width = 16384\nheight = 16384\n{ball}"),
+    );
+    fails(rsl().arg("scene").arg(&huge), &["huge.toml", "camera.width", "33554432"]);
+    // An anisotropic BRDF table of 512² cells and 128×128 views (17 GB): an error naming the
+    // knobs, before allocating.
+    let tables = write(
+        "tables.toml",
+        &format!(
+            "[quality]\npreset = \"draft\"\nbrdf_resolution = 512\nview_samples = 128\n\
+             [environment]\nconstant = [1.0, 1.0, 1.0]\nrsl_count = 4\n{head}[[objects]]\nname = \"brushed\"\n\
+             primitive = {{ kind = \"sphere\", radius = 1.0 }}\n\
+             material = {{ model = \"ward\", alpha_x = 0.1, alpha_y = 0.3 }}\n"
+        ),
+    );
+    fails(
+        rsl().arg("render").arg(&tables).arg("--no-cache").arg("--out").arg(&png),
+        &["BRDF table", "GB", "RSL_MAX_PREPARE_BYTES", "brdf_resolution or view_samples"],
+    );
+    // Radiance that would overflow f32 once summed: an error naming the input at fault.
+    let bright = write(
+        "bright.toml",
+        &format!("[environment]\nconstant = [1.0, 1.0, 1.0]\nintensity = 1e38\nrsl_count = 4\n{head}{ball}"),
+    );
+    fails(rsl().arg("render").arg(&bright).arg("--no-cache").arg("--out").arg(&png), &["environment.intensity"]);
+    // A TOML type error names its field, not only its line.
+    let typed =
+        write("typed.toml", &format!("[environment]\nconstant = [1.0, 1.0, 1.0]\nrsl_count = \"thirty\"\n{head}"));
+    fails(rsl().arg("scene").arg(&typed), &["typed.toml:3", "environment.rsl_count"]);
+    // A scene file that is a device or a folder.
+    #[cfg(unix)]
+    fails(rsl().args(["scene", "/dev/zero"]), &["/dev/zero", "not a regular file"]);
+    fails(rsl().arg("scene").arg(&dir), &["is a folder"]);
+    assert!(!png.exists(), "nothing was written");
+}
+
+#[test]
+fn a_lobe_narrower_than_its_tables_cells_is_a_warning_not_a_silent_blur() {
+    // α = 10⁻⁴, the smallest accepted: a lobe of 2·10⁻⁴ rad against cells of 0.03 rad.
+    let dir = out_dir("narrow-lobe");
+    let scene = dir.join("mirror.toml");
+    std::fs::write(
+        &scene,
+        "[environment]\nconstant = [1.0, 1.0, 1.0]\nrsl_count = 4\n[camera]\neye = [0.0, 0.0, 3.0]\n\
+         target = [0.0, 0.0, 0.0]\nwidth = 16\nheight = 12\n[[objects]]\nname = \"mirror\"\n\
+         primitive = { kind = \"sphere\", radius = 1.0, resolution = 8 }\n\
+         material = { model = \"ggx\", alpha = 1e-4, specular = [0.9, 0.9, 0.9] }\n",
+    )
+    .unwrap();
+    let (ok, _, err) = run(rsl()
+        .env_remove("RUST_LOG")
+        .arg("render")
+        .arg(&scene)
+        .arg("--no-cache")
+        .arg("--out")
+        .arg(dir.join("m.png")));
+    assert!(ok, "{err}");
+    assert!(err.contains("object mirror") && err.contains("narrower than one cell"), "{err}");
+    assert_eq!(err.matches("narrower than one cell").count(), 1, "once: {err}");
 }
 
 /// A small scene: one sphere in a constant environment.

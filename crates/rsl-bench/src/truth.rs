@@ -83,7 +83,7 @@ pub fn truth(
 ) -> Result<(VertexTruth, bool)> {
     let file = dir.map(|d| d.join(format!("truth-{:016x}.bin", key(engine, scene, time, spp, seed))));
     if let Some(f) = &file
-        && let Ok(bytes) = std::fs::read(f)
+        && let Ok(bytes) = rsl_sphere::io::read_bounded(f, rsl_sphere::io::MAX_DATA_BYTES)
     {
         match from_bytes(&bytes, spp) {
             Ok(t) if t.mean.iter().map(Vec::len).eq(engine_counts(engine)) => return Ok((t, true)),

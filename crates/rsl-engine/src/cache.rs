@@ -4,8 +4,10 @@
 //!
 //! On disk, visibility fields use rsl-vis's checksummed format (`svdf-<key>.bin`,
 //! `ovdf-<key>.bin`) and RSL sets this module's (`rsl-<key>.bin`): magic, version, payload
-//! length, FNV-1a 64 checksum, little-endian payload. A stale, truncated or corrupt file is
-//! reported, removed and recomputed, never used. Files are written atomically.
+//! length, FNV-1a 64 checksum, the content key the data was built for, little-endian
+//! payload. A stale, truncated or corrupt file, or one built for another key (copied over
+//! another's name), is reported, removed and recomputed, never used. Files are written
+//! atomically.
 //!
 //! BRDF tables are held in memory only: they build in milliseconds (rsl-brdf's README),
 //! about as fast as reading their summed-area tables back from disk.
@@ -105,10 +107,12 @@ pub fn mesh_key(mesh: &rsl_sphere::mesh::TriMesh) -> u64 {
 
 const RSL_MAGIC: [u8; 8] = *b"RSLLIGHT";
 /// Version of the RSL-set file format.
-pub const RSL_VERSION: u32 = 2;
+pub const RSL_VERSION: u32 = 3;
+/// Header bytes: magic, version, payload length, checksum, key.
+const RSL_HEADER: usize = 8 + 4 + 8 + 8 + 8;
 
-/// Serialises an RSL set (environment space, before intensity).
-pub fn rsls_to_bytes(rsls: &[Rsl]) -> Vec<u8> {
+/// Serialises an RSL set (environment space, before intensity) built for content key `key`.
+pub fn rsls_to_bytes(rsls: &[Rsl], key: u64) -> Vec<u8> {
     let mut payload = Vec::with_capacity(4 + rsls.len() * 28);
     payload.extend_from_slice(&(rsls.len() as u32).to_le_bytes());
     for r in rsls {
@@ -116,31 +120,41 @@ pub fn rsls_to_bytes(rsls: &[Rsl]) -> Vec<u8> {
             payload.extend_from_slice(&v.to_le_bytes());
         }
     }
-    let mut out = Vec::with_capacity(payload.len() + 28);
+    let mut out = Vec::with_capacity(payload.len() + RSL_HEADER);
     out.extend_from_slice(&RSL_MAGIC);
     out.extend_from_slice(&RSL_VERSION.to_le_bytes());
     out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
     out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
+    out.extend_from_slice(&key.to_le_bytes());
     out.extend_from_slice(&payload);
     out
 }
 
-/// Reads an RSL set written by [`rsls_to_bytes`], verifying everything.
-pub fn rsls_from_bytes(b: &[u8]) -> Result<Vec<Rsl>, String> {
-    if b.len() < 28 || b[..8] != RSL_MAGIC {
+/// Reads an RSL set written by [`rsls_to_bytes`] for `key`, verifying everything.
+pub fn rsls_from_bytes(b: &[u8], key: u64) -> Result<Vec<Rsl>, String> {
+    if b.len() < 12 || b[..8] != RSL_MAGIC {
         return Err("not an rsl light set (bad magic number)".into());
     }
     let version = u32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
     if version != RSL_VERSION {
         return Err(format!("light set format version {version}, this build reads version {RSL_VERSION}"));
     }
+    if b.len() < RSL_HEADER {
+        return Err(format!("light set file is truncated: {} bytes, the header alone is {RSL_HEADER}", b.len()));
+    }
     let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
-    let payload = &b[28..];
+    let payload = &b[RSL_HEADER..];
     if payload.len() as u64 != len {
         return Err(format!("light set file is truncated or padded: {} payload bytes, expected {len}", payload.len()));
     }
     if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
         return Err("light set file is corrupt (checksum mismatch)".into());
+    }
+    let found = u64::from_le_bytes(b[28..36].try_into().expect("8 bytes"));
+    if found != key {
+        return Err(format!(
+            "light set file was built for key {found:016x}, not {key:016x} (copied over another's name?)"
+        ));
     }
     if payload.len() < 4 {
         return Err(format!("light set file is malformed: {} payload bytes, no light count", payload.len()));
@@ -186,25 +200,28 @@ mod tests {
             Rsl { centre: Vec3::Y, half_diagonal: 0.1, intensity: Vec3::new(1.0, 2.0, 3.0) },
             Rsl { centre: Vec3::X, half_diagonal: 0.5, intensity: Vec3::splat(20_000.0) },
         ];
-        let b = rsls_to_bytes(&rsls);
-        assert_eq!(rsls_from_bytes(&b).unwrap(), rsls);
+        let b = rsls_to_bytes(&rsls, 42);
+        assert_eq!(rsls_from_bytes(&b, 42).unwrap(), rsls);
+        assert!(rsls_from_bytes(&b, 43).unwrap_err().contains("built for key"));
         let mut flipped = b.clone();
-        flipped[40] ^= 1;
-        assert!(rsls_from_bytes(&flipped).unwrap_err().contains("checksum"));
-        assert!(rsls_from_bytes(&b[..b.len() - 3]).unwrap_err().contains("truncated"));
+        flipped[44] ^= 1;
+        assert!(rsls_from_bytes(&flipped, 42).unwrap_err().contains("checksum"));
+        assert!(rsls_from_bytes(&b[..b.len() - 3], 42).unwrap_err().contains("truncated"));
+        assert!(rsls_from_bytes(&b[..20], 42).unwrap_err().contains("truncated"));
         let mut foreign = b.clone();
         foreign[0] = b'X';
-        assert!(rsls_from_bytes(&foreign).unwrap_err().contains("magic"));
+        assert!(rsls_from_bytes(&foreign, 42).unwrap_err().contains("magic"));
         let mut future = b;
         future[8] = 9;
-        assert!(rsls_from_bytes(&future).unwrap_err().contains("version"));
+        assert!(rsls_from_bytes(&future, 42).unwrap_err().contains("version"));
         // A well-formed header over an empty payload (its checksum right) is an error, not a
         // panic, so the engine rejects and removes the file.
         let mut empty = RSL_MAGIC.to_vec();
         empty.extend_from_slice(&RSL_VERSION.to_le_bytes());
         empty.extend_from_slice(&0u64.to_le_bytes());
         empty.extend_from_slice(&fnv1a64(&[]).to_le_bytes());
-        assert!(rsls_from_bytes(&empty).unwrap_err().contains("no light count"));
+        empty.extend_from_slice(&42u64.to_le_bytes());
+        assert!(rsls_from_bytes(&empty, 42).unwrap_err().contains("no light count"));
     }
 
     #[test]

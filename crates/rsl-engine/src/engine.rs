@@ -163,6 +163,38 @@ pub fn table_resolution(q: &QualitySettings, brdf: &Brdf) -> Resolution {
     }
 }
 
+/// Environment variable overriding [`DEFAULT_PREPARE_LIMIT`] (bytes).
+pub const PREPARE_LIMIT_ENV: &str = "RSL_MAX_PREPARE_BYTES";
+/// The most bytes one prepared item (a BRDF table, a visibility field's build) may take
+/// unless [`PREPARE_LIMIT_ENV`] says otherwise: checked before anything is allocated, so that
+/// a quality setting the file format allows (tables of 512², 512 views) is an error naming
+/// its knobs rather than an exhausted machine.
+pub const DEFAULT_PREPARE_LIMIT: u64 = 8 << 30;
+
+/// The limit on one prepared item's bytes ([`DEFAULT_PREPARE_LIMIT`], or the environment's).
+pub fn prepare_limit() -> Result<u64> {
+    match std::env::var(PREPARE_LIMIT_ENV) {
+        Err(_) => Ok(DEFAULT_PREPARE_LIMIT),
+        Ok(v) => v
+            .trim()
+            .parse::<u64>()
+            .map_err(|_| anyhow::anyhow!("{PREPARE_LIMIT_ENV} must be a whole number of bytes, got \"{v}\"")),
+    }
+}
+
+/// Fails when `bytes` (what building `what` would take) is beyond [`prepare_limit`].
+fn check_size(what: &str, knobs: &str, bytes: u64) -> Result<()> {
+    let limit = prepare_limit()?;
+    if bytes > limit {
+        bail!(
+            "{what} would take {:.1} GB to build, more than the limit of {:.1} GB ({PREPARE_LIMIT_ENV}): lower {knobs}",
+            bytes as f64 / 1e9,
+            limit as f64 / 1e9
+        );
+    }
+    Ok(())
+}
+
 /// The environment's radiance, before its intensity.
 #[derive(Clone, Debug)]
 pub enum EnvRadiance {
@@ -310,6 +342,14 @@ impl Engine {
         if rsl_count == 0 {
             bail!("the RSL count must be at least 1");
         }
+        let grid = quality.settings.env_grid as usize;
+        if options.layers.rsl && rsl_count > 6 * grid * grid {
+            bail!(
+                "the RSL count {rsl_count} is more than the {} texels of the 6×{grid}×{grid} environment grid (one RSL \
+                 per texel at most; raise env_grid for more)",
+                6 * grid * grid
+            );
+        }
         let budget = options.memory_budget.unwrap_or(DEFAULT_BUDGET);
         let mut engine = Self {
             options,
@@ -399,15 +439,8 @@ impl Engine {
         let grid = self.settings.env_grid as usize;
         let (radiance, key) = match &env.source {
             EnvironmentSource::Map { written, path } => {
+                // (Negative texels clamped to 0 are reported by the loader, once.)
                 let loaded = rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?;
-                if loaded.clamped_negative > 0 {
-                    tracing::warn!(
-                        "{}: {} negative values clamped to 0 (most negative {})",
-                        path.display(),
-                        loaded.clamped_negative,
-                        loaded.most_negative
-                    );
-                }
                 // Keyed by the decoded radiance (the file is read once).
                 let m = &loaded.map;
                 let key = m
@@ -423,6 +456,19 @@ impl Engine {
                 (EnvRadiance::Constant(*c), KeyHasher::default().str("constant").f32s(&c.to_array()).finish())
             }
         };
+        let brightest = match &radiance {
+            EnvRadiance::Map(m) => m.texels().iter().map(|t| t.max_element()).fold(0.0, f32::max),
+            EnvRadiance::Constant(c) => c.max_element(),
+        } * env.intensity;
+        if brightest.is_nan() || brightest > rsl_env::load::MAX_RADIANCE {
+            bail!(
+                "{}: environment.intensity {} makes the brightest radiance {brightest:e}, beyond the {:e} that \
+                 shading can sum without overflowing f32",
+                scene.path.display(),
+                env.intensity,
+                rsl_env::load::MAX_RADIANCE
+            );
+        }
         let key = KeyHasher::default().u64(key).u64(grid as u64).u64(CACHE_VERSION).finish();
         self.env = PreparedEnv { radiance, intensity: env.intensity, rsls: Arc::new(Vec::new()), key, rsl_key: 0 };
         if self.options.layers.rsl {
@@ -448,9 +494,10 @@ impl Engine {
         }
         let file = self.options.cache_dir.as_ref().map(|d| d.join(format!("rsl-{key:016x}.bin")));
         if let Some(f) = &file
-            && let Ok(bytes) = std::fs::read(f)
+            && f.exists()
         {
-            match cache::rsls_from_bytes(&bytes) {
+            let read = rsl_sphere::io::read_bounded(f, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| e.to_string());
+            match read.and_then(|bytes| cache::rsls_from_bytes(&bytes, key)) {
                 Ok(s) if s.len() <= n && !s.is_empty() => {
                     self.stats.disk_hits += 1;
                     let s = Arc::new(s);
@@ -483,7 +530,7 @@ impl Engine {
         let n = n.min(decomposition.max_rsls());
         let set: Vec<Rsl> = decomposition.rsls(n)?.into_iter().map(|i| i.rsl).collect();
         if let Some(f) = &file
-            && let Err(e) = cache::write(f, &cache::rsls_to_bytes(&set))
+            && let Err(e) = cache::write(f, &cache::rsls_to_bytes(&set, key))
         {
             tracing::warn!("cannot cache the light set: {e:#}");
         }
@@ -508,6 +555,12 @@ impl Engine {
     pub fn set_rsl_count(&mut self, n: usize) -> Result<()> {
         if n == 0 {
             bail!("the RSL count must be at least 1");
+        }
+        if n > self.texel_count() {
+            bail!(
+                "the RSL count {n} is more than the {} texels of the environment grid (one RSL per texel at most)",
+                self.texel_count()
+            );
         }
         if !self.options.layers.rsl {
             bail!("this engine prepares no RSL layer");
@@ -601,6 +654,34 @@ impl Engine {
             return Ok((t, key));
         }
         self.stats.misses += 1;
+        let slices = if brdf.is_lambertian() {
+            0
+        } else if brdf.is_anisotropic() {
+            // V×V views, a quarter of them stored.
+            (res.views * res.views).div_ceil(4)
+        } else {
+            res.views
+        };
+        let bytes = slices as u64 * ((res.n as u64 + 1).pow(2) * 16);
+        check_size(
+            &format!("object {name}: the BRDF table at N = {}, {} view samples", res.n, res.views),
+            "brdf_resolution or view_samples",
+            bytes,
+        )?;
+        // A cell of the table spans at most 4/N radians: a lobe narrower than one is blurred
+        // to the cell (its highlights spread, its peak lowered), whatever else is done.
+        if let Some(width) = brdf.lobe_width()
+            && width < 4.0 / res.n as f32
+        {
+            tracing::warn!(
+                "object {name}: its {} lobe ({width:.2e} rad wide) is narrower than one cell of its {n}×{n} BRDF \
+                 table ({:.2e} rad): its highlights are blurred to the table's resolution (raise brdf_resolution, \
+                 or compare against --method truth)",
+                brdf.name(),
+                4.0 / res.n as f32,
+                n = res.n
+            );
+        }
         let start = Instant::now();
         let t = Arc::new(BrdfTable::build(brdf, res).with_context(|| format!("object {name}: material"))?);
         self.timings.add(stage::TABLES, start.elapsed().as_secs_f64() * 1e3, None);
@@ -648,6 +729,11 @@ impl Engine {
         let p = svdf_params(self.preset, &self.settings);
         let key = field_key("svdf", mesh_key, &[p.n, p.supersample, p.clusters, p.vectors, p.iterations]);
         let vertices = mesh.vertex_count();
+        check_size(
+            &format!("object {name}: the self-visibility field ({vertices} vertices × {}² tables)", p.n),
+            "visibility_resolution",
+            vertices as u64 * (p.n as u64).pow(2) * 4,
+        )?;
         let io = FieldIo {
             prefix: "svdf",
             load: rsl_vis::store::load_svdf,
@@ -669,6 +755,14 @@ impl Engine {
     fn ovdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Ovdf>, u64)> {
         let p = ovdf_params(&self.settings);
         p.check().context("quality settings")?;
+        check_size(
+            &format!(
+                "object {name}: the occluder field ({} shells × 6×{}² directions × {}² tables)",
+                p.shells, p.m, p.n
+            ),
+            "ovdf_shells, ovdf_directions or visibility_resolution",
+            (p.shells * 6 * p.m * p.m) as u64 * (p.n as u64).pow(2) * 4,
+        )?;
         let key = field_key("ovdf", mesh_key, &[p.shells, p.m, p.n, p.supersample, p.vectors]);
         let io = FieldIo {
             prefix: "ovdf",
@@ -697,7 +791,7 @@ impl Engine {
         if let Some(path) = &file
             && path.exists()
         {
-            match (io.load)(path)
+            match (io.load)(path, key)
                 .map_err(|e| e.to_string())
                 .and_then(|f| (io.check)(&f).map(|()| f).map_err(String::from))
             {
@@ -717,7 +811,7 @@ impl Engine {
         if let Some(path) = &file
             && let Err(e) = std::fs::create_dir_all(path.parent().unwrap_or(path))
                 .map_err(|e| e.to_string())
-                .and_then(|()| (io.save)(&f, path).map_err(|e| e.to_string()))
+                .and_then(|()| (io.save)(&f, key, path).map_err(|e| e.to_string()))
         {
             tracing::warn!("cannot cache {}: {e}", io.message);
         }
@@ -869,8 +963,8 @@ type Report<'p> = dyn Fn(usize, usize) + Sync + 'p;
 struct FieldIo<'a, T> {
     /// File name prefix (`<prefix>-<key>.bin`).
     prefix: &'static str,
-    load: fn(&Path) -> Result<T, FieldFileError>,
-    save: fn(&T, &Path) -> Result<(), FieldFileError>,
+    load: fn(&Path, u64) -> Result<T, FieldFileError>,
+    save: fn(&T, u64, &Path) -> Result<(), FieldFileError>,
     /// Whether a loaded field fits what is asked for (and why not).
     check: &'a dyn Fn(&T) -> Result<(), &'static str>,
     /// Builds the field, reporting `(done, total)`.

@@ -6,9 +6,7 @@ use std::path::Path;
 /// Writes `bytes` to `path` atomically: into a temporary file beside it, then renamed over
 /// it. On any error the temporary file is removed and `path` is untouched.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().with_context(|| format!("{}: not a file path", path.display()))?;
-    let tmp = dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id()));
+    let tmp = temporary(path)?;
     let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -38,20 +36,112 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[glam::Vec3], co
 
 /// Writes 8-bit RGB frames as a looping animated GIF at `fps` frames per second, atomically.
 pub fn write_gif(path: &Path, width: u32, height: u32, frames: &[Vec<u8>], fps: f32) -> Result<()> {
-    use image::codecs::gif::{GifEncoder, Repeat};
-    let mut bytes = Vec::new();
-    {
-        let mut enc = GifEncoder::new_with_speed(&mut bytes, 10);
-        enc.set_repeat(Repeat::Infinite).context("GIF encoding failed")?;
-        let delay = image::Delay::from_numer_denom_ms(1000, fps.max(1e-3).round().max(1.0) as u32);
-        for rgb in frames {
-            let rgba: Vec<u8> = rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect();
-            let buf =
-                image::RgbaImage::from_raw(width, height, rgba).context("frame buffer does not match its size")?;
-            enc.encode_frame(image::Frame::from_parts(buf, 0, 0, delay)).context("GIF encoding failed")?;
-        }
+    let mut gif = GifWriter::create(path, width, height, fps)?;
+    for rgb in frames {
+        gif.push(rgb)?;
     }
-    write_atomic(path, &bytes)
+    gif.finish()
+}
+
+/// A looping animated GIF written a frame at a time (no frame is kept in memory) into a
+/// temporary file beside its path, renamed over it by [`GifWriter::finish`]; dropped
+/// unfinished (an error, an interrupted animation), it removes the temporary file.
+pub struct GifWriter {
+    path: std::path::PathBuf,
+    tmp: std::path::PathBuf,
+    encoder: Option<image::codecs::gif::GifEncoder<Shared>>,
+    file: Shared,
+    width: u32,
+    height: u32,
+    delay: image::Delay,
+}
+
+impl GifWriter {
+    /// Starts a GIF at `path` of `width × height` frames shown at `fps`.
+    pub fn create(path: &Path, width: u32, height: u32, fps: f32) -> Result<Self> {
+        use image::codecs::gif::{GifEncoder, Repeat};
+        let tmp = temporary(path)?;
+        let file = std::fs::File::create(&tmp).with_context(|| format!("cannot write {}", path.display()))?;
+        let file = Shared(std::rc::Rc::new(std::cell::RefCell::new(std::io::BufWriter::new(file))));
+        let mut gif = Self {
+            path: path.to_path_buf(),
+            tmp,
+            encoder: None,
+            file: file.clone(),
+            width,
+            height,
+            delay: image::Delay::from_numer_denom_ms(1000, fps.max(1e-3).round().max(1.0) as u32),
+        };
+        let mut enc = GifEncoder::new_with_speed(file, 10);
+        enc.set_repeat(Repeat::Infinite).context("GIF encoding failed")?;
+        gif.encoder = Some(enc);
+        Ok(gif)
+    }
+
+    /// Appends a frame of 8-bit RGB pixels.
+    pub fn push(&mut self, rgb: &[u8]) -> Result<()> {
+        let rgba: Vec<u8> = rgb.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect();
+        let buf = image::RgbaImage::from_raw(self.width, self.height, rgba)
+            .context("frame buffer does not match its size")?;
+        let enc = self.encoder.as_mut().context("the GIF is finished")?;
+        enc.encode_frame(image::Frame::from_parts(buf, 0, 0, self.delay))
+            .with_context(|| format!("cannot write {}", self.path.display()))
+    }
+
+    /// Completes the file and moves it into place.
+    pub fn finish(mut self) -> Result<()> {
+        // Dropping the encoder writes the GIF's trailer; then the buffer is flushed, and any
+        // write error surfaces here.
+        drop(self.encoder.take().context("the GIF is finished")?);
+        let mut file = self.file.0.borrow_mut();
+        std::io::Write::flush(&mut *file)
+            .and_then(|()| file.get_ref().sync_all())
+            .and_then(|()| std::fs::rename(&self.tmp, &self.path))
+            .with_context(|| format!("cannot write {}", self.path.display()))
+    }
+}
+
+/// The GIF's buffered file, shared between the encoder and [`GifWriter::finish`] (which
+/// flushes it after the encoder is gone).
+#[derive(Clone)]
+struct Shared(std::rc::Rc<std::cell::RefCell<std::io::BufWriter<std::fs::File>>>);
+
+impl std::io::Write for Shared {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.borrow_mut().write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.borrow_mut().flush()
+    }
+}
+
+impl Drop for GifWriter {
+    fn drop(&mut self) {
+        // Finished: renamed away already, and removing fails harmlessly.
+        let _ = std::fs::remove_file(&self.tmp);
+    }
+}
+
+/// The temporary file beside `path` that [`write_atomic`] and [`GifWriter`] write first.
+fn temporary(path: &Path) -> Result<std::path::PathBuf> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().with_context(|| format!("{}: not a file path", path.display()))?;
+    Ok(dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id())))
+}
+
+/// Checks before any work that `path` can be written: its folder exists (or can be made) and
+/// takes a file, and nothing but a file is in the way (a folder named like the output).
+pub fn check_writable(path: &Path) -> Result<()> {
+    if path.is_dir() {
+        anyhow::bail!("cannot write {}: a folder is in the way", path.display());
+    }
+    let tmp = temporary(path)?;
+    let dir = tmp.parent().expect("a temporary file has a folder");
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot write {}: cannot create its folder", path.display()))?;
+    std::fs::write(&tmp, b"").with_context(|| format!("cannot write {}", path.display()))?;
+    let _ = std::fs::remove_file(&tmp);
+    Ok(())
 }
 
 /// An image read back: width, height, linear RGB pixels and, where the file has alpha, the

@@ -263,10 +263,39 @@ fn moving_objects_never_miss_the_cache_and_the_disk_cache_is_reused() {
     let mid = bytes.len() / 2;
     bytes[mid] ^= 0x40;
     std::fs::write(&victim, &bytes).unwrap();
-    let repaired = Engine::new(&s, options).unwrap().cache_stats();
+    let repaired = Engine::new(&s, options.clone()).unwrap().cache_stats();
     assert_eq!(repaired.rejected, 1);
     assert_eq!(repaired.misses, tables + 1);
-    assert!(rsl_vis::store::load_ovdf(&victim).is_ok(), "the rejected file was rewritten");
+    let key_of = |p: &std::path::Path| {
+        let name = p.file_stem().unwrap().to_string_lossy().into_owned();
+        u64::from_str_radix(name.rsplit('-').next().unwrap(), 16).unwrap()
+    };
+    assert!(rsl_vis::store::load_ovdf(&victim, key_of(&victim)).is_ok(), "the rejected file was rewritten");
+
+    // One object's occluder field copied over another's name: whole, well-formed and of the
+    // same resolution, but built for another key — rejected, not served.
+    let ovdfs: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with("ovdf-"))
+        .collect();
+    assert!(ovdfs.len() >= 2);
+    std::fs::copy(&ovdfs[0], &ovdfs[1]).unwrap();
+    let swapped = Engine::new(&s, options.clone()).unwrap().cache_stats();
+    assert_eq!((swapped.rejected, swapped.misses), (1, tables + 1), "{swapped:?}");
+    assert!(rsl_vis::store::load_ovdf(&ovdfs[1], key_of(&ovdfs[1])).is_ok());
+
+    // A FIFO where a cache file should be is refused at once (reading it would block), and a
+    // header over an empty payload is an error: both removed and rebuilt.
+    #[cfg(unix)]
+    {
+        std::fs::remove_file(&ovdfs[0]).unwrap();
+        let status = std::process::Command::new("mkfifo").arg(&ovdfs[0]).status().unwrap();
+        assert!(status.success());
+        let fifo = Engine::new(&s, options.clone()).unwrap().cache_stats();
+        assert_eq!((fifo.rejected, fifo.misses), (1, tables + 1), "{fifo:?}");
+        assert!(std::fs::metadata(&ovdfs[0]).unwrap().is_file(), "the FIFO was replaced by the field");
+    }
 }
 
 #[test]

@@ -39,6 +39,24 @@ pub enum EnvError {
         /// The value.
         value: f32,
     },
+    /// A pixel brighter than [`MAX_RADIANCE`].
+    #[error(
+        "{}: pixel ({x}, {y}) channel {channel} is {value:e}, beyond the {MAX_RADIANCE:e} that shading can sum \
+         without overflowing f32 (scale the map down and raise the scene's intensity instead)",
+        path.display()
+    )]
+    TooBright {
+        /// The file.
+        path: PathBuf,
+        /// Column.
+        x: u32,
+        /// Row from the top.
+        y: u32,
+        /// `R`, `G` or `B`.
+        channel: char,
+        /// The value.
+        value: f32,
+    },
     /// An argument is out of range (RSL count, grid resolution).
     #[error("{0}")]
     Argument(String),
@@ -55,6 +73,11 @@ pub struct LoadedMap {
     pub most_negative: f32,
 }
 
+/// The brightest radiance a map texel (or a map times its intensity) may have: sums over
+/// lights, BRDF densities of sharp lobes (10⁴ and more) and squares stay finite in f32 below
+/// it. Real suns are below 10⁶.
+pub const MAX_RADIANCE: f32 = 1e30;
+
 /// Loads a lat-long map from an OpenEXR or Radiance `.hdr` file as linear RGB `f32`.
 ///
 /// The map must be twice as wide as high. NaN and infinite values are errors. Negative
@@ -62,6 +85,8 @@ pub struct LoadedMap {
 /// counted in [`LoadedMap::clamped_negative`] and reported with a warning.
 pub fn load_latlong(path: &Path) -> Result<LoadedMap, EnvError> {
     let unreadable = |message: String| EnvError::Unreadable { path: path.to_path_buf(), message };
+    // A device or FIFO would block or never end; a regular file within the limit is read.
+    rsl_sphere::io::check_regular(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| unreadable(e.to_string()))?;
     let reader = image::ImageReader::open(path).map_err(|e| unreadable(e.to_string()))?;
     let reader = reader.with_guessed_format().map_err(|e| unreadable(e.to_string()))?;
     let img = reader.decode().map_err(|e| unreadable(e.to_string()))?.into_rgb32f();
@@ -93,6 +118,16 @@ pub fn from_rgb_f32(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Result
             if !v.is_finite() {
                 let k = k as u32;
                 return Err(EnvError::NonFinite {
+                    path: path.to_path_buf(),
+                    x: k % width,
+                    y: k / width,
+                    channel: ['R', 'G', 'B'][ch],
+                    value: v,
+                });
+            }
+            if v > MAX_RADIANCE {
+                let k = k as u32;
+                return Err(EnvError::TooBright {
                     path: path.to_path_buf(),
                     x: k % width,
                     y: k / width,

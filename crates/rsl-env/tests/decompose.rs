@@ -104,6 +104,30 @@ fn a_lone_bright_texel_stays_its_own_rsl_for_every_n_from_2() {
 }
 
 #[test]
+fn suns_up_to_ten_million_times_the_sky_keep_their_energy_and_stay_finite() {
+    // Extremes: a sun of 2·10⁴ (sky.exr's order), 10⁵ and 10⁷ times a uniform sky of 0.5.
+    for strength in [2.0e4, 1.0e5, 1.0e7] {
+        let mut env = CubeEnv::constant(8, Vec3::splat(0.5));
+        let sun = env.grid.index(4, 2, 6);
+        let o = env.grid.texel_solid_angle(sun);
+        env.energy[sun] = [strength * o; 3];
+        let d = Decomposition::new(&env);
+        check_energy_all_n(&env, &d);
+        for n in [1, 2, 10, 30, d.max_rsls()] {
+            let r = d.rsls(n).unwrap();
+            assert!(
+                r.iter().all(|x| x.rsl.intensity.is_finite() && x.rsl.half_diagonal.is_finite()),
+                "sun {strength:e}, N = {n}: a non-finite light"
+            );
+            if n >= 2 {
+                let brightest = r.iter().max_by(|a, b| a.rsl.intensity.x.total_cmp(&b.rsl.intensity.x)).unwrap();
+                assert!(brightest.rsl.centre.dot(env.grid.texel_dir(sun)) > 0.999, "sun {strength:e}, N = {n}");
+            }
+        }
+    }
+}
+
+#[test]
 fn a_black_map_gives_zero_energy_not_nan() {
     let env = CubeEnv::constant(8, Vec3::ZERO);
     let d = Decomposition::new(&env);

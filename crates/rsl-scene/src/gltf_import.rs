@@ -21,9 +21,55 @@ pub struct ImportReport {
     pub computed_normals: usize,
 }
 
+/// Where a buffer's relative URI points: inside the glTF file's folder `base`, or an error (an
+/// absolute path, a scheme, or a path that climbs out with `..` would read files the scene
+/// does not own). Percent-escapes are decoded.
+fn buffer_path(base: &Path, uri: &str) -> Result<std::path::PathBuf, String> {
+    let decoded = percent_decode(uri)?;
+    let rel = Path::new(&decoded);
+    if uri.contains(':') || rel.is_absolute() || decoded.starts_with('/') || decoded.starts_with('\\') {
+        return Err("only relative paths inside the glTF file's folder are read".into());
+    }
+    let mut depth = 0i32;
+    for c in rel.components() {
+        match c {
+            std::path::Component::Normal(_) => depth += 1,
+            std::path::Component::CurDir => {}
+            std::path::Component::ParentDir => {
+                depth -= 1;
+                if depth < 0 {
+                    return Err("points outside the glTF file's folder".into());
+                }
+            }
+            _ => return Err("only relative paths inside the glTF file's folder are read".into()),
+        }
+    }
+    Ok(base.join(rel))
+}
+
+/// Decodes `%XX` escapes of a URI.
+fn percent_decode(uri: &str) -> Result<String, String> {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut k = 0;
+    while k < b.len() {
+        if b[k] == b'%' {
+            let hex = b.get(k + 1..k + 3).and_then(|h| std::str::from_utf8(h).ok());
+            let v = hex.and_then(|h| u8::from_str_radix(h, 16).ok()).ok_or("a malformed %-escape")?;
+            out.push(v);
+            k += 3;
+        } else {
+            out.push(b[k]);
+            k += 1;
+        }
+    }
+    String::from_utf8(out).map_err(|_| "not UTF-8 after %-decoding".to_string())
+}
+
 /// Imports `path` (`.glb` or `.gltf`). Errors are plain messages; the caller adds the file.
 pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    let bytes =
+        rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| format!("cannot read: {e}"))?;
     let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut buffers: Vec<Vec<u8>> = Vec::new();
@@ -36,8 +82,10 @@ pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
                 return Err(format!("buffer {}: embedded data URIs are not supported", buffer.index()));
             }
             gltf::buffer::Source::Uri(uri) => {
-                let p = base.join(uri);
-                std::fs::read(&p).map_err(|e| format!("buffer {} ({}): {e}", buffer.index(), p.display()))?
+                let p =
+                    buffer_path(base, uri).map_err(|e| format!("buffer {} (uri \"{uri}\"): {e}", buffer.index()))?;
+                rsl_sphere::io::read_bounded(&p, rsl_sphere::io::MAX_DATA_BYTES)
+                    .map_err(|e| format!("buffer {} ({}): {e}", buffer.index(), p.display()))?
             }
         };
         if data.len() < buffer.length() {
@@ -83,11 +131,30 @@ pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
             let where_ = || format!("mesh {} primitive {}", m.index(), prim.index());
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| format!("{}: no POSITION attribute", where_()))?
-                .map(Vec3::from)
-                .collect();
+            let Some(read) = reader.read_positions() else {
+                return Err(match prim.get(&gltf::Semantic::Positions) {
+                    None => format!("{}: no POSITION attribute", where_()),
+                    Some(a) => format!(
+                        "{}: POSITION accessor {} ({} elements) cannot be read: its buffer view is missing or reaches \
+                         beyond its buffer",
+                        where_(),
+                        a.index(),
+                        a.count()
+                    ),
+                });
+            };
+            let positions: Vec<Vec3> = read.map(Vec3::from).collect();
+            if let Some(a) = prim.get(&gltf::Semantic::Positions)
+                && positions.len() != a.count()
+            {
+                return Err(format!(
+                    "{}: POSITION accessor {} declares {} elements, its buffer holds {}",
+                    where_(),
+                    a.index(),
+                    a.count(),
+                    positions.len()
+                ));
+            }
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(i) => i.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),

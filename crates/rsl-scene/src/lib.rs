@@ -39,6 +39,10 @@ pub use motion::{Keyframe, Motion, Orbit, Spin, Transform};
 pub use primitive::Primitive;
 pub use quality::{Preset, Quality, QualitySettings};
 
+/// The most pixels a camera may have (8192×4096): the renderers hold about 40 bytes per pixel
+/// (radiance, depth, coverage, display colour).
+pub const MAX_PIXELS: u64 = 1 << 25;
+
 use glam::{Mat4, Quat, Vec3};
 use rsl_sphere::mesh::TriMesh;
 use std::path::{Path, PathBuf};
@@ -170,7 +174,7 @@ impl Scene {
     /// Reads, parses and validates a scene file, importing or generating every mesh.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
+        let text = rsl_sphere::io::read_text_bounded(path, rsl_sphere::io::MAX_SCENE_BYTES)
             .map_err(|e| SceneError::file(path, format!("cannot read scene file: {e}")))?;
         Self::from_toml_str(&text, path)
     }

@@ -306,14 +306,19 @@ fn camera(cx: &Ctx, c: RawCamera) -> Result<Camera, SceneError> {
             Err(cx.err(field, format!("must be in 1..=16384 pixels, got {v}")))
         }
     };
-    Ok(Camera {
-        eye,
-        target,
-        up,
-        fov_y: fov.to_radians(),
-        width: dim("camera.width", c.width)?,
-        height: dim("camera.height", c.height)?,
-    })
+    let (width, height) = (dim("camera.width", c.width)?, dim("camera.height", c.height)?);
+    let pixels = u64::from(width) * u64::from(height);
+    if pixels > crate::MAX_PIXELS {
+        return Err(cx.err(
+            "camera.width",
+            format!(
+                "{width}×{height} is {pixels} pixels, more than the limit of {} (8192×4096): a frame holds about 40 \
+                 bytes per pixel",
+                crate::MAX_PIXELS
+            ),
+        ));
+    }
+    Ok(Camera { eye, target, up, fov_y: fov.to_radians(), width, height })
 }
 
 fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
@@ -419,7 +424,45 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<Tr
         None => Motion::default(),
         Some(m) => motion(cx, &f("motion"), m, &transform)?,
     };
+    reach(cx, &f, &mesh, &transform, &motion)?;
     Ok(Object { name, source, mesh, transform, material, motion, casts_shadows: o.casts_shadows })
+}
+
+/// Fails when the object, placed at its transform or anywhere its motion takes it, reaches
+/// beyond [`rsl_sphere::mesh::MAX_COORDINATE`] from the origin (naming the scale when the
+/// object itself is that large, else the translation or motion).
+fn reach(
+    cx: &Ctx,
+    f: &dyn Fn(&str) -> String,
+    mesh: &TriMesh,
+    base: &Transform,
+    motion: &Motion,
+) -> Result<(), SceneError> {
+    let limit = rsl_sphere::mesh::MAX_COORDINATE;
+    let (c, r) = mesh.bounding_sphere().unwrap_or((Vec3::ZERO, 0.0));
+    let size = |t: &Transform| (c.length() + r) * t.scale.max_element();
+    let check = |field: &str, t: &Transform, centre: f32| {
+        let extent = centre + size(t);
+        if extent.is_finite() && extent <= limit {
+            return Ok(());
+        }
+        let field = if size(t) > 0.5 * limit || !size(t).is_finite() { f("scale") } else { field.to_string() };
+        Err(cx.err(
+            &field,
+            format!(
+                "places the object {extent:.3e} scene units from the origin; the limit is {limit:e} (f32 \
+                 geometry loses its precision beyond it): scale the scene down"
+            ),
+        ))
+    };
+    check(&f("translation"), base, base.translation.length())?;
+    if let Some(o) = &motion.orbit {
+        check(&f("motion.orbit"), base, o.centre.length() + (base.translation - o.centre).length())?;
+    }
+    for (k, key) in motion.keyframes.iter().enumerate() {
+        check(&f(&format!("motion.keyframes[{k}]")), &key.transform, key.transform.translation.length())?;
+    }
+    Ok(())
 }
 
 fn motion(cx: &Ctx, field: &str, m: RawMotion, base: &Transform) -> Result<Motion, SceneError> {

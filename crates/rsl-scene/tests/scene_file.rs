@@ -228,6 +228,34 @@ fn nan_positions_are_rejected() {
 }
 
 #[test]
+fn buffer_uris_are_read_only_inside_the_gltf_files_folder() {
+    let dir = temp_dir("buffer-uris");
+    let path = write_gltf(&dir, [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], 4);
+    let json = std::fs::read_to_string(&path).unwrap();
+    let with_uri =
+        |uri: &str| std::fs::write(&path, json.replace("\"uri\":\"tri.bin\"", &format!("\"uri\":\"{uri}\""))).unwrap();
+    let scene = "[[objects]]\nname = \"p\"\nmesh = \"tri.gltf\"\n";
+    // Climbing out, absolute paths, devices and schemes are refused before anything is read.
+    for (uri, expect) in [
+        ("../../../../etc/passwd", "outside the glTF file's folder"),
+        ("sub/../../tri.bin", "outside the glTF file's folder"),
+        ("%2E%2E/tri.bin", "outside the glTF file's folder"),
+        ("/dev/zero", "relative paths"),
+        ("file:///dev/zero", "relative paths"),
+    ] {
+        with_uri(uri);
+        expect_err(parse_in(&dir, scene), &["tri.gltf", "buffer 0", expect]);
+    }
+    // A name inside the folder that is a FIFO or a folder is not read either.
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    with_uri("sub");
+    expect_err(parse_in(&dir, scene), &["tri.gltf", "is a folder"]);
+    // Inside the folder, through a subfolder and back, it reads.
+    with_uri("sub/../tri.bin");
+    assert!(parse_in(&dir, scene).is_ok());
+}
+
+#[test]
 fn corrupt_mesh_files_are_reported_not_panicked() {
     let dir = temp_dir("corrupt");
     std::fs::write(dir.join("bad.glb"), b"glTF\x02\x00\x00\x00garbage").unwrap();

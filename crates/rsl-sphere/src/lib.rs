@@ -26,6 +26,7 @@ pub mod cube;
 pub mod faces;
 pub mod frame;
 pub mod hemi;
+pub mod io;
 pub mod latlong;
 pub mod mesh;
 pub mod sampling;

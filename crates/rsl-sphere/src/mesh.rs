@@ -17,6 +17,11 @@ pub struct TriMesh {
     pub indices: Vec<u32>,
 }
 
+/// The largest coordinate a mesh (and a placed object) may reach, in scene units: beyond it
+/// f32 positions keep less than a hundredth of a unit of precision and bounding-volume
+/// areas overflow on their way to `f32::MAX` (a BVH over a mesh 10²⁰ across panicked).
+pub const MAX_COORDINATE: f32 = 1e9;
+
 /// What is wrong with a mesh.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum MeshError {
@@ -39,6 +44,17 @@ pub enum MeshError {
     /// A position is NaN or infinite.
     #[error("vertex {vertex} has a non-finite position {position:?}")]
     NonFinitePosition {
+        /// Vertex number.
+        vertex: usize,
+        /// Its position.
+        position: Vec3,
+    },
+    /// A position beyond [`MAX_COORDINATE`].
+    #[error(
+        "vertex {vertex} at {position:?} is beyond ±{MAX_COORDINATE:e} (f32 geometry loses its precision and its \
+         bounding volumes overflow there; scale the mesh down)"
+    )]
+    TooLarge {
         /// Vertex number.
         vertex: usize,
         /// Its position.
@@ -82,6 +98,11 @@ impl TriMesh {
         }
         if let Some((vertex, &position)) = self.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
             return Err(MeshError::NonFinitePosition { vertex, position });
+        }
+        if let Some((vertex, &position)) =
+            self.positions.iter().enumerate().find(|(_, p)| p.abs().max_element() > MAX_COORDINATE)
+        {
+            return Err(MeshError::TooLarge { vertex, position });
         }
         if self.normals.len() != nv {
             return Err(MeshError::AttributeLength { what: "normals", got: self.normals.len(), vertices: nv });
@@ -279,6 +300,10 @@ mod tests {
         m.compute_normals();
         m.positions[2].y = f32::NAN;
         assert!(matches!(m.validate(), Err(MeshError::NonFinitePosition { vertex: 2, .. })));
+        m.positions[2].y = 2e9;
+        assert!(matches!(m.validate(), Err(MeshError::TooLarge { vertex: 2, .. })));
+        m.positions[2].y = 1e9;
+        assert_eq!(m.validate(), Ok(()));
         let mut m = quad();
         m.compute_normals();
         m.indices.push(9);

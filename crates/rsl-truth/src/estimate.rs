@@ -188,10 +188,32 @@ pub enum TruthError {
     /// No sample per point.
     #[error("spp must be at least 1")]
     NoSamples,
+    /// More samples per point than [`MAX_SPP`].
+    #[error(
+        "{0} samples per point is more than the limit of {MAX_SPP} (each point holds its samples' strata; the \
+         estimate's noise falls as 1/√spp, so 4× the samples halve it)"
+    )]
+    TooManySamples(u32),
     /// Every triangle is degenerate.
     #[error("the scene has no triangle of non-zero area")]
     NoTriangles,
+    /// An object placed beyond the coordinates the BVH can hold.
+    #[error(
+        "object {object} reaches {extent:e} scene units from the origin, beyond the limit of {limit:e} (its \
+         bounding boxes would overflow)"
+    )]
+    TooLarge {
+        /// Object number.
+        object: usize,
+        /// Its largest world coordinate.
+        extent: f32,
+        /// The limit, `rsl_sphere::mesh::MAX_COORDINATE`.
+        limit: f32,
+    },
 }
+
+/// The most samples per point (pixel or vertex) the estimator takes.
+pub const MAX_SPP: u32 = 1 << 16;
 
 impl TruthScene {
     /// Places every object and builds the BVH. `world_from_env` rotates the environment.
@@ -205,6 +227,11 @@ impl TruthScene {
         for (i, o) in objects.iter().enumerate() {
             let pose = Pose::new(&o.transform);
             let p: Vec<Vec3> = o.mesh.positions.iter().map(|&p| pose.position(p)).collect();
+            let limit = rsl_sphere::mesh::MAX_COORDINATE;
+            let extent = p.iter().map(|x| x.abs().max_element()).fold(0.0, f32::max);
+            if extent.is_nan() || extent > limit {
+                return Err(TruthError::TooLarge { object: i, extent, limit });
+            }
             frames.push((0..o.mesh.vertex_count()).map(|v| pose.frame(o.frames.shading(v))).collect());
             for (t, tri) in o.mesh.indices.chunks_exact(3).enumerate() {
                 let [a, b, c] = [0, 1, 2].map(|k| p[tri[k] as usize]);
@@ -432,6 +459,9 @@ impl TruthScene {
         if spp == 0 {
             return Err(TruthError::NoSamples);
         }
+        if spp > MAX_SPP {
+            return Err(TruthError::TooManySamples(spp));
+        }
         let mut stats = TruthStats::default();
         let mut out = Vec::with_capacity(self.positions.len());
         for i in 0..self.positions.len() {
@@ -511,6 +541,9 @@ impl TruthScene {
         let done = std::sync::atomic::AtomicUsize::new(0);
         if spp == 0 {
             return Err(TruthError::NoSamples);
+        }
+        if spp > MAX_SPP {
+            return Err(TruthError::TooManySamples(spp));
         }
         let (w, h) = (camera.width, camera.height);
         let px: Vec<(Estimate, bool, u64)> = (0..w * h)

@@ -251,7 +251,9 @@ impl Ovdf {
     pub fn from_flat(centre: Vec3, radius: f32, params: OvdfParams, flat: Flat) -> Result<Self, String> {
         params.check().map_err(|e| e.to_string())?;
         if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
-            return Err(format!("bad bounding sphere (centre {centre}, radius {radius})"));
+            return Err(format!(
+                "bad bounding sphere (centre {centre}, radius {radius}): it must be finite with a positive radius"
+            ));
         }
         Ok(Self {
             centre,
@@ -300,7 +302,9 @@ impl Ovdf {
             return Err(format!("segment {bad} does not match the resolutions"));
         }
         if !(centre.is_finite() && radius.is_finite() && radius > 0.0) {
-            return Err("bad bounding sphere".into());
+            return Err(format!(
+                "bad bounding sphere (centre {centre}, radius {radius}): it must be finite with a positive radius"
+            ));
         }
         let ([raw_bytes, bytes_f32, bytes_f16], [rms_distance_error, rms_coverage_error]) = (bytes, errors);
         let grid = CubeGrid::new(params.m);

@@ -54,6 +54,12 @@ impl Occluder {
         if let Some((vertex, &position)) = mesh.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
             return Err(VisError::NonFinite { vertex, position });
         }
+        let limit = rsl_sphere::mesh::MAX_COORDINATE;
+        if let Some((vertex, p)) = mesh.positions.iter().enumerate().find(|(_, p)| p.abs().max_element() > limit) {
+            return Err(VisError::Params(format!(
+                "vertex {vertex} at {p:?} is beyond ±{limit:e}: the BVH's bounding boxes would overflow"
+            )));
+        }
         if let Some(&bad) = mesh.indices.iter().find(|&&i| i as usize >= mesh.positions.len()) {
             return Err(VisError::Mesh(format!("index {bad} out of range ({} vertices)", mesh.positions.len())));
         }

@@ -1,7 +1,10 @@
 //! The on-disk form of visibility fields (SVDF and OVDF) (docs/conventions.md,
-//! Precomputation cache): a magic number, a format version, the payload's length and an
-//! FNV-1a 64 checksum, then the little-endian payload. A wrong magic, an unknown version, a short file or a checksum mismatch is an
-//! error, never a half-read field. Saving writes a temporary file and renames it.
+//! Precomputation cache): a magic number, a format version, the payload's length, an
+//! FNV-1a 64 checksum and the content key the field was built for, then the little-endian
+//! payload. A wrong magic, an unknown version, a short file, a checksum mismatch or another
+//! key (a file copied over another's name) is an error, never a half-read or foreign field.
+//! Files are read only when regular and within [`rsl_sphere::io::MAX_DATA_BYTES`]. Saving
+//! writes a temporary file and renames it.
 
 use crate::cpca::Cpca;
 use crate::svdf::{CompressionReport, Svdf};
@@ -12,8 +15,8 @@ pub const SVDF_MAGIC: [u8; 8] = *b"RSLSVDF\0";
 /// File magic of an occluder field.
 pub const OVDF_MAGIC: [u8; 8] = *b"RSLOVDF\0";
 /// Current format version.
-pub const VERSION: u32 = 2;
-const HEADER: usize = 8 + 4 + 8 + 8;
+pub const VERSION: u32 = 3;
+const HEADER: usize = 8 + 4 + 8 + 8 + 8;
 
 /// Why a field file was rejected.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -38,6 +41,14 @@ pub enum FieldFileError {
     /// The payload does not match its checksum.
     #[error("field file is corrupt (checksum mismatch)")]
     Checksum,
+    /// Built for another content key.
+    #[error("field file was built for key {found:016x}, not {expected:016x} (copied over another's name?)")]
+    Key {
+        /// The key asked for.
+        expected: u64,
+        /// The key in the file.
+        found: u64,
+    },
     /// The payload is internally inconsistent.
     #[error("field file is malformed: {0}")]
     Malformed(String),
@@ -89,8 +100,8 @@ impl Reader<'_> {
     }
 }
 
-/// Serialises a field.
-pub fn svdf_to_bytes(f: &Svdf) -> Vec<u8> {
+/// Serialises a field built for content key `key`.
+pub fn svdf_to_bytes(f: &Svdf, key: u64) -> Vec<u8> {
     let mut w = Writer(Vec::new());
     match f {
         Svdf::Convex { vertices } => {
@@ -112,22 +123,23 @@ pub fn svdf_to_bytes(f: &Svdf) -> Vec<u8> {
             ]);
         }
     }
-    frame(&SVDF_MAGIC, w.0)
+    frame(&SVDF_MAGIC, key, w.0)
 }
 
-/// Header (magic, version, length, checksum) and payload.
-fn frame(magic: &[u8; 8], payload: Vec<u8>) -> Vec<u8> {
+/// Header (magic, version, length, checksum, key) and payload.
+fn frame(magic: &[u8; 8], key: u64, payload: Vec<u8>) -> Vec<u8> {
     let mut out = Vec::with_capacity(HEADER + payload.len());
     out.extend_from_slice(magic);
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
     out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
+    out.extend_from_slice(&key.to_le_bytes());
     out.extend_from_slice(&payload);
     out
 }
 
-/// Checks the header and checksum; returns the payload.
-fn unframe<'a>(magic: &[u8; 8], b: &'a [u8]) -> Result<&'a [u8], FieldFileError> {
+/// Checks the header, checksum and key; returns the payload.
+fn unframe<'a>(magic: &[u8; 8], key: u64, b: &'a [u8]) -> Result<&'a [u8], FieldFileError> {
     if b.len() < 8 || &b[..8] != magic {
         return Err(FieldFileError::BadMagic);
     }
@@ -146,6 +158,10 @@ fn unframe<'a>(magic: &[u8; 8], b: &'a [u8]) -> Result<&'a [u8], FieldFileError>
     let payload = &b[HEADER..];
     if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
         return Err(FieldFileError::Checksum);
+    }
+    let found = u64::from_le_bytes(b[28..36].try_into().expect("8 bytes"));
+    if found != key {
+        return Err(FieldFileError::Key { expected: key, found });
     }
     Ok(payload)
 }
@@ -204,7 +220,7 @@ fn read_cpca(r: &mut Reader) -> Result<Cpca, FieldFileError> {
 }
 
 /// Serialises an occluder field.
-pub fn ovdf_to_bytes(f: &crate::ovdf::Ovdf) -> Vec<u8> {
+pub fn ovdf_to_bytes(f: &crate::ovdf::Ovdf, key: u64) -> Vec<u8> {
     let mut w = Writer(Vec::new());
     let (c, r) = f.bounds();
     w.f32s(&[c.x, c.y, c.z, r]);
@@ -229,12 +245,12 @@ pub fn ovdf_to_bytes(f: &crate::ovdf::Ovdf) -> Vec<u8> {
     for s in f.segments() {
         write_cpca(&mut w, s);
     }
-    frame(&OVDF_MAGIC, w.0)
+    frame(&OVDF_MAGIC, key, w.0)
 }
 
 /// Parses an occluder field, checking header, checksum and consistency.
-pub fn ovdf_from_bytes(b: &[u8]) -> Result<crate::ovdf::Ovdf, FieldFileError> {
-    let payload = unframe(&OVDF_MAGIC, b)?;
+pub fn ovdf_from_bytes(b: &[u8], key: u64) -> Result<crate::ovdf::Ovdf, FieldFileError> {
+    let payload = unframe(&OVDF_MAGIC, key, b)?;
     let mut r = Reader { b: payload, at: 0 };
     let cr = r.f32s(4)?;
     let [shells, m, n, supersample, vectors] = [r.u32()?, r.u32()?, r.u32()?, r.u32()?, r.u32()?].map(|v| v as usize);
@@ -266,8 +282,8 @@ pub fn ovdf_from_bytes(b: &[u8]) -> Result<crate::ovdf::Ovdf, FieldFileError> {
 }
 
 /// Parses a field, checking magic, version, length, checksum and consistency.
-pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
-    let payload = unframe(&SVDF_MAGIC, b)?;
+pub fn svdf_from_bytes(b: &[u8], key: u64) -> Result<Svdf, FieldFileError> {
+    let payload = unframe(&SVDF_MAGIC, key, b)?;
     let mut r = Reader { b: payload, at: 0 };
     let field = match r.u32()? {
         0 => Svdf::Convex { vertices: r.u32()? as usize },
@@ -299,20 +315,25 @@ pub fn svdf_from_bytes(b: &[u8]) -> Result<Svdf, FieldFileError> {
     Ok(field)
 }
 
-/// Writes a field atomically (temporary file, then rename).
-pub fn save_svdf(f: &Svdf, path: &Path) -> Result<(), FieldFileError> {
-    save_bytes(&svdf_to_bytes(f), path)
+/// Writes a field built for `key` atomically (temporary file, then rename).
+pub fn save_svdf(f: &Svdf, key: u64, path: &Path) -> Result<(), FieldFileError> {
+    save_bytes(&svdf_to_bytes(f, key), path)
 }
 
-/// Writes an occluder field atomically.
-pub fn save_ovdf(f: &crate::ovdf::Ovdf, path: &Path) -> Result<(), FieldFileError> {
-    save_bytes(&ovdf_to_bytes(f), path)
+/// Writes an occluder field built for `key` atomically.
+pub fn save_ovdf(f: &crate::ovdf::Ovdf, key: u64, path: &Path) -> Result<(), FieldFileError> {
+    save_bytes(&ovdf_to_bytes(f, key), path)
 }
 
-/// Reads and verifies an occluder field file.
-pub fn load_ovdf(path: &Path) -> Result<crate::ovdf::Ovdf, FieldFileError> {
-    let b = std::fs::read(path).map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))?;
-    ovdf_from_bytes(&b)
+/// Reads a field file's bytes: a regular file within the size limit.
+fn read(path: &Path) -> Result<Vec<u8>, FieldFileError> {
+    rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES)
+        .map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))
+}
+
+/// Reads and verifies an occluder field file built for `key`.
+pub fn load_ovdf(path: &Path, key: u64) -> Result<crate::ovdf::Ovdf, FieldFileError> {
+    ovdf_from_bytes(&read(path)?, key)
 }
 
 fn save_bytes(bytes: &[u8], path: &Path) -> Result<(), FieldFileError> {
@@ -324,8 +345,7 @@ fn save_bytes(bytes: &[u8], path: &Path) -> Result<(), FieldFileError> {
     r.map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))
 }
 
-/// Reads and verifies a field file.
-pub fn load_svdf(path: &Path) -> Result<Svdf, FieldFileError> {
-    let b = std::fs::read(path).map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))?;
-    svdf_from_bytes(&b)
+/// Reads and verifies a field file built for `key`.
+pub fn load_svdf(path: &Path, key: u64) -> Result<Svdf, FieldFileError> {
+    svdf_from_bytes(&read(path)?, key)
 }

@@ -107,15 +107,16 @@ fn occluder_field_files_round_trip_and_reject_damage() {
     use rsl_vis::store::{FieldFileError, ovdf_from_bytes, ovdf_to_bytes, svdf_from_bytes};
     let field =
         Ovdf::build(&sphere(1.0, 8), &OvdfParams { shells: 2, m: 2, n: 4, supersample: 1, vectors: 2 }).unwrap();
-    let bytes = ovdf_to_bytes(&field);
-    assert_eq!(ovdf_from_bytes(&bytes).unwrap(), field);
+    let bytes = ovdf_to_bytes(&field, 7);
+    assert_eq!(ovdf_from_bytes(&bytes, 7).unwrap(), field);
+    assert_eq!(ovdf_from_bytes(&bytes, 8), Err(FieldFileError::Key { expected: 8, found: 7 }));
     let mut bad = bytes.clone();
     let last = bad.len() - 3;
     bad[last] ^= 1;
-    assert_eq!(ovdf_from_bytes(&bad), Err(FieldFileError::Checksum));
-    assert!(ovdf_from_bytes(&bytes[..bytes.len() / 3]).is_err());
+    assert_eq!(ovdf_from_bytes(&bad, 7), Err(FieldFileError::Checksum));
+    assert!(ovdf_from_bytes(&bytes[..bytes.len() / 3], 7).is_err());
     // An occluder field is not a self-visibility field, and the other way round.
-    assert_eq!(svdf_from_bytes(&bytes), Err(FieldFileError::BadMagic));
+    assert_eq!(svdf_from_bytes(&bytes, 7), Err(FieldFileError::BadMagic));
     assert!(field.rms_coverage_error.is_finite());
 }
 
@@ -183,6 +184,6 @@ fn a_floor_takes_its_closed_form_and_matches_rays() {
     assert!(flat_rms < 0.02 && large(0) <= 3, "closed form: RMS {flat_rms}, {} off by > 0.1", large(0));
     assert!(flat_rms < 0.5 * sampled_rms, "closed form RMS {flat_rms}, sampled {sampled_rms}");
     // And it survives a file round trip unchanged.
-    let back = rsl_vis::store::ovdf_from_bytes(&rsl_vis::store::ovdf_to_bytes(&field)).unwrap();
+    let back = rsl_vis::store::ovdf_from_bytes(&rsl_vis::store::ovdf_to_bytes(&field, 1), 1).unwrap();
     assert_eq!(back, field);
 }

@@ -182,31 +182,41 @@ fn field_files_round_trip_and_reject_damage() {
     grid_quad(&mut m, Vec3::new(0.3, 0.0, -1.0), Vec3::Y, Vec3::Z * 2.0, 4);
     m.compute_normals();
     let f = Svdf::build(&m, &SvdfParams { n: 8, supersample: 1, clusters: 3, vectors: 2, iterations: 2 }).unwrap();
-    let bytes = svdf_to_bytes(&f);
-    assert_eq!(svdf_from_bytes(&bytes).unwrap(), f);
+    const KEY: u64 = 0x05ee_d0ff_1e1d;
+    let bytes = svdf_to_bytes(&f, KEY);
+    assert_eq!(svdf_from_bytes(&bytes, KEY).unwrap(), f);
     let convex = Svdf::Convex { vertices: 12 };
-    assert_eq!(svdf_from_bytes(&svdf_to_bytes(&convex)).unwrap(), convex);
+    assert_eq!(svdf_from_bytes(&svdf_to_bytes(&convex, KEY), KEY).unwrap(), convex);
+    // A file built for another key (copied over this one's name) is rejected, whole and
+    // well-formed as it is.
+    assert_eq!(svdf_from_bytes(&bytes, KEY + 1), Err(FieldFileError::Key { expected: KEY + 1, found: KEY }));
     // Every single-byte corruption of the payload is caught by the checksum.
     for at in [40usize, bytes.len() / 2, bytes.len() - 1] {
         let mut bad = bytes.clone();
         bad[at] ^= 0x40;
-        assert_eq!(svdf_from_bytes(&bad), Err(FieldFileError::Checksum), "byte {at}");
+        assert_eq!(svdf_from_bytes(&bad, KEY), Err(FieldFileError::Checksum), "byte {at}");
     }
-    for cut in [0usize, 7, 20, bytes.len() / 2, bytes.len() - 1] {
-        assert!(svdf_from_bytes(&bytes[..cut]).is_err(), "truncated to {cut}");
+    for cut in [0usize, 7, 20, 35, bytes.len() / 2, bytes.len() - 1] {
+        assert!(svdf_from_bytes(&bytes[..cut], KEY).is_err(), "truncated to {cut}");
     }
     let mut future = bytes.clone();
     future[8] = 9;
-    assert_eq!(svdf_from_bytes(&future), Err(FieldFileError::Version { found: 9 }));
-    assert_eq!(svdf_from_bytes(b"not a field at all"), Err(FieldFileError::BadMagic));
+    assert_eq!(svdf_from_bytes(&future, KEY), Err(FieldFileError::Version { found: 9 }));
+    assert_eq!(svdf_from_bytes(b"not a field at all", KEY), Err(FieldFileError::BadMagic));
     // Files: saved atomically, read back, and a truncated file is rejected.
     let dir = std::env::temp_dir().join(format!("rsl-vis-store-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("wall.svdf");
-    save_svdf(&f, &path).unwrap();
-    assert_eq!(load_svdf(&path).unwrap(), f);
+    save_svdf(&f, KEY, &path).unwrap();
+    assert_eq!(load_svdf(&path, KEY).unwrap(), f);
+    assert!(matches!(load_svdf(&path, 1), Err(FieldFileError::Key { .. })));
     std::fs::write(&path, &bytes[..bytes.len() - 10]).unwrap();
-    assert!(matches!(load_svdf(&path), Err(FieldFileError::Length { .. })));
+    assert!(matches!(load_svdf(&path, KEY), Err(FieldFileError::Length { .. })));
+    // A device where a file should be is refused, not read forever.
+    #[cfg(unix)]
+    assert!(
+        matches!(load_svdf(std::path::Path::new("/dev/zero"), KEY), Err(FieldFileError::Io(m)) if m.contains("regular"))
+    );
     assert!(std::fs::read_dir(&dir).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains("tmp")));
     std::fs::remove_dir_all(&dir).unwrap();
 }
