@@ -11,9 +11,11 @@ use rsl_scene::Scene;
 use rsl_vis::store::fnv1a64;
 use std::path::Path;
 
-const MAGIC: [u8; 8] = *b"RSLTRUTH";
-// 3: vertices' visibility is face-averaged (rsl_sphere::faces).
-const VERSION: u32 = 3;
+/// Magic number of a cached truth file.
+pub const MAGIC: [u8; 8] = *b"RSLTRUTH";
+/// Version of the truth file format (3: vertices' visibility is face-averaged,
+/// rsl_sphere::faces).
+pub const VERSION: u32 = 3;
 
 /// Per object, per vertex: the mean radiance and its standard error.
 #[derive(Clone, Debug, PartialEq)]
@@ -135,7 +137,8 @@ fn to_bytes(t: &VertexTruth) -> Vec<u8> {
     out
 }
 
-fn from_bytes(b: &[u8], spp: u32) -> Result<VertexTruth> {
+/// Reads a cached truth file's bytes (for `spp` samples per vertex), verifying everything.
+pub fn from_bytes(b: &[u8], spp: u32) -> Result<VertexTruth> {
     if b.len() < 28 || b[..8] != MAGIC {
         bail!("not a truth file (bad magic number)");
     }

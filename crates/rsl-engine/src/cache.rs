@@ -105,7 +105,8 @@ pub fn mesh_key(mesh: &rsl_sphere::mesh::TriMesh) -> u64 {
     h.words(&mesh.indices).finish()
 }
 
-const RSL_MAGIC: [u8; 8] = *b"RSLLIGHT";
+/// Magic number of an RSL-set file.
+pub const RSL_MAGIC: [u8; 8] = *b"RSLLIGHT";
 /// Version of the RSL-set file format.
 pub const RSL_VERSION: u32 = 3;
 /// Header bytes: magic, version, payload length, checksum, key.

@@ -88,7 +88,34 @@ pub fn load_latlong(path: &Path) -> Result<LoadedMap, EnvError> {
     // A device or FIFO would block or never end; a regular file within the limit is read.
     rsl_sphere::io::check_regular(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| unreadable(e.to_string()))?;
     let reader = image::ImageReader::open(path).map_err(|e| unreadable(e.to_string()))?;
-    let reader = reader.with_guessed_format().map_err(|e| unreadable(e.to_string()))?;
+    let mut reader = reader.with_guessed_format().map_err(|e| unreadable(e.to_string()))?;
+    reader.limits(limits());
+    let img = reader.decode().map_err(|e| unreadable(e.to_string()))?.into_rgb32f();
+    let (w, h) = img.dimensions();
+    from_rgb_f32(path, w, h, img.as_raw())
+}
+
+/// The largest map read: 16384×8192 texels.
+pub const MAX_MAP_WIDTH: u32 = 16384;
+
+/// What a decoder may read: [`MAX_MAP_WIDTH`] × half of it, allocating at most 512 MiB (a
+/// header that declares more is an error before the pixels are read).
+fn limits() -> image::Limits {
+    let mut l = image::Limits::default();
+    l.max_image_width = Some(MAX_MAP_WIDTH);
+    l.max_image_height = Some(MAX_MAP_WIDTH / 2);
+    l.max_alloc = Some(512 << 20);
+    l
+}
+
+/// [`load_latlong`] of a file's bytes (`path` names it in messages); the format is guessed
+/// from the bytes.
+pub fn decode_latlong(bytes: &[u8], path: &Path) -> Result<LoadedMap, EnvError> {
+    let unreadable = |message: String| EnvError::Unreadable { path: path.to_path_buf(), message };
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| unreadable(e.to_string()))?;
+    reader.limits(limits());
     let img = reader.decode().map_err(|e| unreadable(e.to_string()))?.into_rgb32f();
     let (w, h) = img.dimensions();
     from_rgb_f32(path, w, h, img.as_raw())

@@ -70,8 +70,62 @@ fn percent_decode(uri: &str) -> Result<String, String> {
 pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
     let bytes =
         rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| format!("cannot read: {e}"))?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
-    let base = path.parent().unwrap_or(Path::new("."));
+    import_bytes(&bytes, path.parent().unwrap_or(Path::new(".")))
+}
+
+/// Parses and validates a glTF or GLB file. The gltf crate's validation lets through
+/// accessors its readers then panic on (found by fuzzing: a POSITION that names no accessor,
+/// indices of floats); every accessor this importer reads is checked first — it exists, has
+/// the component type and shape the glTF specification requires, at least one element, and
+/// no sparse storage (not supported here).
+fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
+    use gltf::json::accessor::{ComponentType as C, GenericComponentType, Type};
+    use gltf::json::validation::Checked;
+    let unchecked = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| e.to_string())?;
+    let blob = unchecked.blob;
+    let json = unchecked.document.into_json();
+    let check = |what: &str, index: usize, kinds: &[C], shape: Type| -> Result<(), String> {
+        let a = json
+            .accessors
+            .get(index)
+            .ok_or_else(|| format!("{what} names accessor {index}, but there are {}", json.accessors.len()))?;
+        let kind_ok = matches!(a.component_type, Checked::Valid(GenericComponentType(k)) if kinds.contains(&k));
+        let shape_ok = matches!(a.type_, Checked::Valid(t) if t == shape);
+        if !(kind_ok && shape_ok) {
+            return Err(format!("{what}: accessor {index} is not of the type the glTF specification requires"));
+        }
+        if a.count.0 == 0 {
+            return Err(format!("{what}: accessor {index} has no elements"));
+        }
+        if a.sparse.is_some() {
+            return Err(format!("{what}: accessor {index} is sparse, which this importer does not read"));
+        }
+        Ok(())
+    };
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let at = |name: &str| format!("mesh {m} primitive {p} {name}");
+            if let Some(i) = &prim.indices {
+                check(&at("indices"), i.value(), &[C::U8, C::U16, C::U32], Type::Scalar)?;
+            }
+            for (semantic, name, shape) in [
+                (gltf::Semantic::Positions, "POSITION", Type::Vec3),
+                (gltf::Semantic::Normals, "NORMAL", Type::Vec3),
+                (gltf::Semantic::Tangents, "TANGENT", Type::Vec4),
+            ] {
+                if let Some(i) = prim.attributes.get(&Checked::Valid(semantic)) {
+                    check(&at(name), i.value(), &[C::F32], shape)?;
+                }
+            }
+        }
+    }
+    let document = gltf::Document::from_json(json).map_err(|e| e.to_string())?;
+    Ok(gltf::Gltf { document, blob })
+}
+
+/// Imports a glTF file's bytes, reading external buffers from the folder `base`.
+pub fn import_bytes(bytes: &[u8], base: &Path) -> Result<(TriMesh, ImportReport), String> {
+    let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
     let mut buffers: Vec<Vec<u8>> = Vec::new();
     for buffer in gltf.buffers() {
         let data = match buffer.source() {

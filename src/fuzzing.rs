@@ -1,0 +1,110 @@
+//! The entry points that fuzzing drives (`fuzz/`, run with cargo-fuzz) and that the corpus
+//! replay test (`tests/fuzz_corpus.rs`) calls with every committed input: each takes
+//! arbitrary bytes, may fail, and must never panic, hang or allocate without bound.
+
+use std::path::Path;
+
+/// Where relative files of fuzzed inputs would be looked for: a folder that does not exist,
+/// so that no fuzzed input reads a real file.
+const NOWHERE: &str = "/nonexistent-rsl-fuzz";
+
+/// A fuzz target's entry point.
+pub type Target = fn(&[u8]);
+
+/// The fuzz targets by name, in the order of `fuzz/fuzz_targets/`.
+pub const TARGETS: [(&str, Target); 8] = [
+    ("scene_toml", scene_toml),
+    ("gltf_import", gltf_import),
+    ("env_map", env_map),
+    ("svdf_file", svdf_file),
+    ("ovdf_file", ovdf_file),
+    ("rsl_file", rsl_file),
+    ("truth_file", truth_file),
+    ("ply_file", ply_file),
+];
+
+/// A scene file's text: parsed and validated (meshes and maps it names are not found).
+pub fn scene_toml(data: &[u8]) {
+    if let Ok(text) = std::str::from_utf8(data) {
+        let _ = rsl_scene::Scene::from_toml_str(text, &Path::new(NOWHERE).join("fuzz.toml"));
+    }
+}
+
+/// A glTF or GLB file's bytes, imported into a mesh and validated.
+pub fn gltf_import(data: &[u8]) {
+    if let Ok((mesh, _)) = rsl_scene::gltf_import::import_bytes(data, Path::new(NOWHERE)) {
+        let _ = mesh.validate();
+    }
+}
+
+/// An environment map's bytes (OpenEXR, Radiance HDR or anything the decoder guesses).
+pub fn env_map(data: &[u8]) {
+    let _ = rsl_env::decode_latlong(data, Path::new("fuzz.exr"));
+}
+
+/// A self-visibility field file, read as it is (for key 0 and for the key it claims) and as
+/// the payload of a well-formed header (so that mutations reach past the checksum).
+pub fn svdf_file(data: &[u8]) {
+    for key in keys(data) {
+        let _ = rsl_vis::store::svdf_from_bytes(data, key);
+    }
+    let framed = frame(&rsl_vis::store::SVDF_MAGIC, rsl_vis::store::VERSION, Some(0), data);
+    let _ = rsl_vis::store::svdf_from_bytes(&framed, 0);
+}
+
+/// An occluder field file, as [`svdf_file`].
+pub fn ovdf_file(data: &[u8]) {
+    for key in keys(data) {
+        let _ = rsl_vis::store::ovdf_from_bytes(data, key);
+    }
+    let framed = frame(&rsl_vis::store::OVDF_MAGIC, rsl_vis::store::VERSION, Some(0), data);
+    let _ = rsl_vis::store::ovdf_from_bytes(&framed, 0);
+}
+
+/// A light set file, as [`svdf_file`].
+pub fn rsl_file(data: &[u8]) {
+    for key in keys(data) {
+        let _ = rsl_engine::cache::rsls_from_bytes(data, key);
+    }
+    let framed = frame(&rsl_engine::cache::RSL_MAGIC, rsl_engine::cache::RSL_VERSION, Some(0), data);
+    let _ = rsl_engine::cache::rsls_from_bytes(&framed, 0);
+}
+
+/// A cached truth file, read for 1 and 256 samples per vertex, as it is and as the payload
+/// of a well-formed header.
+pub fn truth_file(data: &[u8]) {
+    let framed = frame(&rsl_bench::truth::MAGIC, rsl_bench::truth::VERSION, None, data);
+    for spp in [1, 256] {
+        let _ = rsl_bench::truth::from_bytes(data, spp);
+        let _ = rsl_bench::truth::from_bytes(&framed, spp);
+    }
+}
+
+/// The cache files' header over `payload`: magic, version, length, FNV-1a checksum, and the
+/// key where the format has one.
+fn frame(magic: &[u8; 8], version: u32, key: Option<u64>, payload: &[u8]) -> Vec<u8> {
+    let mut out = magic.to_vec();
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&rsl_vis::store::fnv1a64(payload).to_le_bytes());
+    if let Some(k) = key {
+        out.extend_from_slice(&k.to_le_bytes());
+    }
+    out.extend_from_slice(payload);
+    out
+}
+
+/// A PLY file of shaded vertices (what `rsl compare` reads).
+pub fn ply_file(data: &[u8]) {
+    let _ = rsl_engine::ply::read(data);
+}
+
+/// 0, and the key a cache file's header holds (bytes 28..36) when it is that long, so that
+/// fuzzing reaches past the key check.
+fn keys(data: &[u8]) -> Vec<u64> {
+    let mut k = vec![0];
+    if let Some(b) = data.get(28..36) {
+        k.push(u64::from_le_bytes(b.try_into().expect("8 bytes")));
+    }
+    k
+}
