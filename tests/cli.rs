@@ -88,6 +88,52 @@ fn objects_too_large_for_f32_geometry_are_errors_not_panics() {
 }
 
 #[test]
+fn a_speck_scaled_by_1e_minus_30_renders_finite_radiance() {
+    // The other extreme of scale: a torus 10⁻³⁰ across (fields, BVH, shading) beside a ball.
+    let dir = out_dir("tiny-scale");
+    let scene = dir.join("speck.toml");
+    std::fs::write(
+        &scene,
+        "[environment]\nconstant = [1.0, 1.0, 1.0]\nrsl_count = 4\n[camera]\neye = [0.0, 0.0, 5.0]\n\
+         target = [0.0, 0.0, 0.0]\nwidth = 16\nheight = 12\n[[objects]]\nname = \"speck\"\n\
+         primitive = { kind = \"torus\", major_radius = 0.5, minor_radius = 0.2, resolution = 6 }\nscale = 1e-30\n\
+         [[objects]]\nname = \"ball\"\nprimitive = { kind = \"sphere\", radius = 1.0, resolution = 6 }\n\
+         translation = [0.0, 0.0, -2.0]\n",
+    )
+    .unwrap();
+    let ply = dir.join("speck.ply");
+    let (ok, _, err) = run(rsl().arg("render").arg(&scene).arg("--no-cache").arg("--vertex-out").arg(&ply));
+    assert!(ok, "{err}");
+    // `compare` refuses a file with a non-finite value, naming it (below).
+    let (ok, out, err) = run(rsl().arg("compare").arg(&ply).arg(&ply));
+    assert!(ok && out.contains("relative L2 0.000000"), "{out}{err}");
+}
+
+#[test]
+fn compare_names_the_file_and_vertex_that_is_not_finite() {
+    let dir = out_dir("nan-ply");
+    let positions = [glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y];
+    let normals = [glam::Vec3::Z; 3];
+    let write = |name: &str, middle: f32| {
+        let radiance = [glam::Vec3::ONE, glam::Vec3::splat(middle), glam::Vec3::ONE];
+        let object = rsl_engine::ply::PlyObject {
+            positions: &positions,
+            normals: &normals,
+            radiance: &radiance,
+            indices: &[0, 1, 2],
+        };
+        let p = dir.join(name);
+        rsl_engine::ply::write(&p, &[object]).unwrap();
+        p
+    };
+    let (good, bad) = (write("good.ply", 1.0), write("bad.ply", f32::NAN));
+    let (ok, _, err) = run(rsl().arg("compare").arg(&bad).arg(&good));
+    assert!(!ok && err.contains("bad.ply") && err.contains("vertex 1") && err.contains("not finite"), "{err}");
+    let (ok, _, err) = run(rsl().arg("compare").arg(&good).arg(&bad));
+    assert!(!ok && err.contains("bad.ply") && err.contains("vertex 1"), "{err}");
+}
+
+#[test]
 fn warnings_show_by_default_once_without_colour_and_quiet_hides_them() {
     // A cache "folder" that is a file: every field and light set "cannot be cached", which
     // used to be said only with RUST_LOG set.
