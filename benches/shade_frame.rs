@@ -44,7 +44,10 @@ fn bench(c: &mut Criterion) {
     }
     g.bench_function("full_fields", |b| {
         b.iter(|| {
-            let setup = engine.setup(&scene, &state, eye, Terms::default()).unwrap().with_traced(Traced::default());
+            let setup = engine
+                .setup(&scene, &state, eye, Terms::default())
+                .unwrap()
+                .with_traced(Traced::default(), state.world_from_env);
             black_box(rsl_shade::shade(&setup))
         })
     });

@@ -95,8 +95,8 @@ struct GpuVertex {
 @group(0) @binding(6) var<storage, read> segments: array<Compressed>;
 // [0, V): world positions; [V, 2V): radiance toward the eye.
 @group(0) @binding(7) var<storage, read_write> shaded: array<vec4<f32>>;
-// Traced lights (rsl_shade::FrameSetup::traced_covers): at g·traced_count + k, the fraction
-// of traced light k's shadow rays from vertex g that no other object blocks.
+// Traced lights (rsl_shade::FrameSetup::traced_covers): at g·traced_count + k, traced light
+// k's cover at vertex g from its shadow rays (self and others).
 @group(0) @binding(8) var<storage, read> traced: array<f32>;
 
 override WORKGROUP_SIZE: u32 = 64u;
@@ -262,6 +262,17 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
         if all(brdf == vec3<f32>(0.0)) {
             continue;
         }
+        let slot = u32(frame[3u * l + 2u].w);
+        if slot > 0u {
+            // A traced light: its whole cover (self and others) comes from rays
+            // (rsl_shade::FrameSetup::traced_covers), not from the fields.
+            var traced_cover = 1.0;
+            if (params.terms & (TERM_SELF | TERM_OCCLUDERS)) != 0u {
+                traced_cover = traced[g * params.traced_count + slot - 1u];
+            }
+            sum += frame[3u * l + 1u].xyz * brdf * traced_cover;
+            continue;
+        }
         var cover = 1.0;
         if (params.terms & TERM_SELF) != 0u {
             // SvdfVertex::coverage_above_horizon: the fraction of the square's part above
@@ -272,15 +283,6 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
             if cover > 0.0 {
                 cover *= mask_share(vert, p, r);
             }
-        }
-        let slot = u32(frame[3u * l + 2u].w);
-        if slot > 0u {
-            // A traced light: the other objects' shadows come from rays, not the fields.
-            if (params.terms & TERM_OCCLUDERS) != 0u && cover > 0.0 {
-                cover *= traced[g * params.traced_count + slot - 1u];
-            }
-            sum += frame[3u * l + 1u].xyz * brdf * cover;
-            continue;
         }
         for (var k = 0u; k < count; k++) {
             if cover <= 0.0 {

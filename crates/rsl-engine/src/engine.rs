@@ -605,7 +605,9 @@ impl Engine {
                 let (svdf, svdf_key) = self.svdf(&o.name, &o.mesh, mesh_key)?;
                 let mask = self.face_mask(&o.mesh, mesh_key);
                 let ovdf = if o.casts_shadows { Some(self.ovdf(&o.name, &o.mesh, mesh_key)?) } else { None };
-                let bvh = if o.casts_shadows && self.traced().lights > 0 && self.traced().rays > 0 {
+                let shadows_itself = matches!(*svdf, Svdf::Field { .. });
+                let traced = self.traced().lights > 0 && self.traced().rays > 0;
+                let bvh = if (o.casts_shadows || shadows_itself) && traced {
                     Some(self.bvh(&o.name, &o.mesh, mesh_key)?)
                 } else {
                     None
@@ -897,7 +899,7 @@ impl Engine {
     /// The shading inputs of `scene` at `state`, seen from `eye`.
     pub fn setup(&self, scene: &Scene, state: &SceneState, eye: Vec3, terms: Terms) -> Result<FrameSetup<'_>> {
         let objects = self.objects(scene, state)?;
-        Ok(FrameSetup::new(&objects, &self.lights(state), eye, terms).with_traced(self.traced()))
+        Ok(FrameSetup::new(&objects, &self.lights(state), eye, terms).with_traced(self.traced(), state.world_from_env))
     }
 
     /// Shades every vertex of `scene` at time `t` (the CPU fast path), seen from the camera.

@@ -220,7 +220,8 @@ impl GpuRenderer {
         }
         let lights = engine.lights(&state);
         // Traced lights' shadow rays run on the CPU; the shader reads their covers.
-        let traced = FrameSetup::new(&objects, &lights, scene.camera.eye, terms).with_traced(engine.traced());
+        let traced = FrameSetup::new(&objects, &lights, scene.camera.eye, terms)
+            .with_traced(engine.traced(), state.world_from_env);
         let covers = traced.traced_covers();
         self.last = self.shading.shade(&objects, &lights, scene.camera.eye, terms, &covers)?;
         Ok(self.last)

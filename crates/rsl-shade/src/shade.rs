@@ -32,14 +32,15 @@
 //! They agree to float rounding.
 //!
 //! **Traced lights** ([`Traced`], [`FrameSetup::with_traced`]): for the few lights of highest
-//! radiance — a sun, a studio lamp: the sharp shadows — the occluder fields can be replaced
-//! per frame by shadow rays against the other objects' triangles (their BVHs, in their own
-//! object spaces at their current transforms). Each traced light gets `K` rays per vertex
-//! spread over its square (a 2D low-discrepancy set, the first at the centre), from the
-//! vertex lifted along its normal by `1e-4` of the scene's radius as the truth's rays are;
-//! the occluders' product of coverages becomes the fraction of rays that no other object
-//! blocks (their joint visibility, not a product of averages). Self-visibility stays with
-//! the field.
+//! radiance — a sun, a studio lamp: the sharp shadows — the visibility fields can be replaced
+//! per frame by shadow rays against the triangles (BVHs, each in its object's space at its
+//! current transform). Each traced light gets `K` rays per vertex spread over its square (a
+//! 2D low-discrepancy set, the first at the centre), from the vertex lifted along its normal
+//! by `1e-4` of the scene's radius as the truth's rays are. The light's whole cover comes
+//! from the rays: among those above the horizon of the vertex's visibility frame, each
+//! weighted by the vertex's face-averaged mask, the share that neither the object itself
+//! (when it can hide part of itself) nor any other object blocks — a joint visibility, not
+//! a product of averages.
 
 use glam::{Mat3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -126,8 +127,9 @@ pub struct ShadeObject<'a> {
     pub mask: &'a FaceMask,
     /// The occluder field, or `None` for an object that casts no shadows.
     pub ovdf: Option<&'a Ovdf>,
-    /// The object's triangles in a BVH (object space), for the shadow rays of traced lights;
-    /// `None` when no light is traced or the object casts no shadows.
+    /// The object's triangles in a BVH (object space), for the shadow rays of traced lights
+    /// (against itself when its self-visibility field is stored, against others when it
+    /// casts shadows); `None` when no light is traced, or neither applies.
     pub occluder: Option<&'a Occluder>,
     /// The current transform.
     pub transform: Transform,
@@ -462,7 +464,11 @@ impl<'a> FrameSetup<'a> {
     /// of reading the occluder fields (module docs; replaces an earlier choice, and
     /// `Traced::default()` traces nothing). Objects without a BVH
     /// ([`ShadeObject::occluder`]) cast no traced shadows.
-    pub fn with_traced(mut self, traced: Traced) -> Self {
+    ///
+    /// Each light's rays are laid out in its square's plane oriented as in the environment
+    /// (`world_from_env` carries it), so that turning the scene and the environment together
+    /// turns the rays with them.
+    pub fn with_traced(mut self, traced: Traced, world_from_env: glam::Quat) -> Self {
         let flags = traced.select(&self.lights);
         if !flags.contains(&true) {
             self.traced = TracedSetup { flags, ..TracedSetup::default() };
@@ -473,7 +479,8 @@ impl<'a> FrameSetup<'a> {
         let mut dirs = Vec::new();
         for (l, _) in flags.iter().enumerate().filter(|(_, f)| **f) {
             let light = &self.lights[l];
-            let frame = Frame::from_normal(light.dir);
+            let env = Frame::from_normal((world_from_env.inverse() * light.dir).normalize_or_zero());
+            let frame = Frame::from_normal_tangent(light.dir, world_from_env * env.t);
             let s = light.half_diagonal / std::f32::consts::SQRT_2;
             index[l] = dirs.len();
             dirs.push(pattern.iter().map(|u| frame.to_world(dir_from_hemi(*u * s)).normalize_or_zero()).collect());
@@ -499,9 +506,27 @@ impl<'a> FrameSetup<'a> {
         (0..self.lights.len()).filter(|&l| self.is_traced(l)).collect()
     }
 
-    /// The fraction of traced light `l`'s rays from vertex `v` of object `i` that no other
-    /// object blocks; `rays` counts the rays traced.
+    /// Traced light `l`'s cover at vertex `v` of object `i` under the frame's terms: with
+    /// self-visibility, the mask-weighted fraction of its rays above the vertex's horizon that
+    /// neither the object itself nor (with occluders) any other object blocks; without it,
+    /// the fraction of all its rays no other object blocks. `rays` counts the rays traced.
     pub fn traced_cover(&self, i: usize, v: usize, l: usize, rays: &mut u64) -> f32 {
+        self.traced_cover_with(i, v, l, self.terms.self_visibility, self.terms.occluders, rays)
+    }
+
+    /// [`FrameSetup::traced_cover`] with the terms given.
+    pub(crate) fn traced_cover_with(
+        &self,
+        i: usize,
+        v: usize,
+        l: usize,
+        own: bool,
+        others: bool,
+        rays: &mut u64,
+    ) -> f32 {
+        if !own && !others {
+            return 1.0;
+        }
         let p = &self.placed[i];
         let x = p.position(v) + p.pose.normal(p.object.mesh.normals[v]).normalize_or_zero() * self.traced.lift;
         let dirs = &self.traced.dirs[self.traced.index[l]];
@@ -510,40 +535,72 @@ impl<'a> FrameSetup<'a> {
         let mut casters: [(usize, Vec3); 8] = [(0, Vec3::ZERO); 8];
         let mut more: Vec<(usize, Vec3)> = Vec::new();
         let mut count = 0;
-        for (j, q) in self.placed.iter().enumerate() {
-            let (Some(_), Some(b)) = (q.object.occluder, q.bound) else { continue };
-            if j == i || cone_misses_sphere(x, self.lights[l].dir, cone, b.centre_world, b.radius_world) {
-                continue;
+        if others {
+            for (j, q) in self.placed.iter().enumerate() {
+                let (Some(_), Some(b)) = (q.object.occluder, q.bound) else { continue };
+                if j == i || cone_misses_sphere(x, self.lights[l].dir, cone, b.centre_world, b.radius_world) {
+                    continue;
+                }
+                let at = (j, q.point_to_object(x));
+                if count < casters.len() {
+                    casters[count] = at;
+                } else {
+                    more.push(at);
+                }
+                count += 1;
             }
-            let at = (j, q.point_to_object(x));
-            if count < casters.len() {
-                casters[count] = at;
-            } else {
-                more.push(at);
-            }
-            count += 1;
         }
-        if count == 0 {
+        // The object itself: only one that can hide part of itself (a stored field).
+        let itself = if own && matches!(p.object.svdf, Svdf::Field { .. }) { p.object.occluder } else { None };
+        if count == 0 && itself.is_none() && !own {
             return 1.0;
         }
+        let x_own = p.point_to_object(x);
+        let vis_frame = &p.object.frames.visibility[v];
+        let mask = p.object.mask.vertex(v);
         let casters = casters[..count.min(8)].iter().chain(&more);
-        let mut seen = 0usize;
+        let blocked_by = |j: usize, xo: Vec3, d: Vec3, rays: &mut u64| {
+            *rays += 1;
+            let q = &self.placed[j];
+            let dir = q.pose.direction_to_object(d);
+            let length = dir.length();
+            length > 0.0 && q.object.occluder.is_some_and(|o| o.occluded(xo, dir / length, f32::INFINITY))
+        };
+        let (mut seen, mut counted) = (0.0f32, 0usize);
         for &d in dirs {
-            let blocked = casters.clone().any(|&(j, xo)| {
-                *rays += 1;
-                let q = &self.placed[j];
-                let dir = q.pose.direction_to_object(d);
-                let length = dir.length();
-                length > 0.0 && q.object.occluder.is_some_and(|o| o.occluded(xo, dir / length, f32::INFINITY))
-            });
-            seen += usize::from(!blocked);
+            let mut weight = 1.0;
+            if own {
+                // Among the directions above the horizon of the vertex's visibility frame,
+                // weighted by its face-averaged mask (what the field's cover means).
+                let local = vis_frame.to_local(p.pose.direction_to_object(d));
+                if local.z <= 0.0 {
+                    continue;
+                }
+                counted += 1;
+                weight = mask.at(local);
+                if weight <= 0.0 {
+                    continue;
+                }
+                if let Some(o) = itself {
+                    *rays += 1;
+                    let dir = p.pose.direction_to_object(d);
+                    if o.occluded(x_own, dir, f32::INFINITY) {
+                        continue;
+                    }
+                }
+            } else {
+                counted += 1;
+            }
+            if casters.clone().any(|&(j, xo)| blocked_by(j, xo, d, rays)) {
+                continue;
+            }
+            seen += weight;
         }
-        seen as f32 / dirs.len() as f32
+        if counted == 0 { 0.0 } else { seen / counted as f32 }
     }
 
     /// Every vertex's [`FrameSetup::traced_cover`] of every traced light, for a shader that
-    /// cannot trace rays itself (the GPU's); 1 where occluders are off or the light's square
-    /// lies wholly below the vertex's horizon (no light to shadow).
+    /// cannot trace rays itself (the GPU's).
     pub fn traced_covers(&self) -> TracedCovers {
         let traced = self.traced_lights();
         let mut slots = vec![None; self.lights.len()];
@@ -563,14 +620,8 @@ impl<'a> FrameSetup<'a> {
                 let mut rays = 0;
                 let mut out = Vec::with_capacity(BLOCK * count);
                 for v in b * BLOCK..((b + 1) * BLOCK).min(n) {
-                    let normal = p.pose.normal(p.object.mesh.normals[v]).normalize_or_zero();
                     for &l in &traced {
-                        let below = normal.dot(self.lights[l].dir) < -self.cones[l].2;
-                        out.push(if !self.terms.occluders || below {
-                            1.0
-                        } else {
-                            self.traced_cover(i, v, l, &mut rays)
-                        });
+                        out.push(self.traced_cover(i, v, l, &mut rays));
                     }
                 }
                 (out, rays)
@@ -595,7 +646,7 @@ impl<'a> FrameSetup<'a> {
             if cover <= 0.0 {
                 return cover;
             }
-            cover * self.traced_cover(i, v, l, &mut stats.traced_rays)
+            cover * self.traced_cover_with(i, v, l, false, true, &mut stats.traced_rays)
         } else {
             self.occluder_cover(nears, l, cover, stats)
         }
@@ -651,6 +702,11 @@ impl<'a> FrameSetup<'a> {
             stats.brdf_lookups += 1;
             let brdf = o.table.integral_for(&lookup, frame.to_local(light.dir), r);
             if brdf == Vec3::ZERO {
+                continue;
+            }
+            if self.is_traced(l) {
+                let cover = self.traced_cover(i, v, l, &mut stats.traced_rays);
+                sum += light.radiance * brdf * cover;
                 continue;
             }
             let mut cover = 1.0;
@@ -772,17 +828,17 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
             for (l, light) in setup.lights.iter().enumerate() {
                 let r = light.half_diagonal;
                 let brdf = o.table.square(frame.to_local(light.dir), r, view).integral;
+                if setup.is_traced(l) {
+                    sum += light.radiance * brdf * setup.traced_cover(i, v, l, &mut 0);
+                    continue;
+                }
                 let mut cover = 1.0;
                 if setup.terms.self_visibility {
                     let d = p.pose.direction_to_object(light.dir);
                     let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
                     cover = o.svdf.coverage_above_horizon(v, q, r) * o.mask.vertex(v).share_above_horizon(q, r);
                 }
-                if setup.terms.occluders && setup.is_traced(l) {
-                    if cover > 0.0 {
-                        cover *= setup.traced_cover(i, v, l, &mut 0);
-                    }
-                } else if setup.terms.occluders {
+                if setup.terms.occluders {
                     for (j, q) in setup.placed.iter().enumerate() {
                         if j == i {
                             continue;

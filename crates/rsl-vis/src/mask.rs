@@ -128,6 +128,17 @@ pub fn reach(r: f32) -> (f32, f32) {
 }
 
 impl VertexMask<'_> {
+    /// The mask at unit direction `d` in the vertex's frame: `Σ_f w_f [n_f·d > 0]` (rising
+    /// faces counting as the tangent plane), 0 below the horizon.
+    #[inline]
+    pub fn at(&self, d: Vec3) -> f32 {
+        if d.z <= 0.0 {
+            return 0.0;
+        }
+        let h: f32 = self.faces.iter().filter(|f| Vec3::new(f[0], f[1], f[2]).dot(d) > 0.0).map(|f| f[3]).sum();
+        h.min(1.0)
+    }
+
     /// The mask's weighted share of the part above the horizon of the square of
     /// half-diagonal `r` at plane point `p` (vertex frame): `Σ_f w_f · C_f`, each face's
     /// visible fraction taken of that part (at most 1).
