@@ -14,7 +14,7 @@ use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
 use rsl_gpu::{GpuContext, GpuError};
 use rsl_scene::Scene;
 use rsl_shade::Image;
-use rsl_shade::{FrameSetup, FrameStats, Pose, Terms};
+use rsl_shade::{FrameStats, Pose, Terms};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -219,10 +219,9 @@ impl GpuRenderer {
             self.tables = Some(k);
         }
         let lights = engine.lights(&state);
-        // Traced lights' shadow rays run on the CPU; the shader reads their covers.
-        let traced = FrameSetup::new(&objects, &lights, scene.camera.eye, terms)
-            .with_traced(engine.traced(), state.world_from_env);
-        let covers = traced.traced_covers();
+        // Traced lights' shadow rays run on the CPU (the engine's own frame setup); the
+        // shader reads their covers.
+        let covers = engine.setup(scene, &state, scene.camera.eye, terms)?.traced_covers();
         self.last = self.shading.shade(&objects, &lights, scene.camera.eye, terms, &covers)?;
         Ok(self.last)
     }

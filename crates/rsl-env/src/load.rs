@@ -142,24 +142,13 @@ pub fn from_rgb_f32(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Result
     for (k, px) in rgb.chunks_exact(3).enumerate() {
         let mut c = [0.0f32; 3];
         for (ch, &v) in px.iter().enumerate() {
-            if !v.is_finite() {
-                let k = k as u32;
-                return Err(EnvError::NonFinite {
-                    path: path.to_path_buf(),
-                    x: k % width,
-                    y: k / width,
-                    channel: ['R', 'G', 'B'][ch],
-                    value: v,
-                });
-            }
-            if v > MAX_RADIANCE {
-                let k = k as u32;
-                return Err(EnvError::TooBright {
-                    path: path.to_path_buf(),
-                    x: k % width,
-                    y: k / width,
-                    channel: ['R', 'G', 'B'][ch],
-                    value: v,
+            if !v.is_finite() || v > MAX_RADIANCE {
+                let (path, x, y, channel, value) =
+                    (path.to_path_buf(), k as u32 % width, k as u32 / width, ['R', 'G', 'B'][ch], v);
+                return Err(if v.is_finite() {
+                    EnvError::TooBright { path, x, y, channel, value }
+                } else {
+                    EnvError::NonFinite { path, x, y, channel, value }
                 });
             }
             if v < 0.0 {
