@@ -54,6 +54,10 @@ pub enum Command {
     /// files (per vertex) or two EXR files (over the pixels objects cover), with an optional
     /// false-colour heatmap.
     Compare(crate::compare::CompareArgs),
+    /// The interactive viewer: move objects, rotate the environment, edit materials, change
+    /// the RSL count and preset, and see what each stage costs; `--screenshot` renders the
+    /// whole UI headless to a PNG.
+    View(crate::view::ViewArgs),
 }
 
 /// Arguments of `rsl decompose`.
@@ -87,6 +91,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Demo(args) => crate::render::demo(&args),
         Command::Compare(args) => crate::compare::run(&args),
         Command::Bench(args) => crate::bench::bench(&args),
+        Command::View(args) => crate::view::run(&args),
     }
 }
 

@@ -12,3 +12,4 @@ pub mod decompose;
 pub mod fuzzing;
 pub mod progress;
 pub mod render;
+pub mod view;

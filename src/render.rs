@@ -55,7 +55,7 @@ pub struct PrepareArgs {
     /// Number of RSLs (overrides the scene's `rsl_count`).
     #[arg(long = "rsl")]
     pub rsl: Option<u32>,
-    /// Quality preset (overrides the scene's `quality`): draft, paper or high.
+    /// Quality preset (overrides the scene's `quality`): draft, standard, paper or high.
     #[arg(long, value_parser = parse_preset)]
     pub quality: Option<Preset>,
     /// Cache folder for precomputed data (default: $RSL_CACHE_DIR, else
@@ -68,7 +68,7 @@ pub struct PrepareArgs {
 }
 
 fn parse_preset(s: &str) -> Result<Preset, String> {
-    Preset::from_name(s).ok_or_else(|| format!("unknown quality preset `{s}`; known: draft, paper, high"))
+    Preset::from_name(s).ok_or_else(|| format!("unknown quality preset `{s}`; known: draft, standard, paper, high"))
 }
 
 impl PrepareArgs {

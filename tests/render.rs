@@ -80,7 +80,8 @@ fn bad_render_arguments_are_clear_errors_and_write_nothing() {
     let png = dir.join("x.png");
     assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--frames", "5..5"]).contains("holds no frame"));
     assert!(
-        msg(&["render", scene, "--out", png.to_str().unwrap(), "--quality", "ultra"]).contains("draft, paper, high")
+        msg(&["render", scene, "--out", png.to_str().unwrap(), "--quality", "ultra"])
+            .contains("draft, standard, paper, high")
     );
     assert!(msg(&["render", scene, "--out", png.to_str().unwrap(), "--rsl", "0", "--no-cache"]).contains("at least 1"));
     assert!(msg(&["render", "no-such-scene.toml", "--out", png.to_str().unwrap()]).contains("no-such-scene.toml"));

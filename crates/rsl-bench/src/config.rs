@@ -140,7 +140,7 @@ pub fn configs(sweeps: &[Sweep]) -> Result<Vec<Config>> {
                     }
                     "quality" => {
                         c.quality = Some(Preset::from_name(v).ok_or_else(|| {
-                            anyhow::anyhow!("--sweep quality: `{v}` is not a preset (draft, paper, high)")
+                            anyhow::anyhow!("--sweep quality: `{v}` is not a preset (draft, standard, paper, high)")
                         })?);
                     }
                     "method" => {

@@ -128,7 +128,7 @@ pub fn brdf_key(b: &Brdf) -> u64 {
 pub fn svdf_params(preset: Preset, q: &QualitySettings) -> SvdfParams {
     let base = match preset {
         Preset::Draft => SvdfParams::DRAFT,
-        Preset::Paper => SvdfParams::PAPER,
+        Preset::Standard | Preset::Paper => SvdfParams::PAPER,
         Preset::High => SvdfParams::HIGH,
     };
     SvdfParams {
@@ -581,6 +581,9 @@ impl Engine {
         let mut objects = Vec::with_capacity(scene.objects.len());
         // What the scene needs stays while the rest is built.
         self.store.pin_more([self.env.rsl_key, self.decomposition_key()]);
+        // An object alone in its scene shadows nothing: it needs no occluder field (minutes
+        // at the paper preset) and no BVH for other objects' shadow rays.
+        let has_others = scene.objects.len() > 1;
         for o in &scene.objects {
             // The key is the mesh's contents; a mesh the engine already holds (the same
             // shared, immutable allocation) is not hashed again on every edit.
@@ -604,10 +607,11 @@ impl Engine {
                 let (table, table_key) = self.table(&o.name, &brdf)?;
                 let (svdf, svdf_key) = self.svdf(&o.name, &o.mesh, mesh_key)?;
                 let mask = self.face_mask(&o.mesh, mesh_key);
-                let ovdf = if o.casts_shadows { Some(self.ovdf(&o.name, &o.mesh, mesh_key)?) } else { None };
+                let ovdf =
+                    if o.casts_shadows && has_others { Some(self.ovdf(&o.name, &o.mesh, mesh_key)?) } else { None };
                 let shadows_itself = matches!(*svdf, Svdf::Field { .. });
                 let traced = self.traced().lights > 0 && self.traced().rays > 0;
-                let bvh = if (o.casts_shadows || shadows_itself) && traced {
+                let bvh = if ((o.casts_shadows && has_others) || shadows_itself) && traced {
                     Some(self.bvh(&o.name, &o.mesh, mesh_key)?)
                 } else {
                     None
@@ -905,6 +909,18 @@ impl Engine {
     /// Shades every vertex of `scene` at time `t` (the CPU fast path), seen from the camera.
     pub fn shade(&self, scene: &Scene, t: f32) -> Result<ShadedFrame> {
         self.shade_with(scene, t, Terms::default())
+    }
+
+    /// [`Engine::shade`] for the objects `which` selects (one flag per object): the others'
+    /// radiance, positions and normals come back empty. A material edit changes one
+    /// object's radiance and nothing else's; the viewer reshades that object alone.
+    pub fn shade_objects(&self, scene: &Scene, t: f32, which: &[bool]) -> Result<ShadedFrame> {
+        let state = scene.at(t);
+        let setup = self.setup(scene, &state, scene.camera.eye, Terms::default())?;
+        let start = Instant::now();
+        let (radiance, stats) = rsl_shade::shade_objects(&setup, which);
+        let shade_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(ShadedFrame::of(&setup, state, radiance, stats, shade_ms))
     }
 
     /// [`Engine::shade`] with a choice of terms.

@@ -324,7 +324,7 @@ fn camera(cx: &Ctx, c: RawCamera) -> Result<Camera, SceneError> {
 fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
     let preset_of = |field: &str, name: &str| {
         Preset::from_name(name)
-            .ok_or_else(|| cx.err(field, format!("unknown preset \"{name}\"; known: draft, paper, high")))
+            .ok_or_else(|| cx.err(field, format!("unknown preset \"{name}\"; known: draft, standard, paper, high")))
     };
     match q {
         None => Ok(Quality::default()),

@@ -52,7 +52,7 @@ fn the_default_scene_loads() {
     let names: Vec<_> = s.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(names, ["floor", "bunny", "suzanne", "sphere"]);
     assert!(matches!(s.objects[1].source, MeshSource::File { .. }));
-    assert_eq!(s.quality.preset, Preset::Draft);
+    assert_eq!(s.quality.preset, Preset::Standard);
     let summary = s.summary();
     for part in ["bunny", "suzanne", "2826 vertices", "14842 triangles", "studio.exr", "30 RSLs"] {
         assert!(summary.contains(part), "summary lacks {part}:\n{summary}");
@@ -294,7 +294,7 @@ fn structural_mistakes_are_explained() {
     let text = HEAD.replace("[camera]", "[camera]\nfov_y_degrees = 180.0");
     assert!(Scene::from_toml_str(&text, Path::new("s.toml")).unwrap_err().to_string().contains("fov_y_degrees"));
     let top = |q: &str| Scene::from_toml_str(&format!("{q}\n{HEAD}"), Path::new("s.toml"));
-    expect_err(top("quality = \"ultra\""), &["unknown preset \"ultra\"", "draft, paper, high"]);
+    expect_err(top("quality = \"ultra\""), &["unknown preset \"ultra\"", "draft, standard, paper, high"]);
 }
 
 #[test]

@@ -11,5 +11,5 @@ pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracl
 pub use raster::{Image, RasterMesh, rasterise};
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, Traced, TracedCovers, VertexFrames, shade,
-    shade_reference,
+    shade_objects, shade_reference,
 };

@@ -789,7 +789,15 @@ const BLOCK: usize = 256;
 /// Shades every vertex of every object (the fast path): per object, per vertex, the radiance
 /// toward the eye.
 pub fn shade(setup: &FrameSetup<'_>) -> (Vec<Vec<Vec3>>, FrameStats) {
-    let blocks = setup.blocks(BLOCK);
+    shade_objects(setup, &vec![true; setup.placed.len()])
+}
+
+/// [`shade`] for the objects `which` selects (one flag per object); the others come back
+/// empty. An object's radiance depends on the others only through their shadows, so a
+/// front end that changed one object's material reshades that object alone.
+pub fn shade_objects(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, FrameStats) {
+    let mut blocks = setup.blocks(BLOCK);
+    blocks.retain(|&(i, _)| which.get(i).copied().unwrap_or(false));
     let done: Vec<(usize, usize, Vec<Vec3>, FrameStats)> = blocks
         .par_iter()
         .map_init(Vec::new, |nears, &(i, b)| {

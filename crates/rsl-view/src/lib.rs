@@ -1,3 +1,711 @@
-//! The interactive viewer (egui/eframe).
+//! `rsl view`: the interactive viewer (egui/eframe on wgpu).
 //!
-//! Not built yet.
+//! [`Viewer`] holds an edited [`Scene`] and the [`Engine`] prepared for it, and draws one
+//! egui frame at a time ([`Viewer::ui`]): the 3D view (shaded by the engine's CPU RSL path
+//! and rasterised on the CPU into a texture that egui draws with wgpu), and panels to pick
+//! and move objects, rotate the environment, change the RSL count, the quality preset and
+//! materials, play the scene's motion, and read what each stage cost.
+//!
+//! - **Never blocks**: the engine is prepared on a worker thread ([`Viewer::is_preparing`]);
+//!   the UI keeps drawing the last frame, with a progress bar.
+//! - **Only what changed is reshaded** ([`Counters`]): a material edit reshades that object
+//!   alone (the others' radiance does not depend on it); moving an object, the camera or
+//!   the environment reshades every object (shadows reach across the scene); a frame in
+//!   which nothing changed costs no shading and no rasterising.
+//! - [`screenshot`] renders the whole UI headless (egui's wgpu test renderer, any adapter
+//!   including llvmpipe) to a PNG.
+
+use anyhow::{Context, Result, anyhow};
+use egui::{Color32, ColorImage, TextureHandle, TextureOptions};
+use glam::{Quat, Vec3};
+use rsl_engine::scene::{Material, Preset, Scene};
+use rsl_engine::{Engine, EngineOptions, Event, Progress, method::exposure_for};
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+/// How the viewer prepares its engine.
+#[derive(Clone, Debug, Default)]
+pub struct ViewerOptions {
+    /// The disk cache folder (`None`: memory only).
+    pub cache_dir: Option<PathBuf>,
+    /// Quality preset instead of the scene's.
+    pub quality: Option<Preset>,
+}
+
+/// What the viewer has done, for tests and the timings panel: shading is counted per
+/// object, so that "only what changed is reshaded" can be checked.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// egui frames drawn.
+    pub frames: u64,
+    /// Frames in which anything was shaded.
+    pub shaded_frames: u64,
+    /// Objects shaded, summed over frames.
+    pub objects_shaded: u64,
+    /// Vertices shaded, summed over frames.
+    pub vertices_shaded: u64,
+    /// Images rasterised.
+    pub rasterised: u64,
+    /// Engines prepared (on the worker thread).
+    pub prepared: u64,
+}
+
+/// What one reshaded frame cost, ms.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameCost {
+    /// Bringing the engine in line with the scene (a material edit builds a BRDF table).
+    pub sync_ms: f64,
+    /// Shading the vertices that changed.
+    pub shade_ms: f64,
+    /// Rasterising the image on the CPU.
+    pub raster_ms: f64,
+    /// Tonemapping and uploading the texture.
+    pub upload_ms: f64,
+    /// From the first edit of the frame to the texture uploaded.
+    pub total_ms: f64,
+}
+
+/// The worker thread preparing an engine.
+struct Worker {
+    handle: JoinHandle<Result<Engine>>,
+    /// The task being done and its fraction done.
+    progress: Arc<Mutex<(String, f32)>>,
+}
+
+/// An orbit camera about a target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Orbit {
+    target: Vec3,
+    yaw: f32,
+    pitch: f32,
+    distance: f32,
+}
+
+impl Orbit {
+    fn of(eye: Vec3, target: Vec3) -> Self {
+        let d = eye - target;
+        let distance = d.length().max(1e-3);
+        Self { target, yaw: d.x.atan2(d.z), pitch: (d.y / distance).clamp(-1.0, 1.0).asin(), distance }
+    }
+
+    fn eye(&self) -> Vec3 {
+        let (sy, cy) = self.yaw.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        self.target + self.distance * Vec3::new(cp * sy, sp, cp * cy)
+    }
+}
+
+/// Environment rotation as the viewer edits it: degrees about the world's up axis, after
+/// the scene's own rotation.
+fn yaw_rotation(degrees: f32) -> Quat {
+    Quat::from_rotation_y(degrees.to_radians())
+}
+
+/// The interactive viewer's state: the edited scene, its engine and the last frame.
+pub struct Viewer {
+    scene: Scene,
+    options: ViewerOptions,
+    engine: Option<Engine>,
+    worker: Option<Worker>,
+    error: Option<String>,
+    /// Scene time, seconds.
+    time: f32,
+    playing: bool,
+    last_tick: Option<Instant>,
+    orbit: Orbit,
+    selected: usize,
+    /// The scene's environment rotation as loaded; the slider turns it about +Y.
+    env_base: Quat,
+    env_degrees: f32,
+    rsl_count: usize,
+    preset: Preset,
+    /// Per object: whether its radiance must be recomputed.
+    dirty: Vec<bool>,
+    positions: Vec<Vec<Vec3>>,
+    radiance: Vec<Vec<Vec3>>,
+    exposure: Option<f32>,
+    rgba: Option<ColorImage>,
+    texture: Option<TextureHandle>,
+    /// Time spent on edits in the current frame (engine syncs).
+    pending_sync_ms: f64,
+    edit_started: Option<Instant>,
+    counters: Counters,
+    history: VecDeque<FrameCost>,
+}
+
+/// Frames kept in the timings graph.
+const HISTORY: usize = 120;
+
+impl Viewer {
+    /// A viewer of the scene file `path`; starts preparing it on a worker thread.
+    pub fn open(path: &Path, options: ViewerOptions) -> Result<Self> {
+        let scene = Scene::load(path).with_context(|| format!("cannot open {}", path.display()))?;
+        Ok(Self::new(scene, options))
+    }
+
+    /// A viewer of `scene`; starts preparing it on a worker thread.
+    pub fn new(scene: Scene, options: ViewerOptions) -> Self {
+        let preset = options.quality.unwrap_or(scene.quality.preset);
+        let n = scene.objects.len();
+        let mut v = Self {
+            orbit: Orbit::of(scene.camera.eye, scene.camera.target),
+            env_base: scene.environment.rotation,
+            rsl_count: scene.environment.rsl_count as usize,
+            scene,
+            options,
+            engine: None,
+            worker: None,
+            error: None,
+            time: 0.0,
+            playing: false,
+            last_tick: None,
+            selected: 0,
+            env_degrees: 0.0,
+            preset,
+            dirty: vec![true; n],
+            positions: vec![Vec::new(); n],
+            radiance: vec![Vec::new(); n],
+            exposure: None,
+            rgba: None,
+            texture: None,
+            pending_sync_ms: 0.0,
+            edit_started: None,
+            counters: Counters::default(),
+            history: VecDeque::with_capacity(HISTORY),
+        };
+        v.prepare();
+        v
+    }
+
+    /// Starts preparing the engine for the scene at the current preset on a worker thread
+    /// (the UI keeps drawing the last frame meanwhile).
+    fn prepare(&mut self) {
+        let progress = Arc::new(Mutex::new(("starting".to_string(), 0.0f32)));
+        let report = progress.clone();
+        let mut scene = self.scene.clone();
+        scene.environment.rsl_count = self.rsl_count as u32;
+        let options = EngineOptions {
+            cache_dir: self.options.cache_dir.clone(),
+            quality: Some(self.preset),
+            progress: Progress::new(move |e| {
+                let mut p = report.lock().unwrap_or_else(|e| e.into_inner());
+                match *e {
+                    Event::Started { task } => *p = (task.to_string(), 0.0),
+                    Event::Advanced { task, done, total } => {
+                        *p = (task.to_string(), if total > 0 { done as f32 / total as f32 } else { 0.0 })
+                    }
+                    Event::Finished { task } => *p = (task.to_string(), 1.0),
+                }
+            }),
+            ..Default::default()
+        };
+        let handle = std::thread::Builder::new()
+            .name("rsl-view prepare".into())
+            .spawn(move || Engine::new(&scene, options))
+            .expect("the operating system refused a thread");
+        self.worker = Some(Worker { handle, progress });
+    }
+
+    /// Whether the engine is being prepared on the worker thread.
+    pub fn is_preparing(&self) -> bool {
+        self.worker.is_some()
+    }
+
+    /// Waits for the worker thread (tests and the headless screenshot).
+    pub fn wait_prepared(&mut self) -> Result<()> {
+        if let Some(w) = self.worker.take() {
+            self.finish(w);
+        }
+        match &self.error {
+            Some(e) => Err(anyhow!("{e}")),
+            None => Ok(()),
+        }
+    }
+
+    fn poll_worker(&mut self) {
+        if self.worker.as_ref().is_some_and(|w| w.handle.is_finished())
+            && let Some(w) = self.worker.take()
+        {
+            self.finish(w);
+        }
+    }
+
+    fn finish(&mut self, w: Worker) {
+        match w.handle.join() {
+            Ok(Ok(engine)) => {
+                self.rsl_count = engine.rsl_count();
+                self.engine = Some(engine);
+                self.error = None;
+                self.counters.prepared += 1;
+                self.mark_all();
+            }
+            Ok(Err(e)) => self.error = Some(format!("{e:#}")),
+            Err(_) => self.error = Some("the preparation thread panicked".into()),
+        }
+    }
+
+    /// The edited scene.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The prepared engine (`None` while preparing).
+    pub fn engine(&self) -> Option<&Engine> {
+        self.engine.as_ref()
+    }
+
+    /// What the viewer has done so far.
+    pub fn counters(&self) -> Counters {
+        self.counters
+    }
+
+    /// The costs of the most recent reshaded frames, oldest first.
+    pub fn history(&self) -> impl Iterator<Item = &FrameCost> {
+        self.history.iter()
+    }
+
+    /// The last error (a failed preparation or edit), if any.
+    pub fn error(&self) -> Option<&str> {
+        self.error.as_deref()
+    }
+
+    /// The last image shown, as RGBA pixels (`None` before the first frame).
+    pub fn image(&self) -> Option<&ColorImage> {
+        self.rgba.as_ref()
+    }
+
+    /// Per object, per vertex: the radiance last shaded.
+    pub fn radiance(&self) -> &[Vec<Vec3>] {
+        &self.radiance
+    }
+
+    /// The RSL count in use.
+    pub fn rsl_count(&self) -> usize {
+        self.rsl_count
+    }
+
+    /// The environment's extra rotation about +Y, degrees.
+    pub fn environment_degrees(&self) -> f32 {
+        self.env_degrees
+    }
+
+    fn mark_all(&mut self) {
+        self.dirty.iter_mut().for_each(|d| *d = true);
+    }
+
+    /// Sets object `i`'s material: one BRDF table is built (milliseconds) and that object
+    /// alone is reshaded.
+    pub fn set_material(&mut self, i: usize, material: Material) -> Result<()> {
+        let o = self.scene.objects.get_mut(i).context("no such object")?;
+        if o.material == material {
+            return Ok(());
+        }
+        self.edit_started.get_or_insert_with(Instant::now);
+        o.material = material;
+        if let Some(engine) = &mut self.engine {
+            let start = Instant::now();
+            engine.sync(&self.scene)?;
+            self.pending_sync_ms += start.elapsed().as_secs_f64() * 1e3;
+        }
+        self.dirty[i] = true;
+        Ok(())
+    }
+
+    /// Moves object `i` to `translation` (its base transform, before motion): every object
+    /// is reshaded (its shadow moves).
+    pub fn set_translation(&mut self, i: usize, translation: Vec3) -> Result<()> {
+        let o = self.scene.objects.get_mut(i).context("no such object")?;
+        if !translation.is_finite() {
+            return Err(anyhow!("object {}: translation must be finite", o.name));
+        }
+        if o.transform.translation != translation {
+            self.edit_started.get_or_insert_with(Instant::now);
+            o.transform.translation = translation;
+            self.mark_all();
+        }
+        Ok(())
+    }
+
+    /// Sets object `i`'s rotation about +Y, degrees (replacing its base rotation).
+    pub fn set_yaw(&mut self, i: usize, degrees: f32) -> Result<()> {
+        let o = self.scene.objects.get_mut(i).context("no such object")?;
+        let r = yaw_rotation(degrees);
+        if o.transform.rotation != r {
+            self.edit_started.get_or_insert_with(Instant::now);
+            o.transform.rotation = r;
+            self.mark_all();
+        }
+        Ok(())
+    }
+
+    /// Turns the environment by `degrees` about +Y after its own rotation: nothing is
+    /// rebuilt (the lights rotate), every object is reshaded.
+    pub fn set_environment_degrees(&mut self, degrees: f32) {
+        if degrees != self.env_degrees {
+            self.edit_started.get_or_insert_with(Instant::now);
+            self.env_degrees = degrees;
+            self.scene.environment.rotation = (yaw_rotation(degrees) * self.env_base).normalize();
+            self.mark_all();
+        }
+    }
+
+    /// Sets the RSL count: the merge tree already holds every count, so nothing is
+    /// recomputed (the engine's cache counters do not move); every object is reshaded.
+    pub fn set_rsl_count(&mut self, n: usize) -> Result<()> {
+        if n == self.rsl_count {
+            return Ok(());
+        }
+        if let Some(engine) = &mut self.engine {
+            self.edit_started.get_or_insert_with(Instant::now);
+            let start = Instant::now();
+            engine.set_rsl_count(n)?;
+            self.pending_sync_ms += start.elapsed().as_secs_f64() * 1e3;
+            self.mark_all();
+        }
+        self.rsl_count = n;
+        self.scene.environment.rsl_count = n as u32;
+        Ok(())
+    }
+
+    /// Switches the quality preset: the engine is prepared again on the worker thread.
+    pub fn set_preset(&mut self, preset: Preset) {
+        if preset != self.preset && self.worker.is_none() {
+            self.preset = preset;
+            self.prepare();
+        }
+    }
+
+    /// Sets the scene time (seconds).
+    pub fn set_time(&mut self, t: f32) {
+        if t != self.time && t.is_finite() {
+            self.edit_started.get_or_insert_with(Instant::now);
+            self.time = t;
+            if self.scene.is_dynamic() {
+                self.mark_all();
+            }
+        }
+    }
+
+    /// Orbits the camera by `dx`, `dy` radians and scales its distance by `zoom`.
+    fn orbit_by(&mut self, dx: f32, dy: f32, zoom: f32) {
+        self.edit_started.get_or_insert_with(Instant::now);
+        self.orbit.yaw -= dx;
+        self.orbit.pitch = (self.orbit.pitch + dy).clamp(-1.5, 1.5);
+        self.orbit.distance = (self.orbit.distance * zoom).clamp(1e-2, 1e4);
+        self.scene.camera.eye = self.orbit.eye();
+        self.mark_all();
+    }
+
+    /// Shades what changed and rasterises a new image; `false` when nothing changed (no
+    /// shading, no rasterising).
+    pub fn refresh(&mut self) -> Result<bool> {
+        let Some(engine) = &self.engine else { return Ok(false) };
+        if !self.dirty.iter().any(|&d| d) {
+            return Ok(false);
+        }
+        let start = self.edit_started.take().unwrap_or_else(Instant::now);
+        let all = self.dirty.iter().all(|&d| d);
+        let t0 = Instant::now();
+        let frame = if all {
+            engine.shade(&self.scene, self.time)?
+        } else {
+            engine.shade_objects(&self.scene, self.time, &self.dirty)?
+        };
+        let shade_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let state = frame.state.clone();
+        for (i, (p, r)) in frame.positions.into_iter().zip(frame.radiance).enumerate() {
+            if self.dirty[i] {
+                self.counters.vertices_shaded += r.len() as u64;
+                self.counters.objects_shaded += 1;
+                self.positions[i] = p;
+                self.radiance[i] = r;
+            }
+        }
+        self.counters.shaded_frames += 1;
+        self.dirty.iter_mut().for_each(|d| *d = false);
+        let t1 = Instant::now();
+        let image = rsl_engine::method::rasterise(engine, &self.scene, &state, &self.positions, &self.radiance);
+        self.counters.rasterised += 1;
+        let raster_ms = t1.elapsed().as_secs_f64() * 1e3;
+        let t2 = Instant::now();
+        let exposure = *self.exposure.get_or_insert_with(|| exposure_for(&image));
+        let rgb = rsl_shade::tonemap::encode_all(&image.pixels, exposure);
+        let size = [image.width as usize, image.height as usize];
+        self.rgba = Some(ColorImage::from_rgb(size, &rgb));
+        let upload_ms = t2.elapsed().as_secs_f64() * 1e3;
+        let cost = FrameCost {
+            sync_ms: std::mem::take(&mut self.pending_sync_ms),
+            shade_ms,
+            raster_ms,
+            upload_ms,
+            total_ms: start.elapsed().as_secs_f64() * 1e3,
+        };
+        if self.history.len() == HISTORY {
+            self.history.pop_front();
+        }
+        self.history.push_back(cost);
+        Ok(true)
+    }
+
+    /// Draws one frame of the whole UI into `ui` (the eframe app and the headless
+    /// screenshot both call it).
+    pub fn ui(&mut self, ui: &mut egui::Ui) {
+        self.counters.frames += 1;
+        self.poll_worker();
+        if self.playing {
+            let now = Instant::now();
+            let dt = self.last_tick.map_or(0.0, |t| now.duration_since(t).as_secs_f32());
+            self.last_tick = Some(now);
+            self.set_time(self.time + dt);
+            ui.ctx().request_repaint();
+        } else {
+            self.last_tick = None;
+        }
+        if self.worker.is_some() {
+            ui.ctx().request_repaint_after(std::time::Duration::from_millis(100));
+        }
+        egui::Panel::left("controls").resizable(true).min_size(260.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.controls(ui));
+        });
+        egui::Panel::bottom("timings").show(ui, |ui| self.timings(ui));
+        egui::CentralPanel::default().show(ui, |ui| self.view(ui));
+    }
+
+    fn report(&mut self, r: Result<()>) {
+        if let Err(e) = r {
+            self.error = Some(format!("{e:#}"));
+        }
+    }
+
+    fn controls(&mut self, ui: &mut egui::Ui) {
+        ui.heading("rsl view");
+        if let Some(w) = &self.worker {
+            let (task, f) = w.progress.lock().map(|p| p.clone()).unwrap_or_default();
+            ui.label("preparing");
+            ui.add(egui::ProgressBar::new(f).text(task).show_percentage());
+        }
+        if let Some(e) = &self.error {
+            ui.colored_label(Color32::from_rgb(230, 90, 80), e.as_str());
+        }
+        ui.separator();
+        // Quality preset (prepared again on the worker thread).
+        let mut preset = self.preset;
+        egui::ComboBox::from_label("quality").selected_text(preset.name()).show_ui(ui, |ui| {
+            for p in Preset::ALL {
+                ui.selectable_value(&mut preset, p, p.name());
+            }
+        });
+        self.set_preset(preset);
+        // RSL count: instant (the merge tree holds every count).
+        if let Some(engine) = &self.engine {
+            let max = engine.texel_count().min(300);
+            let mut n = self.rsl_count;
+            ui.add(egui::Slider::new(&mut n, 1..=max).text("RSLs"));
+            let r = self.set_rsl_count(n);
+            self.report(r);
+        }
+        let mut deg = self.env_degrees;
+        ui.add(egui::Slider::new(&mut deg, -180.0..=180.0).text("environment °"));
+        self.set_environment_degrees(deg);
+        ui.horizontal(|ui| {
+            let label = if self.playing { "pause" } else { "play" };
+            if ui.button(label).clicked() {
+                self.playing = !self.playing;
+            }
+            let mut t = self.time;
+            ui.add(egui::Slider::new(&mut t, 0.0..=10.0).text("time s"));
+            self.set_time(t);
+        });
+        ui.separator();
+        ui.label("objects");
+        for (i, o) in self.scene.objects.iter().enumerate() {
+            ui.selectable_value(&mut self.selected, i, o.name.as_str());
+        }
+        self.object_controls(ui);
+    }
+
+    fn object_controls(&mut self, ui: &mut egui::Ui) {
+        let i = self.selected;
+        let Some(o) = self.scene.objects.get(i) else { return };
+        ui.separator();
+        ui.label(format!("{}: position", o.name));
+        let mut p = o.transform.translation;
+        ui.horizontal(|ui| {
+            ui.add(egui::DragValue::new(&mut p.x).speed(0.01).prefix("x "));
+            ui.add(egui::DragValue::new(&mut p.y).speed(0.01).prefix("y "));
+            ui.add(egui::DragValue::new(&mut p.z).speed(0.01).prefix("z "));
+        });
+        let r = self.set_translation(i, p);
+        self.report(r);
+        let (axis, angle) = self.scene.objects[i].transform.rotation.to_axis_angle();
+        let mut yaw = (angle * axis.y.signum()).to_degrees();
+        ui.add(egui::Slider::new(&mut yaw, -180.0..=180.0).text("turn °"));
+        if (yaw - (angle * axis.y.signum()).to_degrees()).abs() > 1e-4 {
+            let r = self.set_yaw(i, yaw);
+            self.report(r);
+        }
+        ui.label("material");
+        let mut m = self.scene.objects[i].material.clone();
+        material_controls(ui, &mut m);
+        let r = self.set_material(i, m);
+        self.report(r);
+    }
+
+    fn timings(&mut self, ui: &mut egui::Ui) {
+        let c = self.counters;
+        match self.history.back() {
+            Some(f) => ui.label(format!(
+                "last reshade {:.1} ms: sync {:.1}, shade {:.1}, raster {:.1}, upload {:.1} · shaded frames {} of {}, objects {}",
+                f.total_ms, f.sync_ms, f.shade_ms, f.raster_ms, f.upload_ms, c.shaded_frames, c.frames, c.objects_shaded
+            )),
+            None => ui.label("no frame yet"),
+        };
+        // A bar per recent reshaded frame: shade (blue) under raster (orange), 50 ms high.
+        let (rect, _) = ui.allocate_exact_size(egui::vec2(ui.available_width(), 40.0), egui::Sense::hover());
+        let painter = ui.painter_at(rect);
+        let w = rect.width() / HISTORY as f32;
+        let scale = rect.height() / 50.0;
+        for (k, f) in self.history.iter().enumerate() {
+            let x = rect.left() + k as f32 * w;
+            let shade = (f.shade_ms + f.sync_ms) as f32 * scale;
+            let raster = (f.raster_ms + f.upload_ms) as f32 * scale;
+            let y0 = rect.bottom();
+            painter.rect_filled(
+                egui::Rect::from_min_max(egui::pos2(x, y0 - shade), egui::pos2(x + w * 0.8, y0)),
+                0.0,
+                Color32::from_rgb(90, 140, 230),
+            );
+            painter.rect_filled(
+                egui::Rect::from_min_max(egui::pos2(x, y0 - shade - raster), egui::pos2(x + w * 0.8, y0 - shade)),
+                0.0,
+                Color32::from_rgb(230, 150, 60),
+            );
+        }
+        let y33 = rect.bottom() - 33.0 * scale;
+        painter.hline(rect.x_range(), y33, egui::Stroke::new(1.0, Color32::GRAY));
+    }
+
+    fn view(&mut self, ui: &mut egui::Ui) {
+        let r = self.refresh().map(|_| ());
+        self.report(r);
+        if let Some(img) = &self.rgba {
+            match &mut self.texture {
+                Some(t) if t.size() == img.size => t.set(img.clone(), TextureOptions::LINEAR),
+                _ => self.texture = Some(ui.ctx().load_texture("rsl-view", img.clone(), TextureOptions::LINEAR)),
+            }
+        }
+        let Some(tex) = &self.texture else {
+            ui.centered_and_justified(|ui| ui.label("preparing the scene…"));
+            return;
+        };
+        let avail = ui.available_size();
+        let [w, h] = tex.size().map(|s| s as f32);
+        let s = (avail.x / w).min(avail.y / h).max(0.05);
+        let response =
+            ui.add(egui::Image::new((tex.id(), egui::vec2(w * s, h * s))).sense(egui::Sense::click_and_drag()));
+        if response.dragged() {
+            let d = response.drag_delta();
+            self.orbit_by(d.x * 0.01, d.y * 0.01, 1.0);
+        }
+        if response.hovered() {
+            let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+            if scroll != 0.0 {
+                self.orbit_by(0.0, 0.0, (-scroll * 0.002).exp());
+            }
+        }
+    }
+}
+
+/// Sliders for a material's parameters (the model stays; its numbers change).
+fn material_controls(ui: &mut egui::Ui, m: &mut Material) {
+    fn rgb(ui: &mut egui::Ui, label: &str, c: &mut [f32; 3]) {
+        ui.horizontal(|ui| {
+            ui.label(label);
+            ui.color_edit_button_rgb(c);
+        });
+    }
+    match m {
+        Material::Lambert { albedo } => rgb(ui, "albedo", albedo),
+        Material::Phong { exponent, specular, diffuse } | Material::BlinnPhong { exponent, specular, diffuse } => {
+            ui.add(egui::Slider::new(exponent, 1.0..=2000.0).logarithmic(true).text("exponent"));
+            rgb(ui, "specular", specular);
+            rgb(ui, "diffuse", diffuse);
+        }
+        Material::CookTorrance { alpha, specular, diffuse }
+        | Material::Ggx { alpha, specular, diffuse }
+        | Material::Beckmann { alpha, specular, diffuse } => {
+            ui.add(egui::Slider::new(alpha, 0.02..=1.0).logarithmic(true).text("alpha"));
+            rgb(ui, "specular", specular);
+            rgb(ui, "diffuse", diffuse);
+        }
+        _ => {
+            ui.label("(this model's parameters are edited in the scene file)");
+        }
+    }
+}
+
+/// The eframe application around a [`Viewer`].
+pub struct ViewerApp(pub Viewer);
+
+impl eframe::App for ViewerApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.0.ui(ui);
+    }
+}
+
+/// Opens a window on `viewer` (blocks until it is closed).
+pub fn run(viewer: Viewer, title: &str) -> Result<()> {
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default().with_inner_size([1200.0, 760.0]).with_title(title),
+        ..Default::default()
+    };
+    eframe::run_native(title, options, Box::new(|_cc| Ok(Box::new(ViewerApp(viewer)))))
+        .map_err(|e| anyhow!("cannot open the viewer's window: {e}"))
+}
+
+/// The UI size of the headless screenshot, points.
+pub const SCREENSHOT_SIZE: [f32; 2] = [1200.0, 760.0];
+
+/// Renders the whole UI of `viewer` headless (no display: egui's wgpu renderer on any
+/// adapter, llvmpipe included) after waiting for its preparation and drawing `frames`
+/// frames, and returns the RGBA image.
+pub fn screenshot(viewer: Viewer, frames: usize) -> Result<image_rgba::Rgba> {
+    let mut viewer = viewer;
+    viewer.wait_prepared()?;
+    let mut harness = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(SCREENSHOT_SIZE[0], SCREENSHOT_SIZE[1]))
+        .wgpu()
+        .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
+    for _ in 0..frames.max(1) {
+        harness.step();
+    }
+    if let Some(e) = harness.state().error() {
+        return Err(anyhow!("{e}"));
+    }
+    let img = harness.render().map_err(|e| anyhow!("cannot render the UI: {e}"))?;
+    Ok(image_rgba::Rgba { width: img.width(), height: img.height(), pixels: img.into_raw() })
+}
+
+/// A rendered RGBA image.
+pub mod image_rgba {
+    /// 8-bit RGBA pixels, row-major.
+    #[derive(Clone, Debug)]
+    pub struct Rgba {
+        /// Width in pixels.
+        pub width: u32,
+        /// Height in pixels.
+        pub height: u32,
+        /// `4 × width × height` bytes.
+        pub pixels: Vec<u8>,
+    }
+
+    impl Rgba {
+        /// The RGB bytes (alpha dropped).
+        pub fn rgb(&self) -> Vec<u8> {
+            self.pixels.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect()
+        }
+    }
+}

@@ -1,0 +1,53 @@
+//! `rsl view`: the interactive viewer, or its headless screenshot.
+
+use crate::render::PrepareArgs;
+use anyhow::{Context, Result, bail};
+use rsl_engine::scene::Scene;
+use std::path::PathBuf;
+
+/// Arguments of `rsl view`.
+#[derive(Debug, clap::Args)]
+pub struct ViewArgs {
+    /// The scene file (TOML).
+    pub scene: PathBuf,
+    /// Render the whole UI headless (no display needed) to this PNG and exit.
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
+    /// UI frames to draw before the screenshot.
+    #[arg(long, default_value_t = 3, requires = "screenshot")]
+    pub frames: usize,
+    /// Precomputation options.
+    #[command(flatten)]
+    pub prepare: PrepareArgs,
+}
+
+/// Frames a screenshot may draw (each costs a UI pass and possibly a reshade).
+const MAX_FRAMES: usize = 10_000;
+
+/// Runs `rsl view`.
+pub fn run(args: &ViewArgs) -> Result<()> {
+    if let Some(png) = &args.screenshot {
+        crate::render::check_png(png, "--screenshot")?;
+        rsl_engine::output::check_writable(png)?;
+        if args.frames == 0 || args.frames > MAX_FRAMES {
+            bail!("--frames must be in 1..={MAX_FRAMES}, got {}", args.frames);
+        }
+    }
+    let mut scene = Scene::load(&args.scene)?;
+    if let Some(n) = args.prepare.rsl {
+        scene.environment.rsl_count = n;
+    }
+    let engine = args.prepare.options();
+    let options = rsl_view::ViewerOptions { cache_dir: engine.cache_dir, quality: args.prepare.quality };
+    let viewer = rsl_view::Viewer::new(scene, options);
+    match &args.screenshot {
+        Some(png) => {
+            let img = rsl_view::screenshot(viewer, args.frames)?;
+            rsl_engine::output::write_png(png, img.width, img.height, img.rgb())
+                .with_context(|| format!("cannot write {}", png.display()))?;
+            eprintln!("wrote {} ({}×{})", png.display(), img.width, img.height);
+            Ok(())
+        }
+        None => rsl_view::run(viewer, &format!("rsl view — {}", args.scene.display())),
+    }
+}
