@@ -32,6 +32,7 @@ pub mod motion;
 pub mod primitive;
 pub mod quality;
 mod raw;
+mod write;
 
 pub use error::SceneError;
 pub use material::Material;

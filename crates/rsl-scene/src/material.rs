@@ -3,13 +3,13 @@
 //! This is description only; evaluation and tabulation live in `rsl-brdf`. Colours are
 //! linear RGB weights.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// The BRDF models a scene may name (the `model` key of `material`).
 pub const MODEL_NAMES: [&str; 7] = ["lambert", "phong", "blinn_phong", "cook_torrance", "ward", "ggx", "beckmann"];
 
 /// A material: a BRDF model and its parameters.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Material {
     /// Lambertian: `ρ = albedo/π`.
@@ -55,10 +55,13 @@ pub enum Material {
     /// (along the tangent and bitangent).
     Ward {
         /// Isotropic roughness.
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha: Option<f32>,
         /// Roughness along the tangent.
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha_x: Option<f32>,
         /// Roughness along the bitangent.
+        #[serde(skip_serializing_if = "Option::is_none")]
         alpha_y: Option<f32>,
         /// Specular weight.
         #[serde(default = "white")]

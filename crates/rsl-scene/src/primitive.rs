@@ -5,11 +5,11 @@
 
 use glam::{Vec2, Vec3};
 use rsl_sphere::mesh::TriMesh;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::f32::consts::{PI, TAU};
 
 /// A primitive as a scene file states it (`primitive = { kind = "sphere", ... }`).
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Primitive {
     /// A sphere of `radius` centred at the origin; `resolution` rings of latitude and twice

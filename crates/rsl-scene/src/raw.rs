@@ -47,8 +47,10 @@ struct RawEnvMotion {
 #[derive(Deserialize, Clone, Copy)]
 #[serde(deny_unknown_fields)]
 struct RawRotation {
-    axis: [f32; 3],
-    degrees: f32,
+    axis: Option<[f32; 3]>,
+    degrees: Option<f32>,
+    /// `[x, y, z, w]`, a unit quaternion (what `rsl view` writes: exact round trips).
+    quaternion: Option<[f32; 4]>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -193,9 +195,23 @@ impl Ctx<'_> {
     }
 
     fn rotation(&self, field: &str, r: RawRotation) -> Result<Quat, SceneError> {
-        let axis = self.axis(&format!("{field}.axis"), r.axis)?;
-        let deg = self.finite(&format!("{field}.degrees"), r.degrees)?;
-        Ok(Quat::from_axis_angle(axis, deg.to_radians()))
+        match (r.axis, r.degrees, r.quaternion) {
+            (Some(axis), Some(degrees), None) => {
+                let axis = self.axis(&format!("{field}.axis"), axis)?;
+                let deg = self.finite(&format!("{field}.degrees"), degrees)?;
+                Ok(Quat::from_axis_angle(axis, deg.to_radians()))
+            }
+            (None, None, Some(q)) => {
+                let f = format!("{field}.quaternion");
+                let q = Quat::from_array(q);
+                if !q.is_finite() || (q.length_squared() - 1.0).abs() > 1e-3 {
+                    return Err(self.err(&f, format!("must be a unit quaternion [x, y, z, w], got {:?}", q.to_array())));
+                }
+                // A quaternion written by rsl is unit to rounding: kept bit for bit.
+                Ok(if (q.length_squared() - 1.0).abs() <= 1e-6 { q } else { q.normalize() })
+            }
+            _ => Err(self.err(field, "needs `axis` and `degrees`, or `quaternion` alone")),
+        }
     }
 
     fn spin(&self, field: &str, s: RawSpin) -> Result<Spin, SceneError> {

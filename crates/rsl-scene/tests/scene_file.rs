@@ -369,3 +369,55 @@ fn mutated_scene_files_never_panic() {
     }
     assert!(errors > 100, "only {errors} of 600 mutations were errors: mutations too weak");
 }
+
+#[test]
+fn a_written_scene_loads_back_the_same() {
+    let dir = std::env::temp_dir().join(format!("rsl-scene-write-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for name in ["scenes/default.toml", "scenes/accuracy/sun_bunny.toml"] {
+        let s = Scene::load(data(name)).unwrap();
+        let file = dir.join("written.toml");
+        std::fs::write(&file, s.to_toml(&file).unwrap()).unwrap();
+        let back = Scene::load(&file).unwrap_or_else(|e| panic!("{name}: the written scene does not load: {e}"));
+        assert_eq!(back.quality, s.quality, "{name}");
+        assert_eq!(back.camera.eye, s.camera.eye, "{name}");
+        assert_eq!(back.camera.target, s.camera.target, "{name}");
+        assert!((back.camera.fov_y - s.camera.fov_y).abs() < 1e-6, "{name}");
+        assert_eq!(back.environment.rotation, s.environment.rotation, "{name}");
+        assert_eq!(back.environment.intensity, s.environment.intensity, "{name}");
+        assert_eq!(back.environment.rsl_count, s.environment.rsl_count, "{name}");
+        assert_eq!(back.objects.len(), s.objects.len(), "{name}");
+        for (a, b) in back.objects.iter().zip(&s.objects) {
+            assert_eq!(a.name, b.name);
+            assert_eq!(a.mesh, b.mesh, "{name}: {}", a.name);
+            assert_eq!(a.transform, b.transform, "{name}: {}", a.name);
+            assert_eq!(a.material, b.material, "{name}: {}", a.name);
+            assert_eq!(a.casts_shadows, b.casts_shadows);
+            assert_eq!(a.motion.keyframes, b.motion.keyframes, "{name}: {}", a.name);
+            for t in [0.0, 1.0, 2.5] {
+                let (x, y) = (a.motion.at(&a.transform, t), b.motion.at(&b.transform, t));
+                assert!((x.translation - y.translation).length() < 1e-5, "{name}: {} at {t}", a.name);
+                assert!(x.rotation.dot(y.rotation).abs() > 1.0 - 1e-6, "{name}: {} at {t}", a.name);
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_rotation_is_axis_and_degrees_or_a_unit_quaternion() {
+    let object = |rotation: &str| {
+        parse(&format!("[[objects]]\nname = \"a\"\nprimitive = {{ kind = \"sphere\", radius = 1.0 }}\n{rotation}\n"))
+    };
+    expect_err(
+        object("rotation = { quaternion = [0.0, 0.0, 0.0, 2.0] }"),
+        &["objects[0] \"a\".rotation.quaternion", "unit quaternion"],
+    );
+    expect_err(
+        object("rotation = { axis = [0.0, 1.0, 0.0], quaternion = [0.0, 0.0, 0.0, 1.0] }"),
+        &["objects[0] \"a\".rotation", "quaternion` alone"],
+    );
+    let half = std::f32::consts::FRAC_1_SQRT_2;
+    let s = object(&format!("rotation = {{ quaternion = [0.0, {half}, 0.0, {half}] }}")).unwrap();
+    assert_eq!(s.objects[0].transform.rotation, glam::Quat::from_xyzw(0.0, half, 0.0, half));
+}

@@ -18,7 +18,7 @@
 use anyhow::{Context, Result, anyhow};
 use egui::{Color32, ColorImage, TextureHandle, TextureOptions};
 use glam::{Quat, Vec3};
-use rsl_engine::scene::{Material, Preset, Scene};
+use rsl_engine::scene::{Material, Preset, Quality, Scene};
 use rsl_engine::{Engine, EngineOptions, Event, Progress, method::exposure_for};
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
@@ -134,6 +134,12 @@ pub struct Viewer {
     edit_started: Option<Instant>,
     counters: Counters,
     history: VecDeque<FrameCost>,
+    /// Where "save scene" writes.
+    save_path: String,
+    /// Where "screenshot" writes.
+    image_path: String,
+    /// The last thing saved, for the panel.
+    notice: Option<String>,
 }
 
 /// Frames kept in the timings graph.
@@ -148,8 +154,13 @@ impl Viewer {
 
     /// A viewer of `scene`; starts preparing it on a worker thread.
     pub fn new(scene: Scene, options: ViewerOptions) -> Self {
+        let mut scene = scene;
         let preset = options.quality.unwrap_or(scene.quality.preset);
+        if preset != scene.quality.preset {
+            scene.quality = Quality::from_preset(preset);
+        }
         let n = scene.objects.len();
+        let stem = scene.path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
         let mut v = Self {
             orbit: Orbit::of(scene.camera.eye, scene.camera.target),
             env_base: scene.environment.rotation,
@@ -175,6 +186,9 @@ impl Viewer {
             edit_started: None,
             counters: Counters::default(),
             history: VecDeque::with_capacity(HISTORY),
+            save_path: format!("{stem}-edited.toml"),
+            image_path: format!("{stem}-view.png"),
+            notice: None,
         };
         v.prepare();
         v
@@ -374,8 +388,23 @@ impl Viewer {
     pub fn set_preset(&mut self, preset: Preset) {
         if preset != self.preset && self.worker.is_none() {
             self.preset = preset;
+            self.scene.quality = Quality::from_preset(preset);
             self.prepare();
         }
+    }
+
+    /// Saves the edited scene as a scene file that `rsl render` reproduces (atomically:
+    /// nothing half-written is left).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let text = self.scene.to_toml(path).with_context(|| format!("cannot write the scene as {}", path.display()))?;
+        rsl_engine::output::write_atomic(path, text.as_bytes())
+    }
+
+    /// Writes the image shown as a PNG (the 3D view alone, at the camera's resolution).
+    pub fn save_image(&self, path: &Path) -> Result<()> {
+        let img = self.rgba.as_ref().context("no image has been drawn yet")?;
+        let rgb: Vec<u8> = img.pixels.iter().flat_map(|c| [c.r(), c.g(), c.b()]).collect();
+        rsl_engine::output::write_png(path, img.size[0] as u32, img.size[1] as u32, rgb)
     }
 
     /// Sets the scene time (seconds).
@@ -519,6 +548,28 @@ impl Viewer {
             ui.add(egui::Slider::new(&mut t, 0.0..=10.0).text("time s"));
             self.set_time(t);
         });
+        ui.separator();
+        ui.horizontal(|ui| {
+            let button = ui.button("save scene");
+            ui.text_edit_singleline(&mut self.save_path).labelled_by(button.id);
+            if button.clicked() {
+                let r = self.save(Path::new(&self.save_path));
+                self.notice = r.as_ref().ok().map(|_| format!("saved {}", self.save_path));
+                self.report(r);
+            }
+        });
+        ui.horizontal(|ui| {
+            let button = ui.button("screenshot");
+            ui.text_edit_singleline(&mut self.image_path).labelled_by(button.id);
+            if button.clicked() {
+                let r = self.save_image(Path::new(&self.image_path));
+                self.notice = r.as_ref().ok().map(|_| format!("wrote {}", self.image_path));
+                self.report(r);
+            }
+        });
+        if let Some(n) = &self.notice {
+            ui.label(n.as_str());
+        }
         ui.separator();
         ui.label("objects");
         for (i, o) in self.scene.objects.iter().enumerate() {

@@ -192,3 +192,32 @@ fn clicking_an_object_in_the_list_selects_it() {
     let img = h.render().expect("the UI renders");
     assert_eq!((img.width(), img.height()), (1200, 760));
 }
+
+#[test]
+fn a_saved_scene_renders_the_same_radiance() {
+    let Some(mut h) = harness("a_saved_scene_renders_the_same_radiance", Some(cache())) else { return };
+    ready(&mut h);
+    let (bunny, sphere) = (index(h.state(), "bunny"), index(h.state(), "sphere"));
+    {
+        let v = h.state_mut();
+        v.set_material(bunny, Material::Beckmann { alpha: 0.2, specular: [0.7, 0.8, 0.9], diffuse: [0.1, 0.0, 0.0] })
+            .unwrap();
+        let p = v.scene().objects[sphere].transform.translation;
+        v.set_translation(sphere, p + Vec3::new(0.3, 0.0, -0.2)).unwrap();
+        v.set_yaw(sphere, 33.0).unwrap();
+        v.set_environment_degrees(-47.5);
+        v.set_rsl_count(45).unwrap();
+    }
+    h.step();
+    let dir = std::env::temp_dir().join(format!("rsl-view-save-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("edited.toml");
+    h.state().save(&file).unwrap();
+    let scene = rsl_engine::scene::Scene::load(&file).expect("the saved scene loads");
+    let options = rsl_engine::EngineOptions { cache_dir: Some(cache()), ..Default::default() };
+    let engine = rsl_engine::Engine::new(&scene, options).unwrap();
+    assert_eq!(engine.rsl_count(), 45);
+    let frame = engine.shade(&scene, 0.0).unwrap();
+    assert_eq!(frame.radiance, h.state().radiance(), "the saved scene shades differently");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
