@@ -923,6 +923,13 @@ impl Engine {
         Ok(ShadedFrame::of(&setup, state, radiance, stats, shade_ms))
     }
 
+    /// Per object, whether object `j` can shadow it at `state` ([`FrameSetup::may_shadow`]):
+    /// what must be reshaded, beside `j` itself, when `j` moves to or from this pose.
+    pub fn shadowed_by(&self, scene: &Scene, state: &SceneState, j: usize) -> Result<Vec<bool>> {
+        let setup = self.setup(scene, state, scene.camera.eye, Terms::default())?;
+        Ok((0..scene.objects.len()).map(|i| setup.may_shadow(j, i)).collect())
+    }
+
     /// [`Engine::shade`] with a choice of terms.
     pub fn shade_with(&self, scene: &Scene, t: f32, terms: Terms) -> Result<ShadedFrame> {
         let state = scene.at(t);

@@ -662,6 +662,62 @@ impl<'a> FrameSetup<'a> {
             .collect()
     }
 
+    /// A sphere around object `i`'s vertices in world space (their box's centre, and the
+    /// farthest vertex from it).
+    pub fn world_sphere(&self, i: usize) -> (Vec3, f32) {
+        let p = &self.placed[i];
+        let n = p.object.mesh.vertex_count();
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for v in 0..n {
+            let x = p.position(v);
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        let c = 0.5 * (lo + hi);
+        let r = (0..n).map(|v| (p.position(v) - c).length()).fold(0.0f32, f32::max);
+        (c, r)
+    }
+
+    /// Whether object `j` can shadow any vertex of object `i` in this frame (conservative:
+    /// `true` may cast no shadow, `false` casts none). Without a field `j` shadows nothing;
+    /// through its field only within the field's reach; through a traced light's rays
+    /// wherever the light's cone from `i`'s bounding sphere meets `j`'s. A front end that
+    /// moved `j` reshades `j` and the objects this names at the old and the new pose.
+    pub fn may_shadow(&self, j: usize, i: usize) -> bool {
+        if i == j {
+            return false;
+        }
+        let Some(b) = self.placed[j].bound else { return false };
+        let (c, r) = self.world_sphere(i);
+        let reach = b.reach_object * self.placed[j].object.transform.scale.max_element();
+        if (c - b.centre_world).length() - r < reach {
+            return true;
+        }
+        if self.terms.occluders && self.placed[j].object.occluder.is_some() {
+            for (l, light) in self.lights.iter().enumerate() {
+                if !self.is_traced(l) {
+                    continue;
+                }
+                let alpha = self.cones[l].0;
+                if alpha >= std::f32::consts::FRAC_PI_2 {
+                    return true;
+                }
+                let w = b.centre_world - c;
+                let t = w.dot(light.dir);
+                let slack = r + b.radius_world;
+                if t < -slack {
+                    continue;
+                }
+                let q = (w - t * light.dir).length();
+                // The cone widens by tan α per unit along the light, from anywhere in i's sphere.
+                if q <= slack + t.max(0.0) * alpha.tan() + 1e-4 * slack {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
     /// World position of vertex `v` of object `i`.
     pub fn position(&self, i: usize, v: usize) -> Vec3 {
         self.placed[i].position(v)

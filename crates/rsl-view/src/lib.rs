@@ -9,9 +9,10 @@
 //! - **Never blocks**: the engine is prepared on a worker thread ([`Viewer::is_preparing`]);
 //!   the UI keeps drawing the last frame, with a progress bar.
 //! - **Only what changed is reshaded** ([`Counters`]): a material edit reshades that object
-//!   alone (the others' radiance does not depend on it); moving an object, the camera or
-//!   the environment reshades every object (shadows reach across the scene); a frame in
-//!   which nothing changed costs no shading and no rasterising.
+//!   alone (the others' radiance does not depend on it); moving an object reshades it and
+//!   the objects its shadow can reach (its occluder field's reach, and the traced lights'
+//!   cones) at the old and new pose; moving the camera or the environment reshades every
+//!   object; a frame in which nothing changed costs no shading and no rasterising.
 //! - [`screenshot`] renders the whole UI headless (egui's wgpu test renderer, any adapter
 //!   including llvmpipe) to a PNG.
 
@@ -328,30 +329,53 @@ impl Viewer {
         Ok(())
     }
 
-    /// Moves object `i` to `translation` (its base transform, before motion): every object
-    /// is reshaded (its shadow moves).
+    /// Which objects object `j` can shadow at the current time (`None` without an engine).
+    fn shadow_reach(&self, j: usize) -> Option<Vec<bool>> {
+        let engine = self.engine.as_ref()?;
+        engine.shadowed_by(&self.scene, &self.scene.at(self.time), j).ok()
+    }
+
+    /// Replaces object `j`'s base transform: `j` is reshaded, and every object it can
+    /// shadow at the old or the new pose ([`Engine::shadowed_by`]); the rest keep their
+    /// radiance.
+    fn move_object(&mut self, j: usize, transform: rsl_engine::scene::Transform) {
+        if self.scene.objects[j].transform == transform {
+            return;
+        }
+        self.edit_started.get_or_insert_with(Instant::now);
+        let before = self.shadow_reach(j);
+        self.scene.objects[j].transform = transform;
+        let after = self.shadow_reach(j);
+        match (before, after) {
+            (Some(b), Some(a)) => {
+                for (i, d) in self.dirty.iter_mut().enumerate() {
+                    *d |= i == j || b[i] || a[i];
+                }
+            }
+            _ => self.mark_all(),
+        }
+    }
+
+    /// Moves object `i` to `translation` (its base transform, before motion): it is
+    /// reshaded with the objects its shadow can reach.
     pub fn set_translation(&mut self, i: usize, translation: Vec3) -> Result<()> {
-        let o = self.scene.objects.get_mut(i).context("no such object")?;
+        let o = self.scene.objects.get(i).context("no such object")?;
         if !translation.is_finite() {
             return Err(anyhow!("object {}: translation must be finite", o.name));
         }
-        if o.transform.translation != translation {
-            self.edit_started.get_or_insert_with(Instant::now);
-            o.transform.translation = translation;
-            self.mark_all();
-        }
+        let t = rsl_engine::scene::Transform { translation, ..o.transform };
+        self.move_object(i, t);
         Ok(())
     }
 
     /// Sets object `i`'s rotation about +Y, degrees (replacing its base rotation).
     pub fn set_yaw(&mut self, i: usize, degrees: f32) -> Result<()> {
-        let o = self.scene.objects.get_mut(i).context("no such object")?;
-        let r = yaw_rotation(degrees);
-        if o.transform.rotation != r {
-            self.edit_started.get_or_insert_with(Instant::now);
-            o.transform.rotation = r;
-            self.mark_all();
+        let o = self.scene.objects.get(i).context("no such object")?;
+        if !degrees.is_finite() {
+            return Err(anyhow!("object {}: the turn must be finite", o.name));
         }
+        let t = rsl_engine::scene::Transform { rotation: yaw_rotation(degrees), ..o.transform };
+        self.move_object(i, t);
         Ok(())
     }
 

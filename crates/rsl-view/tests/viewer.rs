@@ -102,6 +102,20 @@ fn moving_an_object_moves_its_shadow() {
     let darker = before.iter().zip(after).filter(|(b, a)| a.length() < 0.7 * b.length()).count();
     let brighter = before.iter().zip(after).filter(|(b, a)| a.length() > b.length() / 0.7).count();
     assert!(darker > 5 && brighter > 5, "the floor's shadow did not move: {darker} darker, {brighter} brighter");
+    // Whatever was left unshaded had not changed: a full reshade agrees, after each of a
+    // few moves and turns.
+    for (k, d) in
+        [Vec3::new(-0.4, 0.0, 0.3), Vec3::new(0.0, 0.5, -0.6), Vec3::new(1.5, 0.0, 1.0)].into_iter().enumerate()
+    {
+        let suzanne = index(h.state(), "suzanne");
+        let p = h.state().scene().objects[suzanne].transform.translation;
+        h.state_mut().set_translation(suzanne, p + d).unwrap();
+        h.state_mut().set_yaw(sphere, 40.0 * k as f32).unwrap();
+        h.step();
+        let v = h.state();
+        let fresh = v.engine().unwrap().shade(v.scene(), 0.0).unwrap();
+        assert_eq!(fresh.radiance, v.radiance(), "move {k}: a partial reshade differs from a full one");
+    }
 }
 
 #[test]
@@ -220,4 +234,58 @@ fn a_saved_scene_renders_the_same_radiance() {
     let frame = engine.shade(&scene, 0.0).unwrap();
     assert_eq!(frame.radiance, h.state().radiance(), "the saved scene shades differently");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Two balls and a third far away, under a constant sky, nothing traced: a ball's shadow
+/// reaches only as far as its occluder field.
+fn far_apart() -> rsl_engine::scene::Scene {
+    let text = r#"
+quality = { preset = "draft", traced_lights = 0 }
+[environment]
+constant = [1.0, 1.0, 1.0]
+rsl_count = 8
+[camera]
+eye = [0.0, 2.0, 30.0]
+target = [0.0, 0.0, 0.0]
+width = 160
+height = 120
+[[objects]]
+name = "a"
+primitive = { kind = "sphere", radius = 0.5, resolution = 12 }
+[[objects]]
+name = "near"
+primitive = { kind = "sphere", radius = 0.5, resolution = 12 }
+translation = [1.2, 0.0, 0.0]
+[[objects]]
+name = "far"
+primitive = { kind = "sphere", radius = 0.5, resolution = 12 }
+translation = [20.0, 0.0, 0.0]
+"#;
+    let dir = std::env::temp_dir();
+    rsl_engine::scene::Scene::from_toml_str(text, &dir.join("far_apart.toml")).unwrap()
+}
+
+#[test]
+fn moving_an_object_reshades_only_what_its_shadow_reaches() {
+    if rsl_gpu::testing::context_or_skip("moving_an_object_reshades_only_what_its_shadow_reaches").is_none() {
+        return;
+    }
+    let options = ViewerOptions { cache_dir: Some(cache()), quality: None };
+    let viewer = Viewer::new(far_apart(), options);
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(900.0, 600.0))
+        .wgpu()
+        .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
+    ready(&mut h);
+    let before = h.state().radiance().to_vec();
+    let c = h.state().counters();
+    h.state_mut().set_translation(0, Vec3::new(0.0, 0.0, 0.3)).unwrap();
+    h.step();
+    let v = h.state();
+    assert_eq!(v.counters().objects_shaded - c.objects_shaded, 2, "a and its neighbour are reshaded, not the far ball");
+    assert_eq!(v.radiance()[2], before[2]);
+    assert_ne!(v.radiance()[1], before[1], "the neighbour's shading did not change");
+    // The reshade agrees with shading everything from scratch.
+    let fresh = v.engine().unwrap().shade(v.scene(), 0.0).unwrap();
+    assert_eq!(fresh.radiance, v.radiance(), "a partial reshade differs from a full one");
 }
