@@ -153,6 +153,33 @@ const BAND: usize = 8;
 /// Rasterises `meshes` seen by `camera`; uncovered pixels get `background(direction)` of
 /// their primary ray (world space).
 pub fn rasterise(camera: &Camera, meshes: &[RasterMesh<'_>], background: impl Fn(Vec3) -> Vec3 + Sync) -> Image {
+    rasterise_filled(camera, meshes, |x, y, _| background(pixel_ray(camera, x, y)))
+}
+
+/// The background of every pixel of `camera`'s image, row-major: `background` of the
+/// pixel's ray (what [`rasterise`] shows where no object covers a pixel).
+pub fn background_image(camera: &Camera, background: impl Fn(Vec3) -> Vec3 + Sync) -> Vec<Vec3> {
+    let w = camera.width as usize;
+    (0..w * camera.height as usize)
+        .into_par_iter()
+        .map(|k| background(pixel_ray(camera, (k % w) as u32, (k / w) as u32)))
+        .collect()
+}
+
+/// [`rasterise`] over a background computed beforehand ([`background_image`] for the same
+/// camera): a front end that redraws with the camera and environment unchanged looks the
+/// environment up once.
+pub fn rasterise_over(camera: &Camera, meshes: &[RasterMesh<'_>], background: &[Vec3]) -> Image {
+    assert_eq!(background.len(), camera.width as usize * camera.height as usize, "background of another size");
+    rasterise_filled(camera, meshes, |_, _, k| background[k])
+}
+
+/// The rasteriser; `fill(x, y, k)` gives the uncovered pixel `(x, y)` (index `k`).
+fn rasterise_filled(
+    camera: &Camera,
+    meshes: &[RasterMesh<'_>],
+    fill: impl Fn(u32, u32, usize) -> Vec3 + Sync,
+) -> Image {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let tris = screen_triangles(camera, meshes);
     let mut pixels = vec![Vec3::ZERO; w * h];
@@ -189,7 +216,7 @@ pub fn rasterise(camera: &Camera, meshes: &[RasterMesh<'_>], background: impl Fn
         for (k, p) in px.iter_mut().enumerate() {
             if !cov[k] {
                 let (x, y) = ((k % w) as u32, (row0 as usize + k / w) as u32);
-                *p = background(pixel_ray(camera, x, y));
+                *p = fill(x, y, row0 as usize * w + k);
             }
         }
     });
@@ -209,6 +236,20 @@ mod tests {
             width: 64,
             height: 48,
         }
+    }
+
+    #[test]
+    fn a_background_computed_beforehand_draws_the_same_image() {
+        let cam = camera();
+        let positions = [Vec3::new(-1.0, -0.5, 0.0), Vec3::new(1.0, -1.0, -0.5), Vec3::new(0.2, 1.0, 0.3)];
+        let radiance = [Vec3::X, Vec3::Y, Vec3::Z];
+        let meshes = [RasterMesh { positions: &positions, indices: &[0, 1, 2], radiance: &radiance }];
+        let sky = |d: Vec3| d.abs() + Vec3::splat(d.y.max(0.0));
+        let direct = rasterise(&cam, &meshes, sky);
+        let over = rasterise_over(&cam, &meshes, &background_image(&cam, sky));
+        assert!(direct.covered.iter().any(|&c| c) && direct.covered.iter().any(|&c| !c));
+        assert_eq!(direct.covered, over.covered);
+        assert_eq!(direct.pixels, over.pixels);
     }
 
     #[test]

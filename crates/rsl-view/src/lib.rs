@@ -19,6 +19,7 @@
 use anyhow::{Context, Result, anyhow};
 use egui::{Color32, ColorImage, TextureHandle, TextureOptions};
 use glam::{Quat, Vec3};
+use rayon::prelude::*;
 use rsl_engine::scene::{Material, Preset, Quality, Scene};
 use rsl_engine::{Engine, EngineOptions, Event, Progress, method::exposure_for};
 use std::collections::VecDeque;
@@ -129,6 +130,7 @@ pub struct Viewer {
     radiance: Vec<Vec<Vec3>>,
     exposure: Option<f32>,
     rgba: Option<ColorImage>,
+    background: Option<Background>,
     texture: Option<TextureHandle>,
     /// Time spent on edits in the current frame (engine syncs).
     pending_sync_ms: f64,
@@ -145,6 +147,22 @@ pub struct Viewer {
 
 /// Frames kept in the timings graph.
 const HISTORY: usize = 120;
+
+/// The environment behind the objects, for one camera and environment orientation.
+struct Background {
+    key: (rsl_engine::scene::Camera, Quat, u64),
+    /// Linear radiance per pixel.
+    pixels: Vec<Vec3>,
+    /// Tonemapped at `exposure`.
+    encoded: Vec<Color32>,
+    exposure: f32,
+}
+
+/// A radiance tonemapped for display (the command line's curve).
+fn colour(c: Vec3, exposure: f32) -> Color32 {
+    let [r, g, b] = rsl_shade::tonemap::encode(c, exposure);
+    Color32::from_rgb(r, g, b)
+}
 
 impl Viewer {
     /// A viewer of the scene file `path`; starts preparing it on a worker thread.
@@ -182,6 +200,7 @@ impl Viewer {
             radiance: vec![Vec::new(); n],
             exposure: None,
             rgba: None,
+            background: None,
             texture: None,
             pending_sync_ms: 0.0,
             edit_started: None,
@@ -480,14 +499,43 @@ impl Viewer {
         self.counters.shaded_frames += 1;
         self.dirty.iter_mut().for_each(|d| *d = false);
         let t1 = Instant::now();
-        let image = rsl_engine::method::rasterise(engine, &self.scene, &state, &self.positions, &self.radiance);
+        // The environment behind the objects is looked up (and tonemapped) again only when
+        // the camera or the environment's orientation changed.
+        let key = (self.scene.camera, state.world_from_env, engine.environment_key());
+        let fresh = self.background.as_ref().is_none_or(|b| b.key != key);
+        if fresh {
+            let pixels = rsl_shade::background_image(&self.scene.camera, |d| engine.background(&state, d));
+            self.background = Some(Background { key, pixels, encoded: Vec::new(), exposure: f32::NAN });
+        }
+        let bg = self.background.as_mut().expect("set above");
+        let meshes: Vec<rsl_shade::RasterMesh<'_>> = self
+            .scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| rsl_shade::RasterMesh {
+                positions: &self.positions[i],
+                indices: &o.mesh.indices,
+                radiance: &self.radiance[i],
+            })
+            .collect();
+        let image = rsl_shade::rasterise_over(&self.scene.camera, &meshes, &bg.pixels);
         self.counters.rasterised += 1;
         let raster_ms = t1.elapsed().as_secs_f64() * 1e3;
         let t2 = Instant::now();
         let exposure = *self.exposure.get_or_insert_with(|| exposure_for(&image));
-        let rgb = rsl_shade::tonemap::encode_all(&image.pixels, exposure);
-        let size = [image.width as usize, image.height as usize];
-        self.rgba = Some(ColorImage::from_rgb(size, &rgb));
+        if bg.exposure != exposure {
+            bg.encoded = bg.pixels.iter().map(|&c| colour(c, exposure)).collect();
+            bg.exposure = exposure;
+        }
+        let pixels: Vec<Color32> = image
+            .pixels
+            .par_iter()
+            .zip(&image.covered)
+            .zip(&bg.encoded)
+            .map(|((&c, &covered), &b)| if covered { colour(c, exposure) } else { b })
+            .collect();
+        self.rgba = Some(ColorImage::new([image.width as usize, image.height as usize], pixels));
         let upload_ms = t2.elapsed().as_secs_f64() * 1e3;
         let cost = FrameCost {
             sync_ms: std::mem::take(&mut self.pending_sync_ms),

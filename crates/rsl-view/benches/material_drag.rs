@@ -1,0 +1,55 @@
+//! The viewer's frame while a material slider is dragged on the default scene: each
+//! iteration sets the bunny's roughness to the next value and redraws (engine sync — one
+//! BRDF table —, the bunny reshaded, the image rasterised and tonemapped). No GPU: this is
+//! the CPU path the viewer uses on a software adapter; the texture upload by egui is not
+//! included.
+//!
+//! `cargo bench -p rsl-view --bench material_drag` (run from anywhere; it uses the disk
+//! cache, `$RSL_CACHE_DIR` or the default folder, and prints the stage breakdown).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use rsl_engine::scene::Material;
+use rsl_view::{Viewer, ViewerOptions};
+use std::path::PathBuf;
+
+fn material_drag(c: &mut Criterion) {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/default.toml");
+    let options = ViewerOptions { cache_dir: rsl_engine::cache::default_dir(), quality: None };
+    let mut viewer = Viewer::open(&scene, options).expect("the default scene opens");
+    viewer.wait_prepared().expect("the default scene prepares");
+    viewer.refresh().unwrap();
+    let bunny = viewer.scene().objects.iter().position(|o| o.name == "bunny").unwrap();
+    let mut k = 0u32;
+    c.bench_function("material drag frame (default scene, bunny)", |b| {
+        b.iter(|| {
+            k += 1;
+            // A new value every frame (a table already built would be found in memory).
+            let alpha = 0.1 + 0.4 * ((f64::from(k) * 0.618_033_988_749_895).fract() as f32);
+            let m = Material::Ggx { alpha, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+            viewer.set_material(bunny, m).unwrap();
+            viewer.refresh().unwrap()
+        })
+    });
+    let costs: Vec<_> = viewer.history().copied().collect();
+    let median = |f: fn(&rsl_view::FrameCost) -> f64| {
+        let mut v: Vec<f64> = costs.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    eprintln!(
+        "median over the last {} frames: total {:.1} ms = sync {:.1} + shade {:.1} + raster {:.1} + tonemap {:.1}",
+        costs.len(),
+        median(|f| f.total_ms),
+        median(|f| f.sync_ms),
+        median(|f| f.shade_ms),
+        median(|f| f.raster_ms),
+        median(|f| f.upload_ms)
+    );
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20);
+    targets = material_drag
+}
+criterion_main!(benches);
