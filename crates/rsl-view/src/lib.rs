@@ -143,10 +143,107 @@ pub struct Viewer {
     image_path: String,
     /// The last thing saved, for the panel.
     notice: Option<String>,
+    /// Whether the progressive truth runs (and the error readout shows).
+    truth_on: bool,
+    /// Whether the view shows the truth instead of the RSL image.
+    show_truth: bool,
+    truth: Option<TruthRun>,
+    /// The RSL image last drawn, linear.
+    linear: Option<rsl_shade::Image>,
+    /// The truth's image, tonemapped, when it is shown.
+    truth_rgba: Option<ColorImage>,
+    /// Whether the texture must be uploaded again.
+    texture_stale: bool,
+    readout: Option<ErrorReadout>,
 }
 
 /// Frames kept in the timings graph.
 const HISTORY: usize = 120;
+
+/// Passes after which the progressive truth stops refining (4,096 spp).
+const MAX_TRUTH_PASSES: u32 = 4096 / TRUTH_PASS_SPP;
+
+/// Samples per pixel of one pass of the progressive truth (at least 2, so that each pass
+/// estimates its own noise).
+pub const TRUTH_PASS_SPP: u32 = 4;
+
+/// The progressive Monte Carlo truth: passes of [`TRUTH_PASS_SPP`] samples per pixel
+/// averaged as they come, on a worker thread, until the scene changes.
+#[derive(Clone, Debug, Default)]
+pub struct TruthImage {
+    /// Passes averaged.
+    pub passes: u32,
+    /// Per pixel: the mean radiance over the passes.
+    pub mean: Vec<Vec3>,
+    /// Per pixel: the standard error of `mean`.
+    pub std_error: Vec<Vec3>,
+    /// Per pixel: whether an object covers it.
+    pub covered: Vec<bool>,
+    /// Why the truth stopped, if it failed.
+    pub error: Option<String>,
+}
+
+impl TruthImage {
+    fn add(&mut self, est: &[rsl_truth::Estimate], covered: Vec<bool>) {
+        let p = self.passes as f32;
+        if self.passes == 0 {
+            self.mean = est.iter().map(|e| e.mean).collect();
+            self.std_error = est.iter().map(|e| e.std_error).collect();
+            self.covered = covered;
+        } else {
+            // Running mean; the standard error of a mean of P independent passes is
+            // √(Σ se²)/P.
+            for ((m, s), e) in self.mean.iter_mut().zip(&mut self.std_error).zip(est) {
+                *m = (*m * p + e.mean) / (p + 1.0);
+                *s = ((*s * p) * (*s * p) + e.std_error * e.std_error).powf(0.5) / (p + 1.0);
+            }
+        }
+        self.passes += 1;
+    }
+
+    /// `‖standard error‖₂ / ‖mean‖₂` over the covered pixels: the truth's own noise.
+    pub fn noise(&self) -> f64 {
+        let (mut se, mut m) = (0.0f64, 0.0f64);
+        for ((s, x), c) in self.std_error.iter().zip(&self.mean).zip(&self.covered) {
+            if *c {
+                se += f64::from(s.length_squared());
+                m += f64::from(x.length_squared());
+            }
+        }
+        if m > 0.0 { (se / m).sqrt() } else { 0.0 }
+    }
+}
+
+/// The worker thread refining a [`TruthImage`].
+struct TruthRun {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    image: Arc<Mutex<TruthImage>>,
+    handle: Option<JoinHandle<()>>,
+    /// Passes already turned into the readout.
+    seen: u32,
+}
+
+impl Drop for TruthRun {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// The RSL image against the progressive truth, over the pixels both cover.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorReadout {
+    /// Relative L2 of the RSL image against the truth's mean.
+    pub relative_l2: f64,
+    /// The truth's own noise (relative L2 of its standard error).
+    pub truth_noise: f64,
+    /// Passes of the truth so far.
+    pub passes: u32,
+    /// Samples per pixel so far.
+    pub spp: u32,
+}
 
 /// The environment behind the objects, for one camera and environment orientation.
 struct Background {
@@ -209,6 +306,13 @@ impl Viewer {
             save_path: format!("{stem}-edited.toml"),
             image_path: format!("{stem}-view.png"),
             notice: None,
+            truth_on: false,
+            show_truth: false,
+            truth: None,
+            linear: None,
+            truth_rgba: None,
+            texture_stale: false,
+            readout: None,
         };
         v.prepare();
         v
@@ -471,6 +575,119 @@ impl Viewer {
         self.mark_all();
     }
 
+    /// Turns the progressive truth (and the error readout against it) on or off.
+    pub fn set_truth(&mut self, on: bool) {
+        self.truth_on = on;
+        if !on {
+            self.truth = None;
+            self.readout = None;
+            self.show_truth = false;
+        }
+    }
+
+    /// Shows the truth's image instead of the RSL image (while the truth runs).
+    pub fn set_show_truth(&mut self, on: bool) {
+        self.show_truth = on && self.truth_on;
+        self.texture_stale = true;
+        if let Some(t) = &mut self.truth {
+            // The next poll redraws the truth's image from what it has.
+            t.seen = 0;
+        }
+    }
+
+    /// The RSL image against the truth so far (`None` before the truth's first pass).
+    pub fn error_readout(&self) -> Option<ErrorReadout> {
+        self.readout
+    }
+
+    /// A copy of the truth so far (`None` when it is off).
+    pub fn truth_image(&self) -> Option<TruthImage> {
+        let t = self.truth.as_ref()?;
+        Some(t.image.lock().map(|i| i.clone()).unwrap_or_else(|e| e.into_inner().clone()))
+    }
+
+    /// Starts the truth over for the scene as it is now.
+    fn restart_truth(&mut self) {
+        self.truth = None;
+        self.readout = None;
+        self.truth_rgba = None;
+        let Some(engine) = &self.engine else { return };
+        let state = self.scene.at(self.time);
+        let env = rsl_engine::method::env_light(engine);
+        let ts = match rsl_engine::Truth::scene(engine, &self.scene, &state, env) {
+            Ok(ts) => ts,
+            Err(e) => {
+                self.error = Some(format!("truth: {e:#}"));
+                return;
+            }
+        };
+        let camera = self.scene.camera;
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let image = Arc::new(Mutex::new(TruthImage::default()));
+        let (stop2, image2) = (stop.clone(), image.clone());
+        let handle = std::thread::Builder::new()
+            .name("rsl-view truth".into())
+            .spawn(move || {
+                let mut pass = 0u64;
+                while !stop2.load(std::sync::atomic::Ordering::Relaxed) && pass < u64::from(MAX_TRUTH_PASSES) {
+                    pass += 1;
+                    match ts.pixels(&camera, TRUTH_PASS_SPP, pass) {
+                        Ok((est, covered, _)) => {
+                            if stop2.load(std::sync::atomic::Ordering::Relaxed) {
+                                break;
+                            }
+                            image2.lock().unwrap_or_else(|e| e.into_inner()).add(&est, covered);
+                        }
+                        Err(e) => {
+                            image2.lock().unwrap_or_else(|e| e.into_inner()).error = Some(e.to_string());
+                            break;
+                        }
+                    }
+                }
+            })
+            .expect("the operating system refused a thread");
+        self.truth = Some(TruthRun { stop, image, handle: Some(handle), seen: 0 });
+    }
+
+    /// Takes in the truth's new passes: the readout, and the view when it shows the truth.
+    fn poll_truth(&mut self, ctx: &egui::Context) {
+        if !self.truth_on || self.engine.is_none() {
+            return;
+        }
+        if self.truth.is_none() {
+            self.restart_truth();
+        }
+        let Some(t) = &mut self.truth else { return };
+        ctx.request_repaint_after(std::time::Duration::from_millis(200));
+        let img = t.image.lock().map(|i| i.clone()).unwrap_or_else(|e| e.into_inner().clone());
+        if let Some(e) = &img.error {
+            self.error = Some(format!("truth: {e}"));
+        }
+        if img.passes == t.seen {
+            return;
+        }
+        t.seen = img.passes;
+        if let Some(rsl) = &self.linear {
+            let mask: Vec<bool> = rsl.covered.iter().zip(&img.covered).map(|(a, b)| *a && *b).collect();
+            if let Ok(m) = rsl_truth::metrics::compare(&rsl.pixels, &img.mean, Some(&mask)) {
+                self.readout = Some(ErrorReadout {
+                    relative_l2: m.relative_l2,
+                    truth_noise: img.noise(),
+                    passes: img.passes,
+                    spp: img.passes * TRUTH_PASS_SPP,
+                });
+            }
+        }
+        if self.show_truth
+            && let Some(rsl) = &self.linear
+        {
+            let exposure = self.exposure.unwrap_or(1.0);
+            let pixels = img.mean.par_iter().map(|&c| colour(c, exposure)).collect();
+            self.truth_rgba = Some(ColorImage::new([rsl.width as usize, rsl.height as usize], pixels));
+            self.texture_stale = true;
+        }
+    }
+
     /// Shades what changed and rasterises a new image; `false` when nothing changed (no
     /// shading, no rasterising).
     pub fn refresh(&mut self) -> Result<bool> {
@@ -536,7 +753,13 @@ impl Viewer {
             .map(|((&c, &covered), &b)| if covered { colour(c, exposure) } else { b })
             .collect();
         self.rgba = Some(ColorImage::new([image.width as usize, image.height as usize], pixels));
+        self.linear = Some(image);
+        self.texture_stale = true;
         let upload_ms = t2.elapsed().as_secs_f64() * 1e3;
+        if self.truth_on {
+            // The scene changed: the truth starts over.
+            self.restart_truth();
+        }
         let cost = FrameCost {
             sync_ms: std::mem::take(&mut self.pending_sync_ms),
             shade_ms,
@@ -611,6 +834,30 @@ impl Viewer {
         let mut deg = self.env_degrees;
         ui.add(egui::Slider::new(&mut deg, -180.0..=180.0).text("environment °"));
         self.set_environment_degrees(deg);
+        let mut truth = self.truth_on;
+        ui.checkbox(&mut truth, "progressive truth (error readout)");
+        if truth != self.truth_on {
+            self.set_truth(truth);
+        }
+        if self.truth_on {
+            let mut show = self.show_truth;
+            ui.horizontal(|ui| {
+                ui.radio_value(&mut show, false, "show RSL");
+                ui.radio_value(&mut show, true, "show truth");
+            });
+            if show != self.show_truth {
+                self.set_show_truth(show);
+            }
+            match self.readout {
+                Some(r) => ui.label(format!(
+                    "RSL vs truth: {:.2} % per covered pixel (truth noise {:.2} %, {} spp)",
+                    100.0 * r.relative_l2,
+                    100.0 * r.truth_noise,
+                    r.spp
+                )),
+                None => ui.label("truth: first pass…"),
+            };
+        }
         ui.horizontal(|ui| {
             let label = if self.playing { "pause" } else { "play" };
             if ui.button(label).clicked() {
@@ -714,11 +961,16 @@ impl Viewer {
     fn view(&mut self, ui: &mut egui::Ui) {
         let r = self.refresh().map(|_| ());
         self.report(r);
-        if let Some(img) = &self.rgba {
+        self.poll_truth(ui.ctx());
+        let shown = if self.show_truth && self.truth_rgba.is_some() { &self.truth_rgba } else { &self.rgba };
+        if self.texture_stale
+            && let Some(img) = shown
+        {
             match &mut self.texture {
                 Some(t) if t.size() == img.size => t.set(img.clone(), TextureOptions::LINEAR),
                 _ => self.texture = Some(ui.ctx().load_texture("rsl-view", img.clone(), TextureOptions::LINEAR)),
             }
+            self.texture_stale = false;
         }
         let Some(tex) = &self.texture else {
             ui.centered_and_justified(|ui| ui.label("preparing the scene…"));

@@ -289,3 +289,51 @@ fn moving_an_object_reshades_only_what_its_shadow_reaches() {
     let fresh = v.engine().unwrap().shade(v.scene(), 0.0).unwrap();
     assert_eq!(fresh.radiance, v.radiance(), "a partial reshade differs from a full one");
 }
+
+/// Steps the UI until `done` or 60 s pass.
+fn step_until(h: &mut Harness<'static, Viewer>, done: impl Fn(&Viewer) -> bool) {
+    let start = std::time::Instant::now();
+    while !done(h.state()) {
+        assert!(start.elapsed().as_secs() < 60, "timed out");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        h.step();
+    }
+}
+
+#[test]
+fn the_progressive_truth_reads_out_the_error_and_restarts_on_edits() {
+    if rsl_gpu::testing::context_or_skip("the_progressive_truth_reads_out_the_error_and_restarts_on_edits").is_none() {
+        return;
+    }
+    let options = ViewerOptions { cache_dir: Some(cache()), quality: None };
+    let viewer = Viewer::new(far_apart(), options);
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(900.0, 600.0))
+        .wgpu()
+        .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
+    ready(&mut h);
+    h.state_mut().set_truth(true);
+    step_until(&mut h, |v| v.error_readout().is_some_and(|r| r.passes >= 3));
+    let r = h.state().error_readout().unwrap();
+    let truth = h.state().truth_image().unwrap();
+    eprintln!("readout: {r:?}");
+    assert!(r.truth_noise > 0.0 && r.truth_noise < 0.2, "{r:?}");
+    // Lambertian balls under a constant sky: the RSL image is close (per pixel the
+    // interpolation across triangles and the truth's noise at a few spp remain).
+    assert!(r.relative_l2.is_finite() && r.relative_l2 < 0.25, "{r:?}");
+    assert!(truth.passes >= r.passes);
+    assert!(truth.covered.iter().any(|&c| c), "the truth covers nothing");
+    // Showing the truth shows another image than the RSL one.
+    let rsl_image = pixels(h.state());
+    h.state_mut().set_show_truth(true);
+    h.step();
+    let shown = h.render().unwrap();
+    assert_eq!((shown.width(), shown.height()), (900, 600));
+    assert_eq!(pixels(h.state()), rsl_image, "image() is the RSL image whatever is shown");
+    // An edit starts the truth over.
+    h.state_mut().set_translation(0, Vec3::new(0.0, 0.2, 0.0)).unwrap();
+    h.step();
+    assert!(h.state().error_readout().is_none_or(|r2| r2.passes < r.passes), "the truth did not start over");
+    h.state_mut().set_truth(false);
+    assert!(h.state().truth_image().is_none());
+}
