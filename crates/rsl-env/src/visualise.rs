@@ -2,7 +2,7 @@
 //! region borders and the fitted squares on top, and below it the map the RSLs alone
 //! reproduce.
 
-use crate::decompose::{Decomposition, RslInfo};
+use crate::decompose::{Decomposition, Rsl, RslInfo};
 use glam::{Vec2, Vec3};
 use rsl_sphere::frame::Frame;
 use rsl_sphere::hemi::dir_from_hemi;
@@ -89,8 +89,19 @@ pub fn render_figure(map: &LatLongMap, d: &Decomposition, n: usize) -> Result<(u
         }
     }
     // Outlines of the squares on the top half.
-    for (f, x) in &frames {
-        let s = x.rsl.half_diagonal / std::f32::consts::SQRT_2;
+    let lights: Vec<Rsl> = rsls.iter().map(|x| x.rsl).collect();
+    outline_squares(&mut top, w, h, &lights, SQUARE);
+    top.extend_from_slice(&bottom);
+    Ok((w as u32, 2 * h as u32, top))
+}
+
+/// Draws the outline of each light's square (rotation 0 of its frame) onto `rgb`, a
+/// `w × h` RGB8 lat-long image of the environment (in the lights' space).
+pub fn outline_squares(rgb: &mut [u8], w: usize, h: usize, lights: &[Rsl], colour: [u8; 3]) {
+    assert_eq!(rgb.len(), 3 * w * h, "image of another size");
+    for x in lights {
+        let f = Frame::from_normal(x.centre);
+        let s = x.half_diagonal / std::f32::consts::SQRT_2;
         let steps = 256;
         for e in 0..4 {
             for k in 0..steps {
@@ -104,10 +115,51 @@ pub fn render_figure(map: &LatLongMap, d: &Decomposition, n: usize) -> Result<(u
                 let uv = uv_from_dir(f.to_world(dir_from_hemi(p)));
                 let (pi, pj) = (((uv.x * w as f32) as usize).min(w - 1), ((uv.y * h as f32) as usize).min(h - 1));
                 let k = 3 * (pj * w + pi);
-                top[k..k + 3].copy_from_slice(&SQUARE);
+                rgb[k..k + 3].copy_from_slice(&colour);
             }
         }
     }
-    top.extend_from_slice(&bottom);
-    Ok((w as u32, 2 * h as u32, top))
+}
+
+/// The map tonemapped at `w × h` (nearest texel, [`auto_exposure`]), RGB8 lat-long.
+pub fn thumbnail(map: &LatLongMap, w: usize, h: usize) -> Vec<u8> {
+    let exposure = auto_exposure(map);
+    let mut out = Vec::with_capacity(3 * w * h);
+    for j in 0..h {
+        for i in 0..w {
+            let (u, v) = ((i * map.width()) / w, (j * map.height()) / h);
+            out.extend_from_slice(&tonemap(map.texel(u, v), exposure));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_square_outline_lies_around_its_centre() {
+        let (w, h) = (512, 256);
+        let centre = Vec3::new(0.3, 0.5, -0.8).normalize();
+        let light = Rsl { centre, half_diagonal: 0.3, intensity: Vec3::ONE };
+        let mut rgb = vec![0u8; 3 * w * h];
+        outline_squares(&mut rgb, w, h, &[light], [255, 0, 0]);
+        let pixel_dir =
+            |i: usize, j: usize| dir_from_uv(Vec2::new((i as f32 + 0.5) / w as f32, (j as f32 + 0.5) / h as f32));
+        let mut drawn = 0;
+        for j in 0..h {
+            for i in 0..w {
+                if rgb[3 * (j * w + i)] == 255 {
+                    drawn += 1;
+                    // The square's edge lies between its inscribed circle (ρ = r/√2) and
+                    // its corners (ρ = r) in the equal-area plane, where ρ = √2·sin(θ/2):
+                    // θ from 0.300 to 0.427 rad; one pixel is 0.012 rad.
+                    let angle = pixel_dir(i, j).dot(centre).clamp(-1.0, 1.0).acos();
+                    assert!((0.285..0.44).contains(&angle), "pixel ({i}, {j}) at {angle} rad from the centre");
+                }
+            }
+        }
+        assert!(drawn > 50, "{drawn} pixels drawn");
+    }
 }

@@ -154,6 +154,8 @@ pub struct Viewer {
     truth_rgba: Option<ColorImage>,
     /// Whether the texture must be uploaded again.
     texture_stale: bool,
+    /// The environment thumbnail with its RSLs, for (environment key, RSL count).
+    thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,
 }
 
@@ -312,6 +314,7 @@ impl Viewer {
             linear: None,
             truth_rgba: None,
             texture_stale: false,
+            thumbnail: None,
             readout: None,
         };
         v.prepare();
@@ -834,6 +837,7 @@ impl Viewer {
         let mut deg = self.env_degrees;
         ui.add(egui::Slider::new(&mut deg, -180.0..=180.0).text("environment °"));
         self.set_environment_degrees(deg);
+        self.environment_thumbnail(ui);
         let mut truth = self.truth_on;
         ui.checkbox(&mut truth, "progressive truth (error readout)");
         if truth != self.truth_on {
@@ -895,6 +899,32 @@ impl Viewer {
             ui.selectable_value(&mut self.selected, i, o.name.as_str());
         }
         self.object_controls(ui);
+    }
+
+    /// The environment (in its own orientation) with the RSLs in use outlined, like Xu et
+    /// al.'s figure 6; redrawn when the RSL count changes.
+    fn environment_thumbnail(&mut self, ui: &mut egui::Ui) {
+        let Some(engine) = &self.engine else { return };
+        let (w, h) = (256usize, 128usize);
+        let key = (engine.environment_key(), engine.rsl_count());
+        if self.thumbnail.as_ref().is_none_or(|t| t.0 != key) {
+            let mut rgb = match engine.environment() {
+                rsl_engine::engine::EnvRadiance::Map(m) => rsl_engine::env::visualise::thumbnail(m, w, h),
+                rsl_engine::engine::EnvRadiance::Constant(c) => {
+                    let px = rsl_engine::env::visualise::tonemap(*c, 0.18 / c.max_element().max(1e-6));
+                    px.repeat(w * h)
+                }
+            };
+            rsl_engine::env::visualise::outline_squares(&mut rgb, w, h, engine.rsls(), [255, 40, 40]);
+            let img = ColorImage::from_rgb([w, h], &rgb);
+            let tex = ui.ctx().load_texture("rsl-view-environment", img, TextureOptions::LINEAR);
+            self.thumbnail = Some((key, tex));
+        }
+        if let Some((_, tex)) = &self.thumbnail {
+            ui.add(
+                egui::Image::new((tex.id(), egui::vec2(w as f32, h as f32))).alt_text("the RSLs over the environment"),
+            );
+        }
     }
 
     fn object_controls(&mut self, ui: &mut egui::Ui) {

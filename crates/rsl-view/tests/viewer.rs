@@ -203,6 +203,8 @@ fn clicking_an_object_in_the_list_selects_it() {
     h.step();
     // The object panel names the selection.
     assert!(h.query_by_label("suzanne: position").is_some(), "the object panel does not show suzanne");
+    assert!(h.query_by_label("the RSLs over the environment").is_some(), "no environment thumbnail");
+    assert!(h.query_by_label_contains("last reshade").is_some(), "no timings panel");
     let img = h.render().expect("the UI renders");
     assert_eq!((img.width(), img.height()), (1200, 760));
 }
