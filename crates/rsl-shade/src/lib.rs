@@ -8,7 +8,7 @@ pub mod shade;
 pub mod tonemap;
 
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
-pub use raster::{Image, RasterMesh, background_image, rasterise, rasterise_over};
+pub use raster::{Image, RasterMesh, background_image, rasterise, rasterise_changed, rasterise_over};
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, Traced, TracedCovers, VertexFrames, shade,
     shade_objects, shade_reference,

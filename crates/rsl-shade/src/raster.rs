@@ -181,46 +181,104 @@ fn rasterise_filled(
     fill: impl Fn(u32, u32, usize) -> Vec3 + Sync,
 ) -> Image {
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let tris = screen_triangles(camera, meshes);
-    let mut pixels = vec![Vec3::ZERO; w * h];
-    let mut covered = vec![false; w * h];
-    pixels.par_chunks_mut(w * BAND).zip(covered.par_chunks_mut(w * BAND)).enumerate().for_each(|(band, (px, cov))| {
-        let (row0, rows) = ((band * BAND) as i32, (px.len() / w) as i32);
-        let mut depth = vec![f32::INFINITY; px.len()];
-        for t in tris.iter().filter(|t| t.y1 >= row0 && t.y0 < row0 + rows) {
-            let [a, b, c] = t.xy;
-            let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-            if area == 0.0 || !area.is_finite() {
-                continue;
+    let mut image = Image {
+        width: camera.width,
+        height: camera.height,
+        pixels: vec![Vec3::ZERO; w * h],
+        covered: vec![false; w * h],
+    };
+    let whole = [0, 0, w as i32 - 1, h as i32 - 1];
+    rasterise_region(camera, &screen_triangles(camera, meshes), fill, whole, &mut image);
+    image
+}
+
+/// Redraws the pixels inside `region` (`[x0, y0, x1, y1]`, inclusive) of `image` from the
+/// triangles `tris`; the pixels outside are left as they are.
+fn rasterise_region(
+    camera: &Camera,
+    tris: &[ScreenTri],
+    fill: impl Fn(u32, u32, usize) -> Vec3 + Sync,
+    region: [i32; 4],
+    image: &mut Image,
+) {
+    let w = camera.width as usize;
+    let [rx0, ry0, rx1, ry1] = region;
+    image.pixels.par_chunks_mut(w * BAND).zip(image.covered.par_chunks_mut(w * BAND)).enumerate().for_each(
+        |(band, (px, cov))| {
+            let (row0, rows) = ((band * BAND) as i32, (px.len() / w) as i32);
+            let (y_lo, y_hi) = (row0.max(ry0), (row0 + rows - 1).min(ry1));
+            if y_lo > y_hi {
+                return;
             }
-            for y in t.y0.max(row0)..=t.y1.min(row0 + rows - 1) {
-                let py = y as f32 + 0.5;
-                for x in t.x0..=t.x1 {
-                    let pxc = x as f32 + 0.5;
-                    let e = |p: [f32; 2], q: [f32; 2]| (q[0] - p[0]) * (py - p[1]) - (q[1] - p[1]) * (pxc - p[0]);
-                    let (w0, w1, w2) = (e(b, c) / area, e(c, a) / area, e(a, b) / area);
-                    if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
-                        continue;
-                    }
-                    let inv_w = w0 * t.inv_w[0] + w1 * t.inv_w[1] + w2 * t.inv_w[2];
-                    let d = 1.0 / inv_w;
-                    let k = (y - row0) as usize * w + x as usize;
-                    if d < depth[k] {
-                        depth[k] = d;
-                        px[k] = (t.c_w[0] * w0 + t.c_w[1] * w1 + t.c_w[2] * w2) * d;
-                        cov[k] = true;
+            let inside = |k: usize| {
+                let x = (k % w) as i32;
+                x >= rx0 && x <= rx1 && (row0 + (k / w) as i32) >= y_lo && (row0 + (k / w) as i32) <= y_hi
+            };
+            let mut depth = vec![f32::INFINITY; px.len()];
+            for (k, c) in cov.iter_mut().enumerate() {
+                if inside(k) {
+                    *c = false;
+                }
+            }
+            for t in tris.iter().filter(|t| t.y1 >= y_lo && t.y0 <= y_hi && t.x1 >= rx0 && t.x0 <= rx1) {
+                let [a, b, c] = t.xy;
+                let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+                if area == 0.0 || !area.is_finite() {
+                    continue;
+                }
+                for y in t.y0.max(y_lo)..=t.y1.min(y_hi) {
+                    let py = y as f32 + 0.5;
+                    for x in t.x0.max(rx0)..=t.x1.min(rx1) {
+                        let pxc = x as f32 + 0.5;
+                        let e = |p: [f32; 2], q: [f32; 2]| (q[0] - p[0]) * (py - p[1]) - (q[1] - p[1]) * (pxc - p[0]);
+                        let (w0, w1, w2) = (e(b, c) / area, e(c, a) / area, e(a, b) / area);
+                        if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                            continue;
+                        }
+                        let inv_w = w0 * t.inv_w[0] + w1 * t.inv_w[1] + w2 * t.inv_w[2];
+                        let d = 1.0 / inv_w;
+                        let k = (y - row0) as usize * w + x as usize;
+                        if d < depth[k] {
+                            depth[k] = d;
+                            px[k] = (t.c_w[0] * w0 + t.c_w[1] * w1 + t.c_w[2] * w2) * d;
+                            cov[k] = true;
+                        }
                     }
                 }
             }
-        }
-        for (k, p) in px.iter_mut().enumerate() {
-            if !cov[k] {
-                let (x, y) = ((k % w) as u32, (row0 as usize + k / w) as u32);
-                *p = fill(x, y, row0 as usize * w + k);
+            for (k, p) in px.iter_mut().enumerate() {
+                if !cov[k] && inside(k) {
+                    let (x, y) = ((k % w) as u32, (row0 as usize + k / w) as u32);
+                    *p = fill(x, y, row0 as usize * w + k);
+                }
             }
-        }
+        },
+    );
+}
+
+/// Redraws in `image` (drawn by [`rasterise_over`] with the same camera and background)
+/// the pixels that the meshes `changed` flags cover: their radiance changed, their place
+/// did not (a material edit). Only the screen box of those meshes is rasterised again,
+/// with every mesh's triangles; the rest of the image is left as it is.
+pub fn rasterise_changed(
+    camera: &Camera,
+    meshes: &[RasterMesh<'_>],
+    changed: &[bool],
+    background: &[Vec3],
+    image: &mut Image,
+) {
+    assert_eq!(background.len(), camera.width as usize * camera.height as usize, "background of another size");
+    assert_eq!((image.width, image.height), (camera.width, camera.height), "image of another size");
+    let flagged: Vec<RasterMesh<'_>> = meshes.iter().zip(changed).filter(|(_, c)| **c).map(|(m, _)| *m).collect();
+    let boxes = screen_triangles(camera, &flagged);
+    if boxes.is_empty() {
+        return;
+    }
+    let region = boxes.iter().fold([i32::MAX, i32::MAX, i32::MIN, i32::MIN], |r, t| {
+        [r[0].min(t.x0), r[1].min(t.y0), r[2].max(t.x1), r[3].max(t.y1)]
     });
-    Image { width: camera.width, height: camera.height, pixels, covered }
+    let tris = screen_triangles(camera, meshes);
+    rasterise_region(camera, &tris, |_, _, k| background[k], region, image);
 }
 
 #[cfg(test)]
@@ -250,6 +308,35 @@ mod tests {
         assert!(direct.covered.iter().any(|&c| c) && direct.covered.iter().any(|&c| !c));
         assert_eq!(direct.covered, over.covered);
         assert_eq!(direct.pixels, over.pixels);
+    }
+
+    #[test]
+    fn redrawing_a_changed_mesh_draws_what_a_full_redraw_does() {
+        let cam = camera();
+        let sky = |d: Vec3| d.abs();
+        let bg = background_image(&cam, sky);
+        // Two overlapping triangles at different depths; the nearer one changes colour.
+        let far = [Vec3::new(-1.0, -1.0, -0.5), Vec3::new(1.0, -0.8, -0.5), Vec3::new(0.0, 1.0, -0.5)];
+        let near = [Vec3::new(-0.2, -0.3, 0.5), Vec3::new(0.6, -0.2, 0.5), Vec3::new(0.1, 0.4, 0.5)];
+        let (red, blue) = ([Vec3::X; 3], [Vec3::Z; 3]);
+        let green = [Vec3::Y; 3];
+        fn draw<'a>(
+            far: &'a [Vec3],
+            near: &'a [Vec3],
+            red: &'a [Vec3],
+            near_colour: &'a [Vec3],
+        ) -> [RasterMesh<'a>; 2] {
+            [
+                RasterMesh { positions: far, indices: &[0, 1, 2], radiance: red },
+                RasterMesh { positions: near, indices: &[0, 1, 2], radiance: near_colour },
+            ]
+        }
+        let mut image = rasterise_over(&cam, &draw(&far, &near, &red, &blue), &bg);
+        rasterise_changed(&cam, &draw(&far, &near, &red, &green), &[false, true], &bg, &mut image);
+        let full = rasterise_over(&cam, &draw(&far, &near, &red, &green), &bg);
+        assert_eq!(image.covered, full.covered);
+        assert_eq!(image.pixels, full.pixels);
+        assert!(full.pixels.contains(&Vec3::Y), "the near triangle is not drawn");
     }
 
     #[test]

@@ -154,6 +154,9 @@ pub struct Viewer {
     truth_rgba: Option<ColorImage>,
     /// Whether the texture must be uploaded again.
     texture_stale: bool,
+    /// Whether anything moved (objects, camera, environment, time, lights) since the last
+    /// image: if not, only the changed objects' pixels are redrawn.
+    moved: bool,
     /// The environment thumbnail with its RSLs, for (environment key, RSL count).
     thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,
@@ -314,6 +317,7 @@ impl Viewer {
             linear: None,
             truth_rgba: None,
             texture_stale: false,
+            moved: true,
             thumbnail: None,
             readout: None,
         };
@@ -418,6 +422,11 @@ impl Viewer {
         self.rgba.as_ref()
     }
 
+    /// The RSL image last drawn, linear radiance (`None` before the first frame).
+    pub fn linear_image(&self) -> Option<&rsl_shade::Image> {
+        self.linear.as_ref()
+    }
+
     /// Per object, per vertex: the radiance last shaded.
     pub fn radiance(&self) -> &[Vec<Vec3>] {
         &self.radiance
@@ -435,6 +444,7 @@ impl Viewer {
 
     fn mark_all(&mut self) {
         self.dirty.iter_mut().for_each(|d| *d = true);
+        self.moved = true;
     }
 
     /// Sets object `i`'s material: one BRDF table is built (milliseconds) and that object
@@ -477,6 +487,7 @@ impl Viewer {
                 for (i, d) in self.dirty.iter_mut().enumerate() {
                     *d |= i == j || b[i] || a[i];
                 }
+                self.moved = true;
             }
             _ => self.mark_all(),
         }
@@ -700,6 +711,10 @@ impl Viewer {
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
         let all = self.dirty.iter().all(|&d| d);
+        // Only radiance changed (material edits): the image is redrawn where those objects
+        // are, over the last one.
+        let changed = self.dirty.clone();
+        let partial = !std::mem::take(&mut self.moved) && self.linear.is_some();
         let t0 = Instant::now();
         let frame = if all {
             engine.shade(&self.scene, self.time)?
@@ -739,7 +754,14 @@ impl Viewer {
                 radiance: &self.radiance[i],
             })
             .collect();
-        let image = rsl_shade::rasterise_over(&self.scene.camera, &meshes, &bg.pixels);
+        let previous = if partial && !fresh { self.linear.take() } else { None };
+        let image = match previous.clone() {
+            Some(mut image) => {
+                rsl_shade::rasterise_changed(&self.scene.camera, &meshes, &changed, &bg.pixels, &mut image);
+                image
+            }
+            None => rsl_shade::rasterise_over(&self.scene.camera, &meshes, &bg.pixels),
+        };
         self.counters.rasterised += 1;
         let raster_ms = t1.elapsed().as_secs_f64() * 1e3;
         let t2 = Instant::now();
@@ -748,13 +770,23 @@ impl Viewer {
             bg.encoded = bg.pixels.iter().map(|&c| colour(c, exposure)).collect();
             bg.exposure = exposure;
         }
-        let pixels: Vec<Color32> = image
-            .pixels
-            .par_iter()
-            .zip(&image.covered)
-            .zip(&bg.encoded)
-            .map(|((&c, &covered), &b)| if covered { colour(c, exposure) } else { b })
-            .collect();
+        let pixels: Vec<Color32> = match (&previous, &self.rgba) {
+            // Pixels whose radiance did not change keep their colour.
+            (Some(prev), Some(rgba)) if rgba.pixels.len() == image.pixels.len() => image
+                .pixels
+                .par_iter()
+                .zip(&prev.pixels)
+                .zip(&rgba.pixels)
+                .map(|((&c, &p), &old)| if c == p { old } else { colour(c, exposure) })
+                .collect(),
+            _ => image
+                .pixels
+                .par_iter()
+                .zip(&image.covered)
+                .zip(&bg.encoded)
+                .map(|((&c, &covered), &b)| if covered { colour(c, exposure) } else { b })
+                .collect(),
+        };
         self.rgba = Some(ColorImage::new([image.width as usize, image.height as usize], pixels));
         self.linear = Some(image);
         self.texture_stale = true;

@@ -80,6 +80,11 @@ fn a_material_edit_reshades_that_object_alone() {
     assert_eq!(v.engine().unwrap().cache_stats().misses - misses, 1, "one BRDF table is built");
     let n = changed(&image, &pixels(v));
     assert!(n > 1000, "only {n} pixels changed");
+    // The image redrawn where the bunny is equals one drawn whole.
+    let engine = v.engine().unwrap();
+    let fresh = engine.shade(v.scene(), 0.0).unwrap();
+    let whole = rsl_engine::method::rasterise(engine, v.scene(), &fresh.state, &fresh.positions, &fresh.radiance);
+    assert_eq!(v.linear_image(), Some(&whole), "the partial redraw differs from a whole one");
     let cost = v.history().last().unwrap();
     eprintln!(
         "material edit: {:.1} ms (sync {:.1}, shade {:.1}, raster {:.1}, upload {:.1}); {n} pixels changed",
