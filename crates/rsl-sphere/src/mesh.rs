@@ -22,6 +22,17 @@ pub struct TriMesh {
 /// areas overflow on their way to `f32::MAX` (a BVH over a mesh 10²⁰ across panicked).
 pub const MAX_COORDINATE: f32 = 1e9;
 
+/// A triangle's identity as a shape: its three corners' bit patterns, sorted, so that the
+/// same corners in any order give the same key. Ray tracers keep one triangle per key:
+/// coincident copies block the same rays, and a BVH cannot split them apart (10⁵ copies of
+/// one triangle made every ray test all of them).
+pub fn triangle_key(a: glam::Vec3, b: glam::Vec3, c: glam::Vec3) -> [u32; 9] {
+    let mut v = [a, b, c].map(|p| p.to_array().map(f32::to_bits));
+    v.sort_unstable();
+    let [x, y, z] = v;
+    [x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]]
+}
+
 /// What is wrong with a mesh.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum MeshError {

@@ -233,9 +233,17 @@ impl TruthScene {
                 return Err(TruthError::TooLarge { object: i, extent, limit });
             }
             frames.push((0..o.mesh.vertex_count()).map(|v| pose.frame(o.frames.shading(v))).collect());
+            // Coincident copies of a triangle within an object: one is kept (a BVH cannot
+            // split them, and every ray would test them all); the first copy is the face hit.
+            let mut seen = std::collections::HashSet::new();
             for (t, tri) in o.mesh.indices.chunks_exact(3).enumerate() {
                 let [a, b, c] = [0, 1, 2].map(|k| p[tri[k] as usize]);
-                if (b - a).cross(c - a).length_squared() > 0.0 && a.is_finite() && b.is_finite() && c.is_finite() {
+                if (b - a).cross(c - a).length_squared() > 0.0
+                    && a.is_finite()
+                    && b.is_finite()
+                    && c.is_finite()
+                    && seen.insert(rsl_sphere::mesh::triangle_key(a, b, c))
+                {
                     tris.push(Triangle { v0: a.into(), v1: b.into(), v2: c.into() });
                     owners.push((i as u32, t as u32));
                 }

@@ -35,11 +35,17 @@ pub struct Occluder {
     tris: Vec<Triangle>,
     /// Zero-area triangles left out (they cannot block a ray).
     pub degenerate: usize,
+    /// Copies of a triangle already in the BVH, left out (they block the same rays).
+    pub coincident: usize,
 }
 
 impl std::fmt::Debug for Occluder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Occluder").field("triangles", &self.tris.len()).field("degenerate", &self.degenerate).finish()
+        f.debug_struct("Occluder")
+            .field("triangles", &self.tris.len())
+            .field("degenerate", &self.degenerate)
+            .field("coincident", &self.coincident)
+            .finish()
     }
 }
 
@@ -64,11 +70,16 @@ impl Occluder {
             return Err(VisError::Mesh(format!("index {bad} out of range ({} vertices)", mesh.positions.len())));
         }
         let mut tris = Vec::with_capacity(mesh.triangle_count());
-        let mut degenerate = 0;
+        let (mut degenerate, mut coincident) = (0, 0);
+        let mut seen = std::collections::HashSet::with_capacity(mesh.triangle_count());
         for t in mesh.indices.chunks_exact(3) {
             let [a, b, c] = [0, 1, 2].map(|k| mesh.positions[t[k] as usize]);
             if (b - a).cross(c - a).length_squared() <= 0.0 {
                 degenerate += 1;
+                continue;
+            }
+            if !seen.insert(rsl_sphere::mesh::triangle_key(a, b, c)) {
+                coincident += 1;
                 continue;
             }
             tris.push(Triangle { v0: a.into(), v1: b.into(), v2: c.into() });
@@ -77,7 +88,7 @@ impl Occluder {
             return Err(VisError::AllDegenerate(degenerate));
         }
         let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        Ok(Self { bvh, tris, degenerate })
+        Ok(Self { bvh, tris, degenerate, coincident })
     }
 
     /// Bytes held (triangles and BVH nodes).

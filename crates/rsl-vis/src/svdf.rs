@@ -119,7 +119,7 @@ impl Svdf {
     }
 
     /// [`Svdf::build`], calling `progress(done, total)` as vertices are traced (every 256
-    /// vertices, in any order).
+    /// vertices at 16×16 tables, more often for finer ones; in any order).
     pub fn build_with_progress(
         mesh: &TriMesh,
         params: &SvdfParams,
@@ -136,23 +136,32 @@ impl Svdf {
         let (offset, tmax) = (1e-4 * radius.max(1e-6), 4.0 * radius.max(1e-6));
         let n = params.n;
         let traced = std::sync::atomic::AtomicUsize::new(0);
-        let maps: Vec<(Vec<f32>, bool)> = (0..nv)
-            .into_par_iter()
-            .map(|v| {
+        // A report every 65,536 rays' worth of vertices (every 256 vertices at 16×16
+        // tables, every vertex at 256×256), so that fine tables show progress within
+        // seconds too.
+        let rays = (n * n * params.supersample * params.supersample).max(1);
+        let every = (65_536 / rays).clamp(1, 256);
+        // The tables are written in place: the build holds them once (the size the engine
+        // checks before building), not once per vertex and again flattened.
+        let mut raw = vec![0.0f32; nv * n * n];
+        let visible: Vec<bool> = raw
+            .par_chunks_mut(n * n)
+            .enumerate()
+            .map(|(v, out)| {
                 let done = traced.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                if done.is_multiple_of(256) || done == nv {
+                if done.is_multiple_of(every) || done == nv {
                     progress(done, nv);
                 }
                 let frame = Frame::from_normal(mesh.normals[v]);
                 let map =
                     VisibilityMap::trace(&occluder, mesh.positions[v], &frame, offset, tmax, n, params.supersample);
-                (map.vdt().values().to_vec(), map.fully_visible())
+                out.copy_from_slice(map.vdt().values());
+                map.fully_visible()
             })
             .collect();
-        if maps.iter().all(|m| m.1) {
+        if visible.iter().all(|&v| v) {
             return Ok(Svdf::Convex { vertices: nv });
         }
-        let raw: Vec<f32> = maps.into_iter().flat_map(|m| m.0).collect();
         let cpca = Cpca::fit(&raw, n * n, params.clusters, params.vectors, params.iterations, 1);
         let report = report(&raw, n, &cpca);
         // Half-precision coefficients where the error allows: within 1% of f32's.

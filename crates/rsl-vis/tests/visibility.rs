@@ -171,3 +171,43 @@ fn bad_geometry_is_a_clear_error() {
     assert_eq!(occ.degenerate, zero_area);
     assert_eq!(occ.triangles(), m.triangle_count() - zero_area);
 }
+
+#[test]
+fn coincident_triangles_are_traced_once_and_block_the_same_rays() {
+    // 10,000 copies of one triangle (each with its own corners, in rotated orders) and one
+    // other triangle: the BVH keeps two, and every ray sees what the two alone would show.
+    let tri = [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 0.0, 1.0)];
+    let other = [Vec3::new(-1.0, 1.0, -1.0), Vec3::new(1.0, 1.0, -1.0), Vec3::new(0.0, 1.2, 0.5)];
+    let mut many = TriMesh::default();
+    for k in 0..10_000 {
+        for j in 0..3 {
+            many.positions.push(tri[(j + k) % 3]);
+            many.normals.push(Vec3::Y);
+            many.indices.push(many.positions.len() as u32 - 1);
+        }
+    }
+    let mut two = TriMesh::default();
+    for p in tri.iter().chain(&other) {
+        two.positions.push(*p);
+        two.normals.push(Vec3::Y);
+        two.indices.push(two.positions.len() as u32 - 1);
+    }
+    for p in other {
+        many.positions.push(p);
+        many.normals.push(Vec3::Y);
+        many.indices.push(many.positions.len() as u32 - 1);
+    }
+    let (a, b) = (Occluder::new(&many).unwrap(), Occluder::new(&two).unwrap());
+    assert_eq!((a.triangles(), a.coincident), (2, 9_999));
+    assert_eq!((b.triangles(), b.coincident), (2, 0));
+    let mut rng = Pcg32::new(7);
+    let mut blocked = 0;
+    for _ in 0..20_000 {
+        let o = Vec3::new(rng.next_f32() * 4.0 - 2.0, -1.0, rng.next_f32() * 4.0 - 2.0);
+        let d = Vec3::new(rng.next_f32() - 0.5, 1.0, rng.next_f32() - 0.5).normalize();
+        let hit = b.occluded(o, d, 10.0);
+        assert_eq!(a.occluded(o, d, 10.0), hit, "ray from {o} along {d}");
+        blocked += usize::from(hit);
+    }
+    assert!(blocked > 1000, "only {blocked} rays blocked: the test says little");
+}
