@@ -959,6 +959,18 @@ impl Viewer {
         }
     }
 
+    /// The selected object's index.
+    pub fn selected(&self) -> usize {
+        self.selected
+    }
+
+    /// Selects object `i` (as clicking it in the list or the view does).
+    pub fn select(&mut self, i: usize) {
+        if i < self.scene.objects.len() {
+            self.selected = i;
+        }
+    }
+
     fn object_controls(&mut self, ui: &mut egui::Ui) {
         let i = self.selected;
         let Some(o) = self.scene.objects.get(i) else { return };
@@ -1043,9 +1055,28 @@ impl Viewer {
         let s = (avail.x / w).min(avail.y / h).max(0.05);
         let response =
             ui.add(egui::Image::new((tex.id(), egui::vec2(w * s, h * s))).sense(egui::Sense::click_and_drag()));
+        let to_pixel = |p: egui::Pos2| {
+            let r = response.rect;
+            ((p.x - r.left()) / s, (p.y - r.top()) / s)
+        };
+        if response.clicked()
+            && let Some(p) = response.interact_pointer_pos()
+        {
+            let (x, y) = to_pixel(p);
+            if let Some(i) = self.pick(x, y) {
+                self.selected = i;
+            }
+        }
         if response.dragged() {
             let d = response.drag_delta();
-            self.orbit_by(d.x * 0.01, d.y * 0.01, 1.0);
+            if ui.input(|i| i.modifiers.shift) {
+                // Shift-drag moves the selected object on the ground plane, along the
+                // camera's right and forward directions, by the distance the pointer covers
+                // at the object's depth.
+                self.drag_selected(d.x / s, d.y / s);
+            } else {
+                self.orbit_by(d.x * 0.01, d.y * 0.01, 1.0);
+            }
         }
         if response.hovered() {
             let scroll = ui.input(|i| i.smooth_scroll_delta.y);
@@ -1054,6 +1085,77 @@ impl Viewer {
             }
         }
     }
+}
+
+impl Viewer {
+    /// The object seen through pixel `(x, y)` of the camera's image (fractional pixels),
+    /// by the triangles last drawn; `None` where the view shows the environment.
+    pub fn pick(&self, x: f32, y: f32) -> Option<usize> {
+        let c = &self.scene.camera;
+        if !(x >= 0.0 && y >= 0.0 && x < c.width as f32 && y < c.height as f32) {
+            return None;
+        }
+        let d = rsl_shade::raster::pixel_ray(c, x as u32, y as u32);
+        let mut best: Option<(f32, usize)> = None;
+        for (i, o) in self.scene.objects.iter().enumerate() {
+            let p = &self.positions[i];
+            if p.len() != o.mesh.vertex_count() {
+                continue;
+            }
+            for t in o.mesh.indices.chunks_exact(3) {
+                let [a, b, cc] = [0, 1, 2].map(|k| p[t[k] as usize]);
+                if let Some(dist) = ray_triangle(c.eye, d, a, b, cc)
+                    && best.is_none_or(|(bd, _)| dist < bd)
+                {
+                    best = Some((dist, i));
+                }
+            }
+        }
+        best.map(|b| b.1)
+    }
+
+    /// Moves the selected object by a pointer drag of `(dx, dy)` image pixels on the ground
+    /// plane through it (shift-drag in the view): right with the camera's right, away with
+    /// the camera's forward, scaled so that the object follows the pointer sideways.
+    pub fn drag_selected(&mut self, dx: f32, dy: f32) {
+        let i = self.selected;
+        let Some(o) = self.scene.objects.get(i) else { return };
+        let c = &self.scene.camera;
+        let forward = (c.target - c.eye).normalize_or_zero();
+        let right = forward.cross(c.up).normalize_or_zero();
+        let ahead = Vec3::new(forward.x, 0.0, forward.z).normalize_or_zero();
+        let p = o.transform.translation;
+        // World units per image pixel at the object's depth.
+        let depth = (p - c.eye).dot(forward).max(1e-3);
+        let per_pixel = 2.0 * depth * (0.5 * c.fov_y).tan() / c.height as f32;
+        let moved = p + (right * dx - ahead * dy) * per_pixel;
+        let r = self.set_translation(i, moved);
+        self.report(r);
+    }
+}
+
+/// Distance along the ray `o + t·d` to the triangle `abc` (Möller–Trumbore), if it is hit
+/// in front of `o`.
+fn ray_triangle(o: Vec3, d: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Option<f32> {
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - a;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t > 0.0).then_some(t)
 }
 
 /// Sliders for a material's parameters (the model stays; its numbers change).

@@ -344,3 +344,38 @@ fn the_progressive_truth_reads_out_the_error_and_restarts_on_edits() {
     h.state_mut().set_truth(false);
     assert!(h.state().truth_image().is_none());
 }
+
+/// Where the world point `p` lands in the camera's image, in pixels.
+fn project(v: &Viewer, p: Vec3) -> (f32, f32) {
+    let c = &v.scene().camera;
+    let q = c.camera_from_world().transform_point3(p);
+    let t = (0.5 * c.fov_y).tan();
+    let aspect = c.width as f32 / c.height as f32;
+    let (nx, ny) = (q.x / -q.z / (t * aspect), q.y / -q.z / t);
+    ((nx + 1.0) * 0.5 * c.width as f32, (1.0 - ny) * 0.5 * c.height as f32)
+}
+
+#[test]
+fn objects_are_picked_in_the_view_and_dragged_along_the_ground() {
+    let Some(mut h) = harness("objects_are_picked_in_the_view_and_dragged_along_the_ground", Some(cache())) else {
+        return;
+    };
+    ready(&mut h);
+    let (floor, sphere) = (index(h.state(), "floor"), index(h.state(), "sphere"));
+    let centre = h.state().scene().objects[sphere].transform.translation;
+    let (x, y) = project(h.state(), centre);
+    assert_eq!(h.state().pick(x, y), Some(sphere), "the sphere's centre at ({x}, {y})");
+    let (fx, fy) = project(h.state(), Vec3::new(1.0, 0.0, 1.5));
+    assert_eq!(h.state().pick(fx, fy), Some(floor), "the floor at ({fx}, {fy})");
+    assert_eq!(h.state().pick(2.0, 2.0), None, "the top-left corner shows the environment");
+    assert_eq!(h.state().pick(-1.0, 5.0), None);
+    // Shift-drag 60 pixels right: the sphere follows the pointer sideways on the ground.
+    h.state_mut().select(sphere);
+    h.state_mut().drag_selected(60.0, 0.0);
+    h.step();
+    let moved = h.state().scene().objects[sphere].transform.translation;
+    assert_eq!(moved.y, centre.y, "a drag on the ground plane keeps the height");
+    let (x2, y2) = project(h.state(), moved);
+    assert!((x2 - x - 60.0).abs() < 6.0 && (y2 - y).abs() < 6.0, "({x}, {y}) → ({x2}, {y2})");
+    assert_eq!(h.state().pick(x2, y2), Some(sphere), "the sphere is under the pointer after the drag");
+}
