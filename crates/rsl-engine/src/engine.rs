@@ -163,6 +163,9 @@ pub fn table_resolution(q: &QualitySettings, brdf: &Brdf) -> Resolution {
     }
 }
 
+/// The BRDF table resolution of [`Engine::sync_previewing`]'s preview object.
+pub const PREVIEW_RESOLUTION: usize = 32;
+
 /// Environment variable overriding [`DEFAULT_PREPARE_LIMIT`] (bytes).
 pub const PREPARE_LIMIT_ENV: &str = "RSL_MAX_PREPARE_BYTES";
 /// The most bytes one prepared item (a BRDF table, a visibility field's build) may take
@@ -578,13 +581,21 @@ impl Engine {
     /// and motion may have changed): every object's resources are looked up by content key,
     /// and only what is missing is computed. Moving objects changes no key.
     pub fn sync(&mut self, scene: &Scene) -> Result<()> {
+        self.sync_previewing(scene, None)
+    }
+
+    /// [`Engine::sync`], with object `preview`'s BRDF table built at
+    /// [`PREVIEW_RESOLUTION`] instead of its own: what a front end uses while a material
+    /// slider moves (a table in about a millisecond), before a plain `sync` builds the
+    /// object's real table once the slider rests.
+    pub fn sync_previewing(&mut self, scene: &Scene, preview: Option<usize>) -> Result<()> {
         let mut objects = Vec::with_capacity(scene.objects.len());
         // What the scene needs stays while the rest is built.
         self.store.pin_more([self.env.rsl_key, self.decomposition_key()]);
         // An object alone in its scene shadows nothing: it needs no occluder field (minutes
         // at the paper preset) and no BVH for other objects' shadow rays.
         let has_others = scene.objects.len() > 1;
-        for o in &scene.objects {
+        for (index, o) in scene.objects.iter().enumerate() {
             // The key is the mesh's contents; a mesh the engine already holds (the same
             // shared, immutable allocation) is not hashed again on every edit.
             let mesh_key = match self.objects.iter().find(|p| Arc::ptr_eq(&p.mesh, &o.mesh)) {
@@ -604,7 +615,11 @@ impl Engine {
             };
             self.store.pin_more([frames_key]);
             let rsl = if self.options.layers.rsl {
-                let (table, table_key) = self.table(&o.name, &brdf)?;
+                let mut res = table_resolution(&self.settings, &brdf);
+                if preview == Some(index) {
+                    res.n = res.n.min(PREVIEW_RESOLUTION);
+                }
+                let (table, table_key) = self.table(&o.name, &brdf, res, preview != Some(index))?;
                 let (svdf, svdf_key) = self.svdf(&o.name, &o.mesh, mesh_key)?;
                 let mask = self.face_mask(&o.mesh, mesh_key);
                 let ovdf =
@@ -645,8 +660,9 @@ impl Engine {
         self.store.pin(keys);
     }
 
-    fn table(&mut self, name: &str, brdf: &Brdf) -> Result<(Arc<BrdfTable>, u64)> {
-        let res = table_resolution(&self.settings, brdf);
+    /// The BRDF table of `brdf` at `res`; `warn`: say when the lobe is narrower than a cell
+    /// (not for a preview).
+    fn table(&mut self, name: &str, brdf: &Brdf, res: Resolution, warn: bool) -> Result<(Arc<BrdfTable>, u64)> {
         let key = KeyHasher::default()
             .str("table")
             .u64(brdf_key(brdf))
@@ -677,6 +693,7 @@ impl Engine {
         // A cell of the table spans at most 4/N radians: a lobe narrower than one is blurred
         // to the cell (its highlights spread, its peak lowered), whatever else is done.
         if let Some(width) = brdf.lobe_width()
+            && warn
             && width < 4.0 / res.n as f32
         {
             tracing::warn!(

@@ -1,8 +1,9 @@
 //! The viewer's frame while a material slider is dragged on the default scene: each
 //! iteration sets the bunny's roughness to the next value and redraws (engine sync — one
-//! BRDF table —, the bunny reshaded, the image rasterised and tonemapped). No GPU: this is
-//! the CPU path the viewer uses on a software adapter; the texture upload by egui is not
-//! included.
+//! BRDF table, a 32×32 preview while the slider moves —, the bunny reshaded, the image
+//! rasterised and tonemapped); and the frame when the slider comes to rest (the real table
+//! built, the bunny reshaded). No GPU: this is the CPU path the viewer uses on a software
+//! adapter; the texture upload by egui is not included.
 //!
 //! `cargo bench -p rsl-view --bench material_drag` (run from anywhere; it uses the disk
 //! cache, `$RSL_CACHE_DIR` or the default folder, and prints the stage breakdown).
@@ -30,6 +31,22 @@ fn material_drag(c: &mut Criterion) {
             viewer.refresh().unwrap()
         })
     });
+    report(&viewer, "drag");
+    c.bench_function("material rest frame (default scene, bunny)", |b| {
+        b.iter(|| {
+            k += 1;
+            let alpha = 0.1 + 0.4 * ((f64::from(k) * 0.618_033_988_749_895).fract() as f32);
+            let m = Material::Ggx { alpha, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+            viewer.set_material(bunny, m).unwrap();
+            viewer.settle(true).unwrap();
+            viewer.refresh().unwrap()
+        })
+    });
+    report(&viewer, "rest");
+}
+
+/// Prints the median stage costs of the viewer's recent frames.
+fn report(viewer: &Viewer, what: &str) {
     let costs: Vec<_> = viewer.history().copied().collect();
     let median = |f: fn(&rsl_view::FrameCost) -> f64| {
         let mut v: Vec<f64> = costs.iter().map(f).collect();
@@ -37,7 +54,7 @@ fn material_drag(c: &mut Criterion) {
         v[v.len() / 2]
     };
     eprintln!(
-        "median over the last {} frames: total {:.1} ms = sync {:.1} + shade {:.1} + raster {:.1} + tonemap {:.1}",
+        "{what}: median over the last {} frames: total {:.1} ms = sync {:.1} + shade {:.1} + raster {:.1} + tonemap {:.1}",
         costs.len(),
         median(|f| f.total_ms),
         median(|f| f.sync_ms),

@@ -137,6 +137,10 @@ pub struct Viewer {
     edit_started: Option<Instant>,
     counters: Counters,
     history: VecDeque<FrameCost>,
+    /// The last material edit: which object, when.
+    last_material_edit: Option<(usize, Instant)>,
+    /// The object shown with a preview table while its slider moves.
+    previewing: Option<usize>,
     /// Where "save scene" writes.
     save_path: String,
     /// Where "screenshot" writes.
@@ -164,6 +168,10 @@ pub struct Viewer {
 
 /// Frames kept in the timings graph.
 const HISTORY: usize = 120;
+
+/// How long a material slider must rest before the edited object's real BRDF table
+/// replaces the preview shown while it moved.
+pub const PREVIEW_REST: std::time::Duration = std::time::Duration::from_millis(250);
 
 /// Passes after which the progressive truth stops refining (4,096 spp).
 const MAX_TRUTH_PASSES: u32 = 4096 / TRUTH_PASS_SPP;
@@ -308,6 +316,8 @@ impl Viewer {
             edit_started: None,
             counters: Counters::default(),
             history: VecDeque::with_capacity(HISTORY),
+            last_material_edit: None,
+            previewing: None,
             save_path: format!("{stem}-edited.toml"),
             image_path: format!("{stem}-view.png"),
             notice: None,
@@ -448,7 +458,9 @@ impl Viewer {
     }
 
     /// Sets object `i`'s material: one BRDF table is built (milliseconds) and that object
-    /// alone is reshaded.
+    /// alone is reshaded. While a slider moves (edits of the same object less than
+    /// [`PREVIEW_REST`] apart) the table is a preview at `rsl_engine::engine::PREVIEW_RESOLUTION`;
+    /// the real table is built when the slider rests ([`Viewer::settle`]).
     pub fn set_material(&mut self, i: usize, material: Material) -> Result<()> {
         let o = self.scene.objects.get_mut(i).context("no such object")?;
         if o.material == material {
@@ -456,13 +468,41 @@ impl Viewer {
         }
         self.edit_started.get_or_insert_with(Instant::now);
         o.material = material;
+        let now = Instant::now();
+        let dragging = self.last_material_edit.is_some_and(|(j, t)| j == i && now.duration_since(t) < PREVIEW_REST);
         if let Some(engine) = &mut self.engine {
+            let start = Instant::now();
+            engine.sync_previewing(&self.scene, dragging.then_some(i))?;
+            self.pending_sync_ms += start.elapsed().as_secs_f64() * 1e3;
+        }
+        self.previewing = if dragging { Some(i) } else { None };
+        self.last_material_edit = Some((i, now));
+        self.dirty[i] = true;
+        Ok(())
+    }
+
+    /// Builds the real table of an object shown with a preview table once its slider has
+    /// rested for [`PREVIEW_REST`] (or at once with `now`); `true` when it did.
+    pub fn settle(&mut self, now: bool) -> Result<bool> {
+        let Some(i) = self.previewing else { return Ok(false) };
+        let rested = self.last_material_edit.is_none_or(|(_, t)| t.elapsed() >= PREVIEW_REST);
+        if !(now || rested) {
+            return Ok(false);
+        }
+        self.previewing = None;
+        if let Some(engine) = &mut self.engine {
+            self.edit_started.get_or_insert_with(Instant::now);
             let start = Instant::now();
             engine.sync(&self.scene)?;
             self.pending_sync_ms += start.elapsed().as_secs_f64() * 1e3;
+            self.dirty[i] = true;
         }
-        self.dirty[i] = true;
-        Ok(())
+        Ok(true)
+    }
+
+    /// Whether an object is shown with a preview table (a slider is moving).
+    pub fn is_previewing(&self) -> bool {
+        self.previewing.is_some()
     }
 
     /// Which objects object `j` can shadow at the current time (`None` without an engine).
@@ -1033,6 +1073,11 @@ impl Viewer {
     }
 
     fn view(&mut self, ui: &mut egui::Ui) {
+        if self.previewing.is_some() {
+            ui.ctx().request_repaint_after(PREVIEW_REST);
+            let r = self.settle(false).map(|_| ());
+            self.report(r);
+        }
         let r = self.refresh().map(|_| ());
         self.report(r);
         self.poll_truth(ui.ctx());

@@ -379,3 +379,34 @@ fn objects_are_picked_in_the_view_and_dragged_along_the_ground() {
     assert!((x2 - x - 60.0).abs() < 6.0 && (y2 - y).abs() < 6.0, "({x}, {y}) → ({x2}, {y2})");
     assert_eq!(h.state().pick(x2, y2), Some(sphere), "the sphere is under the pointer after the drag");
 }
+
+#[test]
+fn a_moving_slider_shows_a_preview_table_and_the_real_one_when_it_rests() {
+    let Some(mut h) = harness("a_moving_slider_shows_a_preview_table_and_the_real_one_when_it_rests", Some(cache()))
+    else {
+        return;
+    };
+    ready(&mut h);
+    let bunny = index(h.state(), "bunny");
+    let ggx = |alpha: f32| Material::Ggx { alpha, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+    h.state_mut().set_material(bunny, ggx(0.121)).unwrap();
+    assert!(!h.state().is_previewing(), "a single edit builds the real table");
+    h.state_mut().set_material(bunny, ggx(0.123)).unwrap();
+    assert!(h.state().is_previewing(), "a second edit within the rest time is a preview");
+    h.state_mut().refresh().unwrap();
+    let preview = h.state().radiance()[bunny].clone();
+    // At rest: the real table, and the radiance a fresh engine gives.
+    assert!(h.state_mut().settle(true).unwrap());
+    assert!(!h.state().is_previewing());
+    h.state_mut().refresh().unwrap();
+    let v = h.state();
+    let fresh = v.engine().unwrap().shade(v.scene(), 0.0).unwrap();
+    assert_eq!(fresh.radiance, v.radiance(), "after the slider rests the real table is shown");
+    let real = &v.radiance()[bunny];
+    let (num, den) = preview.iter().zip(real).fold((0.0f64, 0.0f64), |(n, d), (p, r)| {
+        (n + f64::from((*p - *r).length_squared()), d + f64::from(r.length_squared()))
+    });
+    let rel = (num / den).sqrt();
+    eprintln!("preview table against the real one: relative L2 {:.2} % over the bunny", 100.0 * rel);
+    assert!(rel > 0.0 && rel < 0.2, "preview {rel}");
+}
