@@ -1247,7 +1247,7 @@ pub fn run(viewer: Viewer, title: &str) -> Result<()> {
         ..Default::default()
     };
     eframe::run_native(title, options, Box::new(|_cc| Ok(Box::new(ViewerApp(viewer)))))
-        .map_err(|e| anyhow!("cannot open the viewer's window: {e}"))
+        .map_err(|e| anyhow!("cannot open the viewer's window: {e} (without a display, `--screenshot FILE.png` renders the viewer headless)"))
 }
 
 /// The UI size of the headless screenshot, points.
