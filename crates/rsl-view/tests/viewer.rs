@@ -410,3 +410,39 @@ fn a_moving_slider_shows_a_preview_table_and_the_real_one_when_it_rests() {
     eprintln!("preview table against the real one: relative L2 {:.2} % over the bunny", 100.0 * rel);
     assert!(rel > 0.0 && rel < 0.2, "preview {rel}");
 }
+
+#[test]
+fn the_ui_widgets_drive_the_edits() {
+    use egui_kittest::kittest::Queryable;
+    let Some(mut h) = harness("the_ui_widgets_drive_the_edits", Some(cache())) else { return };
+    ready(&mut h);
+    let bunny = index(h.state(), "bunny");
+    let before = h.state().radiance().to_vec();
+    // Select the bunny in the list, then set its roughness slider as assistive
+    // technologies (and a drag) do. (A slider's number box carries its label too.)
+    h.get_by_label("bunny").click();
+    h.step();
+    assert_eq!(h.state().selected(), bunny);
+    h.get_all_by_label("alpha").next().expect("a alpha slider").set_value_accesskit(0.5);
+    h.step();
+    h.step();
+    match &h.state().scene().objects[bunny].material {
+        Material::Ggx { alpha, .. } => assert!((alpha - 0.5).abs() < 1e-3, "alpha {alpha}"),
+        m => panic!("the bunny's material became {m:?}"),
+    }
+    for (i, (a, b)) in before.iter().zip(h.state().radiance()).enumerate() {
+        assert_eq!(i == bunny, a != b, "object {i}: changed {}", a != b);
+    }
+    // The RSL count slider: one lookup, no preparation.
+    let stats = h.state().engine().unwrap().cache_stats();
+    h.get_all_by_label("RSLs").next().expect("a RSLs slider").set_value_accesskit(80.0);
+    h.step();
+    h.step();
+    assert_eq!(h.state().rsl_count(), 80);
+    let now = h.state().engine().unwrap().cache_stats();
+    assert_eq!((now.misses + now.disk_hits) - (stats.misses + stats.disk_hits), 1, "{stats:?} → {now:?}");
+    // The environment slider.
+    h.get_all_by_label("environment °").next().expect("a environment ° slider").set_value_accesskit(45.0);
+    h.step();
+    assert!((h.state().environment_degrees() - 45.0).abs() < 1e-3);
+}
