@@ -433,7 +433,10 @@ fn the_ui_widgets_drive_the_edits() {
     for (i, (a, b)) in before.iter().zip(h.state().radiance()).enumerate() {
         assert_eq!(i == bunny, a != b, "object {i}: changed {}", a != b);
     }
-    // The RSL count slider: one lookup, no preparation.
+    // The RSL count slider: one lookup, no preparation. (The roughness slider may have sent
+    // a second, rounded value: its preview is settled first.)
+    h.state_mut().settle(true).unwrap();
+    h.step();
     let stats = h.state().engine().unwrap().cache_stats();
     h.get_all_by_label("RSLs").next().expect("a RSLs slider").set_value_accesskit(80.0);
     h.step();
