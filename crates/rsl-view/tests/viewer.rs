@@ -22,12 +22,12 @@ fn harness(test: &str, cache_dir: Option<PathBuf>) -> Option<Harness<'static, Vi
     rsl_gpu::testing::context_or_skip(test)?;
     let options = ViewerOptions { cache_dir, quality: Some(Preset::Draft) };
     let viewer = Viewer::open(&scene_path(), options).expect("the default scene opens");
-    Some(
-        Harness::builder()
-            .with_size(egui::vec2(1200.0, 760.0))
-            .wgpu()
-            .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer),
-    )
+    Some(ui_harness(viewer, egui::vec2(1200.0, 760.0)))
+}
+
+/// The whole viewer UI in a harness of `size` points, on egui's wgpu renderer.
+fn ui_harness(viewer: Viewer, size: egui::Vec2) -> Harness<'static, Viewer> {
+    Harness::builder().with_size(size).wgpu().build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer)
 }
 
 /// Waits for the preparation and draws until the first image is shown.
@@ -272,18 +272,18 @@ translation = [20.0, 0.0, 0.0]
     rsl_engine::scene::Scene::from_toml_str(text, &dir.join("far_apart.toml")).unwrap()
 }
 
+/// The harness on [`far_apart`], prepared and drawn (`None`: no adapter, skipped).
+fn far_apart_harness(test: &str) -> Option<Harness<'static, Viewer>> {
+    rsl_gpu::testing::context_or_skip(test)?;
+    let options = ViewerOptions { cache_dir: Some(cache()), quality: None };
+    let mut h = ui_harness(Viewer::new(far_apart(), options), egui::vec2(900.0, 600.0));
+    ready(&mut h);
+    Some(h)
+}
+
 #[test]
 fn moving_an_object_reshades_only_what_its_shadow_reaches() {
-    if rsl_gpu::testing::context_or_skip("moving_an_object_reshades_only_what_its_shadow_reaches").is_none() {
-        return;
-    }
-    let options = ViewerOptions { cache_dir: Some(cache()), quality: None };
-    let viewer = Viewer::new(far_apart(), options);
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(900.0, 600.0))
-        .wgpu()
-        .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
-    ready(&mut h);
+    let Some(mut h) = far_apart_harness("moving_an_object_reshades_only_what_its_shadow_reaches") else { return };
     let before = h.state().radiance().to_vec();
     let c = h.state().counters();
     h.state_mut().set_translation(0, Vec3::new(0.0, 0.0, 0.3)).unwrap();
@@ -309,16 +309,9 @@ fn step_until(h: &mut Harness<'static, Viewer>, done: impl Fn(&Viewer) -> bool) 
 
 #[test]
 fn the_progressive_truth_reads_out_the_error_and_restarts_on_edits() {
-    if rsl_gpu::testing::context_or_skip("the_progressive_truth_reads_out_the_error_and_restarts_on_edits").is_none() {
+    let Some(mut h) = far_apart_harness("the_progressive_truth_reads_out_the_error_and_restarts_on_edits") else {
         return;
-    }
-    let options = ViewerOptions { cache_dir: Some(cache()), quality: None };
-    let viewer = Viewer::new(far_apart(), options);
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(900.0, 600.0))
-        .wgpu()
-        .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
-    ready(&mut h);
+    };
     h.state_mut().set_truth(true);
     step_until(&mut h, |v| v.error_readout().is_some_and(|r| r.passes >= 3));
     let r = h.state().error_readout().unwrap();
