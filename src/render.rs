@@ -1,7 +1,7 @@
 //! `rsl precompute`, `rsl render` and `rsl demo`: loops over rsl-engine's [`Method`]s.
 
 use anyhow::{Context, Result, bail};
-use rsl_engine::method::{CpuRsl, Frame, GpuRsl, Method, Oracle, Request, Truth, exposure_for};
+use rsl_engine::method::{CpuRsl, CpuRslPixels, Frame, GpuRsl, Method, Oracle, Request, Truth, exposure_for};
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, Layers, output, ply};
 use rsl_scene::{Material, Preset, Scene};
 use rsl_shade::{Oracles, tonemap};
@@ -215,10 +215,13 @@ fn write_vertices(path: &Path, scene: &Scene, f: &Frame) -> Result<()> {
 pub enum MethodArg {
     /// Rotatable square lights and the multiple product approximation.
     Rsl,
+    /// The RSL path with glossy objects shaded per pixel: the BRDF's square integrals for
+    /// each pixel's own normal and view, the visibility interpolated from the vertices (CPU).
+    Pixel,
     /// The Monte Carlo ground truth (multiple importance sampling, shadow rays).
     Truth,
-    /// vMF lobes over the prefiltered environment × the RSL path's visibility ratio (CPU,
-    /// per vertex; a comparison: less accurate than `rsl` on every scene measured so far).
+    /// vMF lobes over the prefiltered environment × the RSL path's visibility ratio (CPU; the
+    /// image per pixel; a comparison: less accurate than `pixel` on every scene measured so far).
     Hybrid,
 }
 
@@ -266,6 +269,12 @@ fn method_for(kind: MethodArg, device: Device, engine: &Engine, spp: u32, seed: 
                 bail!("--method hybrid runs on the CPU only; drop --device gpu");
             }
             Box::new(rsl_engine::lobe::Hybrid::new())
+        }
+        MethodArg::Pixel => {
+            if device == Device::Gpu {
+                bail!("--method pixel runs on the CPU only; drop --device gpu");
+            }
+            Box::new(CpuRslPixels)
         }
         MethodArg::Rsl => match select_device(device)? {
             Some(renderer) => Box::new(GpuRsl { renderer }),

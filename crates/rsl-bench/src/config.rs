@@ -12,6 +12,9 @@ pub enum MethodKind {
     Gpu,
     /// vMF lobes × RSL visibility on every object, CPU (`rsl_engine::lobe::Hybrid`).
     Hybrid,
+    /// The CPU fast path with glossy objects' pixels shaded per pixel
+    /// (`rsl_engine::CpuRslPixels`; its vertices are the CPU path's).
+    Pixel,
 }
 
 impl MethodKind {
@@ -21,6 +24,7 @@ impl MethodKind {
             MethodKind::Cpu => "cpu",
             MethodKind::Gpu => "gpu",
             MethodKind::Hybrid => "hybrid",
+            MethodKind::Pixel => "pixel",
         }
     }
 
@@ -29,6 +33,7 @@ impl MethodKind {
             "cpu" => Some(MethodKind::Cpu),
             "gpu" => Some(MethodKind::Gpu),
             "hybrid" => Some(MethodKind::Hybrid),
+            "pixel" => Some(MethodKind::Pixel),
             _ => None,
         }
     }

@@ -19,7 +19,7 @@ pub mod wavelet;
 use anyhow::{Context, Result, bail};
 use config::{Config, MethodKind};
 use glam::Vec3;
-use rsl_engine::method::{CpuRsl, GpuRsl, Method, Oracle, Request};
+use rsl_engine::method::{CpuRsl, CpuRslPixels, GpuRsl, Method, Oracle, Request};
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, Progress};
 use rsl_scene::Scene;
 use std::path::PathBuf;
@@ -220,6 +220,7 @@ pub const GRID_ROWS: usize = 24;
 /// first [`GRID_ROWS`] configurations.
 fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: &mut Option<GpuRsl>) -> Result<()> {
     let mut hybrid = rsl_engine::lobe::Hybrid::new();
+    let mut pixel = CpuRslPixels;
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
         let full = Scene::load(scene_path)?;
@@ -245,6 +246,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
                     MethodKind::Cpu => cpu,
                     MethodKind::Gpu => gpu.as_mut().context("the GPU was opened while measuring")?,
                     MethodKind::Hybrid => &mut hybrid,
+                    MethodKind::Pixel => &mut pixel,
                 };
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
                 let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
@@ -338,6 +340,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
     let mut budget_rows = budget::read_rows(&budget_file)?;
     let mut cpu = CpuRsl;
     let mut hybrid = rsl_engine::lobe::Hybrid::new();
+    let mut pixel = CpuRslPixels;
     let mut gpu: Option<GpuRsl> = None;
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
@@ -415,6 +418,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     gpu.as_mut().expect("opened above")
                 }
                 MethodKind::Hybrid => &mut hybrid,
+                MethodKind::Pixel => &mut pixel,
             };
             let request = Request { time: t, image: false, vertices: true, exposure: None };
             let mut times = Vec::with_capacity(options.frames);

@@ -22,7 +22,7 @@ pub mod truth;
 
 pub use engine::{Engine, EngineOptions, Layers, ShadedFrame};
 pub use gpu::GpuRenderer;
-pub use method::{CpuRsl, Frame, GpuRsl, Method, Request, Truth};
+pub use method::{CpuRsl, CpuRslPixels, Frame, GpuRsl, Method, Request, Truth};
 pub use progress::{Event, Progress, Timings};
 pub use rsl_env as env;
 pub use rsl_scene as scene;

@@ -12,7 +12,11 @@
 //!
 //! Prepared once and kept: the environment prefiltered up to the sharpest lobe the scene's
 //! materials need (`κ` rounded up to a power of two, at most 4096), and each material's lobes
-//! (refitted when its parameters change). Vertices only: no per-pixel evaluation yet.
+//! (refitted when its parameters change).
+//!
+//! Images ([`Hybrid::per_pixel`], the default): each pixel of a glossy object looks its lobes
+//! up for its own interpolated normal and view (one prefiltered lookup per lobe), times the
+//! ratio interpolated from the vertices ([`rsl_shade::draw_pixels`]).
 
 use crate::engine::{Engine, EnvRadiance, brdf_key};
 use crate::method::{Frame, Method, Request, rasterise};
@@ -23,7 +27,7 @@ use rayon::prelude::*;
 use rsl_brdf::Brdf;
 use rsl_lobe::{FitParams, MaterialLobes, PrefilterParams, Prefiltered};
 use rsl_scene::Scene;
-use rsl_shade::{FrameStats, Terms};
+use rsl_shade::{FrameStats, PixelMesh, Terms};
 use rsl_sphere::Frame as LocalFrame;
 use rsl_sphere::latlong::LatLongMap;
 use std::collections::HashMap;
@@ -34,15 +38,19 @@ use std::time::Instant;
 /// path's value).
 #[derive(Default)]
 pub struct Hybrid {
+    /// Draw glossy objects per pixel: each pixel's lobes from its own interpolated normal
+    /// and view, times the visibility ratio interpolated from the vertices (else the
+    /// vertices' radiance is interpolated).
+    pub per_pixel: bool,
     env: Option<(u64, u32, Arc<Prefiltered>)>,
     materials: HashMap<u64, Arc<MaterialLobes>>,
 }
 
 impl Hybrid {
     /// A hybrid with nothing prepared yet (the environment and the lobes are made on the first
-    /// frame and kept).
+    /// frame and kept), drawing glossy objects per pixel.
     pub fn new() -> Self {
-        Self::default()
+        Self { per_pixel: true, ..Self::default() }
     }
 
     /// The material lobes of `brdf` (fitted once per parameter set).
@@ -103,7 +111,9 @@ impl Method for Hybrid {
         let mut shade_ms = full.shade_ms;
         let mut radiance = full.radiance.clone();
         let mut stats: FrameStats = full.stats;
-        if let Some(env) = env {
+        // Per vertex of each glossy object: the visibility ratio, and its world shading frames.
+        let mut ratios: Vec<Option<Vec<Vec3>>> = vec![None; n];
+        if let Some(env) = &env {
             let bare = engine.shade_with(scene, request.time, Terms { self_visibility: false, occluders: false })?;
             shade_ms += bare.shade_ms;
             stats = stats.plus(bare.stats);
@@ -115,27 +125,66 @@ impl Method for Hybrid {
                 let Some(l) = l else { continue };
                 let (pos, nor) = (&full.positions[i], &full.normals[i]);
                 let (shadowed, unshadowed) = (&full.radiance[i], &bare.radiance[i]);
+                let ratio: Vec<Vec3> = shadowed
+                    .iter()
+                    .zip(unshadowed)
+                    .map(|(s, u)| {
+                        Vec3::select(u.cmpgt(Vec3::ZERO), *s / u.max(Vec3::splat(f32::MIN_POSITIVE)), Vec3::ZERO)
+                            .clamp(Vec3::ZERO, Vec3::ONE)
+                    })
+                    .collect();
                 radiance[i] = (0..pos.len())
                     .into_par_iter()
                     .map(|v| {
                         let frame = LocalFrame::from_normal(nor[v]);
                         let view = (eye - pos[v]).normalize_or_zero();
-                        let glossy = l.radiance(&env, &frame, view, |d| env_from_world * d) * intensity;
-                        let ratio = Vec3::select(
-                            unshadowed[v].cmpgt(Vec3::ZERO),
-                            shadowed[v] / unshadowed[v].max(Vec3::splat(f32::MIN_POSITIVE)),
-                            Vec3::ZERO,
-                        );
-                        glossy * ratio.clamp(Vec3::ZERO, Vec3::ONE)
+                        l.radiance(env, &frame, view, |d| env_from_world * d) * intensity * ratio[v]
                     })
                     .collect();
+                ratios[i] = Some(ratio);
             }
             shade_ms += start.elapsed().as_secs_f64() * 1e3;
         }
         timings.add("shade", shade_ms, None);
-        let image = request
-            .image
-            .then(|| timings.time("draw", || rasterise(engine, scene, &full.state, &full.positions, &radiance)));
+        let image = request.image.then(|| match (&env, self.per_pixel) {
+            (Some(env), true) => timings.time("draw per pixel", || {
+                let frames: Vec<Option<Vec<LocalFrame>>> = ratios
+                    .iter()
+                    .enumerate()
+                    .map(|(i, r)| {
+                        r.as_ref().map(|_| full.normals[i].iter().map(|&n| LocalFrame::from_normal(n)).collect())
+                    })
+                    .collect();
+                let meshes: Vec<PixelMesh<'_>> = scene
+                    .objects
+                    .iter()
+                    .enumerate()
+                    .map(|(i, o)| PixelMesh {
+                        positions: &full.positions[i],
+                        indices: &o.mesh.indices,
+                        frames: frames[i].as_deref(),
+                        radiance: &radiance[i],
+                    })
+                    .collect();
+                let env_from_world = full.state.world_from_env.inverse();
+                let (intensity, eye) = (engine.intensity(), scene.camera.eye);
+                rsl_shade::draw_pixels(
+                    &scene.camera,
+                    &meshes,
+                    || (),
+                    |p, _| {
+                        let (Some(l), Some(ratio)) = (&lobes[p.object], &ratios[p.object]) else {
+                            return Vec3::ZERO;
+                        };
+                        let view = (eye - p.position).normalize_or_zero();
+                        let ratio = p.fragment.interpolate(meshes[p.object].indices, ratio);
+                        l.radiance(env, &p.frame, view, |d| env_from_world * d) * intensity * ratio
+                    },
+                    |d| engine.background(&full.state, d),
+                )
+            }),
+            _ => timings.time("draw", || rasterise(engine, scene, &full.state, &full.positions, &radiance)),
+        });
         Ok(Frame {
             state: full.state,
             positions: full.positions,

@@ -158,6 +158,49 @@ impl Method for CpuRsl {
     }
 }
 
+/// The CPU RSL path per pixel ([`rsl_shade::pixel`]): each glossy object's pixels get the RSL
+/// sum for their own normal and view, from covers computed at its vertices and interpolated;
+/// Lambertian objects, whose radiance varies no faster than their covers, are shaded at their
+/// vertices and interpolated as by [`CpuRsl`]. The per-vertex radiance is the same as
+/// [`CpuRsl`]'s.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CpuRslPixels;
+
+impl Method for CpuRslPixels {
+    fn describe(&self) -> String {
+        format!("RSL per pixel on the CPU ({} threads)", rayon::current_num_threads())
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        let state = scene.at(request.time);
+        let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
+        let glossy: Vec<bool> = (0..engine.object_count()).map(|i| !engine.brdf(i).is_lambertian()).collect();
+        let mut timings = Timings::default();
+        let start = Instant::now();
+        let (mut radiance, covers, stats) = rsl_shade::shade_covers(&setup, &glossy);
+        let lambertian: Vec<bool> = glossy.iter().map(|g| !g).collect();
+        let (rest, rest_stats) = rsl_shade::shade_objects(&setup, &lambertian);
+        for (i, r) in rest.into_iter().enumerate() {
+            if lambertian[i] {
+                radiance[i] = r;
+            }
+        }
+        let shade_ms = start.elapsed().as_secs_f64() * 1e3;
+        timings.add("shade", shade_ms, None);
+        let mut stats = stats.plus(rest_stats);
+        let image = request.image.then(|| {
+            timings.time("draw per pixel", || {
+                let (image, s) =
+                    rsl_shade::shade_image(&setup, &scene.camera, &covers, &radiance, |d| engine.background(&state, d));
+                stats = stats.plus(s);
+                image
+            })
+        });
+        let f = ShadedFrame::of(&setup, state, radiance, stats, shade_ms);
+        Ok(Frame::rsl(f, image, None, timings))
+    }
+}
+
 /// The GPU RSL path: the wgpu compute pass and draw pass.
 pub struct GpuRsl {
     /// The renderer (uploads follow the engine's content keys).

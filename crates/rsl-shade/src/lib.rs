@@ -3,12 +3,16 @@
 //! rasteriser that draws the shaded vertices, and display encoding.
 
 pub mod oracle;
+pub mod pixel;
 pub mod raster;
 pub mod shade;
 pub mod tonemap;
 
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
-pub use raster::{Image, RasterMesh, background_image, rasterise, rasterise_changed, rasterise_over};
+pub use pixel::{Covers, PixelMesh, PixelPoint, draw_pixels, shade_covers, shade_image};
+pub use raster::{
+    Fragment, Image, RasterMesh, background_image, fragments, rasterise, rasterise_changed, rasterise_over,
+};
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, Traced, TracedCovers, VertexFrames, shade,
     shade_objects, shade_reference,

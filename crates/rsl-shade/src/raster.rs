@@ -46,11 +46,14 @@ struct ClipVertex {
 
 #[derive(Clone, Copy)]
 struct ScreenTri {
+    /// The mesh (index into the list drawn) and its triangle.
+    mesh: u32,
+    triangle: u32,
     /// Pixel coordinates.
     xy: [[f32; 2]; 3],
     /// 1/depth per vertex.
     inv_w: [f32; 3],
-    /// Radiance / depth per vertex.
+    /// The interpolated attribute (radiance, or barycentric weights) / depth per vertex.
     c_w: [Vec3; 3],
     /// Pixel bounding box (inclusive).
     x0: i32,
@@ -109,16 +112,29 @@ fn clip_near(poly: &[ClipVertex]) -> Vec<ClipVertex> {
 }
 
 fn screen_triangles(camera: &Camera, meshes: &[RasterMesh<'_>]) -> Vec<ScreenTri> {
+    let geometry: Vec<_> = meshes.iter().map(|m| (m.positions, m.indices)).collect();
+    screen_triangles_with(camera, &geometry, |m, t, k| meshes[m].radiance[meshes[m].indices[3 * t + k] as usize])
+}
+
+/// The triangles of `meshes` (positions, indices) on screen, each corner `k` of triangle `t`
+/// of mesh `m` carrying `corner(m, t, k)` (interpolated perspective-correctly).
+fn screen_triangles_with(
+    camera: &Camera,
+    meshes: &[(&[Vec3], &[u32])],
+    corner: impl Fn(usize, usize, usize) -> Vec3 + Sync,
+) -> Vec<ScreenTri> {
     let view = camera.camera_from_world();
     let proj = Projection::new(camera);
     let (w, h) = (camera.width as i32, camera.height as i32);
+    let corner = &corner;
     meshes
         .par_iter()
-        .flat_map_iter(|m| {
-            let cam: Vec<Vec3> = m.positions.iter().map(|&p| view.transform_point3(p)).collect();
+        .enumerate()
+        .flat_map_iter(|(mi, &(positions, indices))| {
+            let cam: Vec<Vec3> = positions.iter().map(|&p| view.transform_point3(p)).collect();
             let proj = &proj;
-            m.indices.chunks_exact(3).flat_map(move |t| {
-                let verts = [0, 1, 2].map(|k| ClipVertex { p: cam[t[k] as usize], c: m.radiance[t[k] as usize] });
+            indices.chunks_exact(3).enumerate().flat_map(move |(ti, t)| {
+                let verts = [0, 1, 2].map(|k| ClipVertex { p: cam[t[k] as usize], c: corner(mi, ti, k) });
                 let poly = if verts.iter().all(|v| v.p.z <= -NEAR) { verts.to_vec() } else { clip_near(&verts) };
                 let mut tris = Vec::new();
                 for k in 1..poly.len().saturating_sub(1) {
@@ -139,7 +155,7 @@ fn screen_triangles(camera: &Camera, meshes: &[RasterMesh<'_>]) -> Vec<ScreenTri
                         continue;
                     }
                     let c_w = [0, 1, 2].map(|k| tri[k].c * inv_w[k]);
-                    tris.push(ScreenTri { xy, inv_w, c_w, x0, x1, y0, y1 });
+                    tris.push(ScreenTri { mesh: mi as u32, triangle: ti as u32, xy, inv_w, c_w, x0, x1, y0, y1 });
                 }
                 tris
             })
@@ -214,38 +230,15 @@ fn rasterise_region(
                 let x = (k % w) as i32;
                 x >= rx0 && x <= rx1 && (row0 + (k / w) as i32) >= y_lo && (row0 + (k / w) as i32) <= y_hi
             };
-            let mut depth = vec![f32::INFINITY; px.len()];
             for (k, c) in cov.iter_mut().enumerate() {
                 if inside(k) {
                     *c = false;
                 }
             }
-            for t in tris.iter().filter(|t| t.y1 >= y_lo && t.y0 <= y_hi && t.x1 >= rx0 && t.x0 <= rx1) {
-                let [a, b, c] = t.xy;
-                let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-                if area == 0.0 || !area.is_finite() {
-                    continue;
-                }
-                for y in t.y0.max(y_lo)..=t.y1.min(y_hi) {
-                    let py = y as f32 + 0.5;
-                    for x in t.x0.max(rx0)..=t.x1.min(rx1) {
-                        let pxc = x as f32 + 0.5;
-                        let e = |p: [f32; 2], q: [f32; 2]| (q[0] - p[0]) * (py - p[1]) - (q[1] - p[1]) * (pxc - p[0]);
-                        let (w0, w1, w2) = (e(b, c) / area, e(c, a) / area, e(a, b) / area);
-                        if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
-                            continue;
-                        }
-                        let inv_w = w0 * t.inv_w[0] + w1 * t.inv_w[1] + w2 * t.inv_w[2];
-                        let d = 1.0 / inv_w;
-                        let k = (y - row0) as usize * w + x as usize;
-                        if d < depth[k] {
-                            depth[k] = d;
-                            px[k] = (t.c_w[0] * w0 + t.c_w[1] * w1 + t.c_w[2] * w2) * d;
-                            cov[k] = true;
-                        }
-                    }
-                }
-            }
+            nearest_in_band(tris, w, row0, px.len(), [rx0, y_lo, rx1, y_hi], |k, _, c| {
+                px[k] = c;
+                cov[k] = true;
+            });
             for (k, p) in px.iter_mut().enumerate() {
                 if !cov[k] && inside(k) {
                     let (x, y) = ((k % w) as u32, (row0 as usize + k / w) as u32);
@@ -254,6 +247,89 @@ fn rasterise_region(
             }
         },
     );
+}
+
+/// Calls `hit(k, triangle, attribute)` for each pixel of the band starting at row `row0`
+/// (`len` pixels, rows of `w`) inside `[x0, y0, x1, y1]` that a triangle of `tris` covers,
+/// nearer than those before it (a z-buffer per band): the last call for a pixel is its
+/// nearest triangle, with the attribute interpolated perspective-correctly at its centre.
+fn nearest_in_band(
+    tris: &[ScreenTri],
+    w: usize,
+    row0: i32,
+    len: usize,
+    [rx0, y_lo, rx1, y_hi]: [i32; 4],
+    mut hit: impl FnMut(usize, &ScreenTri, Vec3),
+) {
+    let mut depth = vec![f32::INFINITY; len];
+    for t in tris.iter().filter(|t| t.y1 >= y_lo && t.y0 <= y_hi && t.x1 >= rx0 && t.x0 <= rx1) {
+        let [a, b, c] = t.xy;
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        if area == 0.0 || !area.is_finite() {
+            continue;
+        }
+        for y in t.y0.max(y_lo)..=t.y1.min(y_hi) {
+            let py = y as f32 + 0.5;
+            for x in t.x0.max(rx0)..=t.x1.min(rx1) {
+                let pxc = x as f32 + 0.5;
+                let e = |p: [f32; 2], q: [f32; 2]| (q[0] - p[0]) * (py - p[1]) - (q[1] - p[1]) * (pxc - p[0]);
+                let (w0, w1, w2) = (e(b, c) / area, e(c, a) / area, e(a, b) / area);
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                    continue;
+                }
+                let inv_w = w0 * t.inv_w[0] + w1 * t.inv_w[1] + w2 * t.inv_w[2];
+                let d = 1.0 / inv_w;
+                let k = (y - row0) as usize * w + x as usize;
+                if d < depth[k] {
+                    depth[k] = d;
+                    hit(k, t, (t.c_w[0] * w0 + t.c_w[1] * w1 + t.c_w[2] * w2) * d);
+                }
+            }
+        }
+    }
+}
+
+/// What covers a pixel's centre: a triangle of one mesh, and where on it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fragment {
+    /// The mesh, as an index into the list drawn.
+    pub mesh: u32,
+    /// The triangle within the mesh.
+    pub triangle: u32,
+    /// The weights of the triangle's three corners at the pixel's centre (barycentric,
+    /// perspective-correct, summing to one).
+    pub weights: Vec3,
+}
+
+impl Fragment {
+    /// `values` (one per vertex of the mesh, which has `indices`) at the fragment.
+    pub fn interpolate<T>(&self, indices: &[u32], values: &[T]) -> T
+    where
+        T: Copy + std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+    {
+        let t = 3 * self.triangle as usize;
+        let v = |k: usize| values[indices[t + k] as usize];
+        v(0) * self.weights.x + v(1) * self.weights.y + v(2) * self.weights.z
+    }
+}
+
+/// The nearest fragment of every pixel of `camera`'s image (row-major, row 0 at the top;
+/// `None` where no triangle covers the centre) of `meshes`, each a list of world-space
+/// positions and its triangles' indices: a visibility buffer, for shading per pixel. It
+/// covers exactly the pixels [`rasterise`] does.
+pub fn fragments(camera: &Camera, meshes: &[(&[Vec3], &[u32])]) -> Vec<Option<Fragment>> {
+    let tris = screen_triangles_with(camera, meshes, |_, _, k| Vec3::AXES[k]);
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let mut out = vec![None; w * h];
+    out.par_chunks_mut(w * BAND).enumerate().for_each(|(band, px)| {
+        let row0 = (band * BAND) as i32;
+        let rows = (px.len() / w) as i32;
+        nearest_in_band(&tris, w, row0, px.len(), [0, row0, w as i32 - 1, row0 + rows - 1], |k, t, c| {
+            let weights = c / (c.x + c.y + c.z);
+            px[k] = Some(Fragment { mesh: t.mesh, triangle: t.triangle, weights });
+        });
+    });
+    out
 }
 
 /// Redraws in `image` (drawn by [`rasterise_over`] with the same camera and background)
@@ -337,6 +413,44 @@ mod tests {
         assert_eq!(image.covered, full.covered);
         assert_eq!(image.pixels, full.pixels);
         assert!(full.pixels.contains(&Vec3::Y), "the near triangle is not drawn");
+    }
+
+    #[test]
+    fn fragments_cover_what_the_rasteriser_draws_and_interpolate_as_it_does() {
+        let cam = camera();
+        // Two overlapping triangles at different depths, and one crossing the eye plane.
+        let positions = [
+            Vec3::new(-1.0, -1.0, -0.5),
+            Vec3::new(1.0, -0.8, -0.5),
+            Vec3::new(0.0, 1.0, -0.5),
+            Vec3::new(-0.2, -0.3, 0.5),
+            Vec3::new(0.6, -0.2, 0.8),
+            Vec3::new(0.1, 0.4, 0.2),
+            Vec3::new(-2.0, -1.0, 5.0),
+            Vec3::new(2.0, -1.0, 5.0),
+            Vec3::new(0.0, -1.0, -5.0),
+        ];
+        let radiance: Vec<Vec3> =
+            (0..9).map(|k| Vec3::new(k as f32, (k * k) as f32 * 0.1, 1.0 / (1.0 + k as f32))).collect();
+        let (first, second) = ([0, 1, 2, 3, 4, 5], [0, 1, 2]);
+        let meshes = [
+            RasterMesh { positions: &positions, indices: &first, radiance: &radiance },
+            RasterMesh { positions: &positions[6..], indices: &second, radiance: &radiance[6..] },
+        ];
+        let image = rasterise(&cam, &meshes, |_| Vec3::ZERO);
+        let geometry: Vec<(&[Vec3], &[u32])> = meshes.iter().map(|m| (m.positions, m.indices)).collect();
+        let frags = fragments(&cam, &geometry);
+        let mut seen = [0usize; 2];
+        for (k, f) in frags.iter().enumerate() {
+            assert_eq!(f.is_some(), image.covered[k], "pixel {k}");
+            let Some(f) = f else { continue };
+            seen[f.mesh as usize] += 1;
+            assert!((f.weights.element_sum() - 1.0).abs() < 1e-5 && f.weights.min_element() >= -1e-6);
+            let m = &meshes[f.mesh as usize];
+            let c = f.interpolate(m.indices, m.radiance);
+            assert!((c - image.pixels[k]).abs().max_element() < 1e-4 * (1.0 + c.max_element()), "pixel {k}: {c}");
+        }
+        assert!(seen[0] > 50 && seen[1] > 50, "{seen:?}");
     }
 
     #[test]

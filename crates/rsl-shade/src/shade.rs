@@ -50,8 +50,10 @@ use rsl_sphere::Frame;
 use rsl_sphere::hemi::dir_from_hemi;
 use rsl_sphere::hemi::hemi_from_dir;
 use rsl_sphere::mesh::TriMesh;
+use rsl_vis::mask::VertexMask;
 use rsl_vis::ovdf::OUTER;
 use rsl_vis::rays::Occluder;
+use rsl_vis::svdf::SvdfVertex;
 use rsl_vis::{FaceMask, Ovdf, OvdfLookup, Svdf};
 
 /// A rotatable square light in world space.
@@ -760,24 +762,110 @@ impl<'a> FrameSetup<'a> {
             if brdf == Vec3::ZERO {
                 continue;
             }
-            if self.is_traced(l) {
-                let cover = self.traced_cover(i, v, l, &mut stats.traced_rays);
-                sum += light.radiance * brdf * cover;
+            let cover = if self.is_traced(l) {
+                self.traced_cover(i, v, l, &mut stats.traced_rays)
+            } else {
+                let q = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
+                self.fields_cover(nears, (i, v, l), q, (&self_vis, &mask), stats)
+            };
+            sum += light.radiance * brdf * cover;
+        }
+        sum
+    }
+
+    /// Light `l`'s cover at vertex `v` of object `i` from the visibility fields (a light that
+    /// is not traced): self-visibility at hemisphere point `q` of the vertex's visibility
+    /// frame (with its face mask), times the occluder fields at `nears`, as the terms ask.
+    fn fields_cover(
+        &self,
+        nears: &mut [(Near, Lazy<'a>)],
+        (i, v, l): (usize, usize, usize),
+        q: Vec2,
+        (self_vis, mask): (&SvdfVertex<'_>, &VertexMask<'_>),
+        stats: &mut FrameStats,
+    ) -> f32 {
+        let r = self.lights[l].half_diagonal;
+        let mut cover = 1.0;
+        if self.terms.self_visibility {
+            stats.self_lookups += 1;
+            cover = self_vis.coverage_above_horizon(q, r);
+            if cover > 0.0 {
+                cover *= mask.share_above_horizon_with(q, r, self.reaches[l]);
+            }
+        }
+        if self.terms.occluders {
+            cover = self.others_cover(nears, i, v, l, cover, stats);
+        }
+        cover
+    }
+
+    /// Every light's cover at vertex `v` of object `i` into `out` (one per light; what
+    /// multiplies the light's BRDF integral there, [`crate::pixel::UNDEFINED`] for a light
+    /// wholly below the vertex's horizon), and the vertex's radiance toward the eye. Unlike
+    /// [`FrameSetup::vertex`] every light above the horizon gets its cover, whatever the
+    /// vertex's BRDF does with it: points near the vertex (a pixel's) have other normals
+    /// and views.
+    pub(crate) fn vertex_covers(
+        &self,
+        i: usize,
+        v: usize,
+        nears: &mut Vec<(Near, Lazy<'a>)>,
+        stats: &mut FrameStats,
+        out: &mut [f32],
+    ) -> Vec3 {
+        let p = &self.placed[i];
+        let o = &p.object;
+        stats.vertices += 1;
+        let x = p.position(v);
+        let frame = p.shading_frame(v);
+        let lookup = o.table.view_lookup(frame.to_local((self.eye - x).normalize_or_zero()));
+        nears.clear();
+        if self.terms.occluders {
+            self.nears(i, x, nears);
+        }
+        let vis_frame = &o.frames.visibility[v];
+        let self_vis = o.svdf.vertex(v);
+        let mask = o.mask.vertex(v);
+        let mut sum = Vec3::ZERO;
+        for (l, light) in self.lights.iter().enumerate() {
+            let r = light.half_diagonal;
+            // Wholly below the horizon: no part of the square in the hemisphere plane's disk.
+            let q = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
+            if rsl_vis::coverage::coverage(1.0 - q.length(), r) <= 0.0 {
+                out[l] = crate::pixel::UNDEFINED;
                 continue;
             }
-            let mut cover = 1.0;
-            if self.terms.self_visibility {
-                stats.self_lookups += 1;
-                let q = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
-                cover = self_vis.coverage_above_horizon(q, r);
-                if cover > 0.0 {
-                    cover *= mask.share_above_horizon_with(q, r, self.reaches[l]);
-                }
+            let cover = if self.is_traced(l) {
+                self.traced_cover(i, v, l, &mut stats.traced_rays)
+            } else {
+                self.fields_cover(nears, (i, v, l), q, (&self_vis, &mask), stats)
+            };
+            out[l] = cover;
+            if lookup != ViewLookup::Below && cover > 0.0 {
+                stats.brdf_lookups += 1;
+                sum += light.radiance * o.table.integral_for(&lookup, frame.to_local(light.dir), r) * cover;
             }
-            if self.terms.occluders {
-                cover = self.others_cover(nears, i, v, l, cover, stats);
+        }
+        sum
+    }
+
+    /// Radiance toward the eye from world point `x` of object `i` with world shading frame
+    /// `frame`, each light weighted by its cover `covers[l]` (the RSL sum at a point that
+    /// is not a vertex: a pixel's).
+    pub(crate) fn point(&self, i: usize, x: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
+        let o = &self.placed[i].object;
+        let lookup = o.table.view_lookup(frame.to_local((self.eye - x).normalize_or_zero()));
+        if lookup == ViewLookup::Below {
+            return Vec3::ZERO;
+        }
+        let mut sum = Vec3::ZERO;
+        for (light, &cover) in self.lights.iter().zip(covers) {
+            if cover > 0.0 {
+                stats.brdf_lookups += 1;
+                sum += light.radiance
+                    * o.table.integral_for(&lookup, frame.to_local(light.dir), light.half_diagonal)
+                    * cover;
             }
-            sum += light.radiance * brdf * cover;
         }
         sum
     }
@@ -840,7 +928,7 @@ pub(crate) enum Lazy<'a> {
 }
 
 /// Vertices per parallel work item of the fast path.
-const BLOCK: usize = 256;
+pub(crate) const BLOCK: usize = 256;
 
 /// Shades every vertex of every object (the fast path): per object, per vertex, the radiance
 /// toward the eye.

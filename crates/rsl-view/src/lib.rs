@@ -164,6 +164,10 @@ pub struct Viewer {
     /// The environment thumbnail with its RSLs, for (environment key, RSL count).
     thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,
+    /// Whether glossy objects are drawn per pixel (`rsl_shade::pixel`).
+    per_pixel: bool,
+    /// Per object drawn per pixel: every light's cover at its vertices.
+    covers: Vec<Option<rsl_shade::Covers>>,
 }
 
 /// Frames kept in the timings graph.
@@ -330,6 +334,8 @@ impl Viewer {
             moved: true,
             thumbnail: None,
             readout: None,
+            per_pixel: false,
+            covers: vec![None; n],
         };
         v.prepare();
         v
@@ -742,6 +748,67 @@ impl Viewer {
         }
     }
 
+    /// Draws glossy objects per pixel (each pixel's own normal and view in the RSL sum, the
+    /// visibility interpolated from the vertices; `rsl_engine::CpuRslPixels` renders the same
+    /// image), or interpolates every object's vertex radiance (faster: what a drag shows).
+    pub fn set_per_pixel(&mut self, on: bool) {
+        if self.per_pixel != on {
+            self.per_pixel = on;
+            self.covers.iter_mut().for_each(|c| *c = None);
+            self.mark_all();
+        }
+    }
+
+    /// Whether glossy objects are drawn per pixel.
+    pub fn per_pixel(&self) -> bool {
+        self.per_pixel
+    }
+
+    /// [`Viewer::refresh`] per pixel: the dirty objects shaded at their vertices (glossy ones
+    /// keeping every light's cover), then the whole image drawn.
+    fn refresh_per_pixel(&mut self, start: Instant) -> Result<bool> {
+        let Some(engine) = &self.engine else { return Ok(false) };
+        let t0 = Instant::now();
+        let state = self.scene.at(self.time);
+        let setup = engine.setup(&self.scene, &state, self.scene.camera.eye, rsl_shade::Terms::default())?;
+        let n = self.scene.objects.len();
+        let glossy: Vec<bool> = (0..n).map(|i| !engine.brdf(i).is_lambertian()).collect();
+        let with_covers: Vec<bool> = (0..n).map(|i| self.dirty[i] && glossy[i]).collect();
+        let plain: Vec<bool> = (0..n).map(|i| self.dirty[i] && !glossy[i]).collect();
+        let (mut radiance, covers, _) = rsl_shade::shade_covers(&setup, &with_covers);
+        let (plain_radiance, _) = rsl_shade::shade_objects(&setup, &plain);
+        for (i, (c, r)) in covers.into_iter().zip(plain_radiance).enumerate() {
+            if !self.dirty[i] {
+                continue;
+            }
+            if plain[i] {
+                radiance[i] = r;
+            }
+            self.counters.vertices_shaded += radiance[i].len() as u64;
+            self.counters.objects_shaded += 1;
+            self.positions[i] = (0..radiance[i].len()).map(|v| setup.position(i, v)).collect();
+            self.radiance[i] = std::mem::take(&mut radiance[i]);
+            self.covers[i] = c;
+        }
+        self.counters.shaded_frames += 1;
+        self.dirty.iter_mut().for_each(|d| *d = false);
+        self.moved = false;
+        let shade_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let t1 = Instant::now();
+        let (image, _) = rsl_shade::shade_image(&setup, &self.scene.camera, &self.covers, &self.radiance, |d| {
+            engine.background(&state, d)
+        });
+        self.counters.rasterised += 1;
+        let raster_ms = t1.elapsed().as_secs_f64() * 1e3;
+        let t2 = Instant::now();
+        let exposure = *self.exposure.get_or_insert_with(|| exposure_for(&image));
+        let pixels: Vec<Color32> = image.pixels.par_iter().map(|&c| colour(c, exposure)).collect();
+        // The next interpolated frame starts afresh (its background may be stale).
+        self.background = None;
+        self.show(image, pixels, [start, t2], shade_ms, raster_ms);
+        Ok(true)
+    }
+
     /// Shades what changed and rasterises a new image; `false` when nothing changed (no
     /// shading, no rasterising).
     pub fn refresh(&mut self) -> Result<bool> {
@@ -750,6 +817,9 @@ impl Viewer {
             return Ok(false);
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
+        if self.per_pixel {
+            return self.refresh_per_pixel(start);
+        }
         let all = self.dirty.iter().all(|&d| d);
         // Only radiance changed (material edits): the image is redrawn where those objects
         // are, over the last one.
@@ -827,10 +897,24 @@ impl Viewer {
                 .map(|((&c, &covered), &b)| if covered { colour(c, exposure) } else { b })
                 .collect(),
         };
+        self.show(image, pixels, [start, t2], shade_ms, raster_ms);
+        Ok(true)
+    }
+
+    /// Shows a new image (`pixels` its tonemapped colours), restarts the truth, and records
+    /// the frame's cost: the edit began at `start`, the upload at `upload`.
+    fn show(
+        &mut self,
+        image: rsl_shade::Image,
+        pixels: Vec<Color32>,
+        [start, upload]: [Instant; 2],
+        shade_ms: f64,
+        raster_ms: f64,
+    ) {
         self.rgba = Some(ColorImage::new([image.width as usize, image.height as usize], pixels));
         self.linear = Some(image);
         self.texture_stale = true;
-        let upload_ms = t2.elapsed().as_secs_f64() * 1e3;
+        let upload_ms = upload.elapsed().as_secs_f64() * 1e3;
         if self.truth_on {
             // The scene changed: the truth starts over.
             self.restart_truth();
@@ -846,7 +930,6 @@ impl Viewer {
             self.history.pop_front();
         }
         self.history.push_back(cost);
-        Ok(true)
     }
 
     /// Draws one frame of the whole UI into `ui` (the eframe app and the headless
@@ -910,6 +993,12 @@ impl Viewer {
         ui.add(egui::Slider::new(&mut deg, -180.0..=180.0).text("environment °"));
         self.set_environment_degrees(deg);
         self.environment_thumbnail(ui);
+        let mut per_pixel = self.per_pixel;
+        ui.checkbox(&mut per_pixel, "glossy objects per pixel")
+            .on_hover_text("Sharp highlights: the RSL sum for each pixel's own normal and view (slower)");
+        if per_pixel != self.per_pixel {
+            self.set_per_pixel(per_pixel);
+        }
         let mut truth = self.truth_on;
         ui.checkbox(&mut truth, "progressive truth (error readout)");
         if truth != self.truth_on {

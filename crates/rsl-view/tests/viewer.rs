@@ -442,3 +442,34 @@ fn the_ui_widgets_drive_the_edits() {
     h.step();
     assert!((h.state().environment_degrees() - 45.0).abs() < 1e-3);
 }
+
+#[test]
+fn the_per_pixel_checkbox_draws_what_the_pixel_method_renders() {
+    use egui_kittest::kittest::Queryable;
+    use rsl_engine::method::{CpuRslPixels, Method, Request};
+    let Some(mut h) = harness("the_per_pixel_checkbox_draws_what_the_pixel_method_renders", Some(cache())) else {
+        return;
+    };
+    ready(&mut h);
+    let interpolated = h.state().linear_image().expect("an image").clone();
+    h.get_by_label("glossy objects per pixel").click();
+    h.step();
+    h.step();
+    assert!(h.state().per_pixel());
+    let v = h.state();
+    let drawn = v.linear_image().expect("an image");
+    let request = Request { time: 0.0, image: true, vertices: false, exposure: None };
+    let expected = CpuRslPixels.render(v.engine().unwrap(), v.scene(), &request).unwrap().image.unwrap();
+    assert_eq!(drawn.covered, expected.covered);
+    for (k, (a, b)) in drawn.pixels.iter().zip(&expected.pixels).enumerate() {
+        assert!((*a - *b).abs().max_element() <= 1e-4 * b.max_element().max(1e-2), "pixel {k}: {a} vs {b}");
+    }
+    // The glossy objects' pixels changed, the floor's (Lambertian: interpolated) did not.
+    let changed = interpolated.pixels.iter().zip(&drawn.pixels).filter(|(a, b)| (**a - **b).length() > 1e-3).count();
+    assert!(changed > 1000, "{changed} pixels changed");
+    // Off again: the interpolated image comes back.
+    h.get_by_label("glossy objects per pixel").click();
+    h.step();
+    h.step();
+    assert_eq!(h.state().linear_image().unwrap().pixels, interpolated.pixels);
+}
