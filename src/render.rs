@@ -218,6 +218,9 @@ pub enum MethodArg {
     /// The RSL path with glossy objects shaded per pixel: the BRDF's square integrals for
     /// each pixel's own normal and view, the visibility interpolated from the vertices (CPU).
     Pixel,
+    /// Each object as its scene `method` says (`auto`, the default there: glossy objects per
+    /// pixel as `pixel` does; `rsl`, `rsl_pixel`, `hybrid`; CPU).
+    Auto,
     /// The Monte Carlo ground truth (multiple importance sampling, shadow rays).
     Truth,
     /// vMF lobes over the prefiltered environment × the RSL path's visibility ratio (CPU; the
@@ -270,11 +273,14 @@ fn method_for(kind: MethodArg, device: Device, engine: &Engine, spp: u32, seed: 
             }
             Box::new(rsl_engine::lobe::Hybrid::new())
         }
-        MethodArg::Pixel => {
+        MethodArg::Pixel | MethodArg::Auto => {
             if device == Device::Gpu {
-                bail!("--method pixel runs on the CPU only; drop --device gpu");
+                bail!(
+                    "--method {} runs on the CPU only; drop --device gpu",
+                    if kind == MethodArg::Auto { "auto" } else { "pixel" }
+                );
             }
-            Box::new(CpuRslPixels)
+            if kind == MethodArg::Auto { Box::new(rsl_engine::lobe::PerObject::new()) } else { Box::new(CpuRslPixels) }
         }
         MethodArg::Rsl => match select_device(device)? {
             Some(renderer) => Box::new(GpuRsl { renderer }),

@@ -15,6 +15,8 @@ pub enum MethodKind {
     /// The CPU fast path with glossy objects' pixels shaded per pixel
     /// (`rsl_engine::CpuRslPixels`; its vertices are the CPU path's).
     Pixel,
+    /// Each object as its scene `method` says (`rsl_engine::lobe::PerObject`).
+    Auto,
 }
 
 impl MethodKind {
@@ -25,6 +27,7 @@ impl MethodKind {
             MethodKind::Gpu => "gpu",
             MethodKind::Hybrid => "hybrid",
             MethodKind::Pixel => "pixel",
+            MethodKind::Auto => "auto",
         }
     }
 
@@ -34,6 +37,7 @@ impl MethodKind {
             "gpu" => Some(MethodKind::Gpu),
             "hybrid" => Some(MethodKind::Hybrid),
             "pixel" => Some(MethodKind::Pixel),
+            "auto" => Some(MethodKind::Auto),
             _ => None,
         }
     }

@@ -221,6 +221,7 @@ pub const GRID_ROWS: usize = 24;
 fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: &mut Option<GpuRsl>) -> Result<()> {
     let mut hybrid = rsl_engine::lobe::Hybrid::new();
     let mut pixel = CpuRslPixels;
+    let mut auto = rsl_engine::lobe::PerObject::new();
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
         let full = Scene::load(scene_path)?;
@@ -247,6 +248,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
                     MethodKind::Gpu => gpu.as_mut().context("the GPU was opened while measuring")?,
                     MethodKind::Hybrid => &mut hybrid,
                     MethodKind::Pixel => &mut pixel,
+                    MethodKind::Auto => &mut auto,
                 };
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
                 let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
@@ -341,6 +343,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
     let mut cpu = CpuRsl;
     let mut hybrid = rsl_engine::lobe::Hybrid::new();
     let mut pixel = CpuRslPixels;
+    let mut auto = rsl_engine::lobe::PerObject::new();
     let mut gpu: Option<GpuRsl> = None;
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
@@ -419,6 +422,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 }
                 MethodKind::Hybrid => &mut hybrid,
                 MethodKind::Pixel => &mut pixel,
+                MethodKind::Auto => &mut auto,
             };
             let request = Request { time: t, image: false, vertices: true, exposure: None };
             let mut times = Vec::with_capacity(options.frames);

@@ -18,7 +18,7 @@
 //! up for its own interpolated normal and view (one prefiltered lookup per lobe), times the
 //! ratio interpolated from the vertices ([`rsl_shade::draw_pixels`]).
 
-use crate::engine::{Engine, EnvRadiance, brdf_key};
+use crate::engine::{Engine, EnvRadiance, ShadedFrame, brdf_key};
 use crate::method::{Frame, Method, Request, rasterise};
 use crate::progress::Timings;
 use anyhow::Result;
@@ -26,7 +26,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use rsl_brdf::Brdf;
 use rsl_lobe::{FitParams, MaterialLobes, PrefilterParams, Prefiltered};
-use rsl_scene::Scene;
+use rsl_scene::{ObjectMethod, Scene};
 use rsl_shade::{FrameStats, PixelMesh, Terms};
 use rsl_sphere::Frame as LocalFrame;
 use rsl_sphere::latlong::LatLongMap;
@@ -85,49 +85,95 @@ impl Hybrid {
     }
 }
 
-impl Method for Hybrid {
-    fn describe(&self) -> String {
-        format!("vMF lobes × RSL visibility on the CPU ({} threads)", rayon::current_num_threads())
-    }
+/// How one object is drawn by [`Hybrid::render_drawn`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Drawn {
+    /// The RSL path at the vertices, interpolated.
+    Vertex,
+    /// The RSL sum per pixel ([`rsl_shade::pixel`]).
+    Pixel,
+    /// vMF lobes × the RSL visibility ratio (per pixel when the image is drawn per pixel).
+    Lobes,
+}
 
-    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+impl Drawn {
+    /// What an object of `brdf` asking for `method` gets: a Lambertian object is always
+    /// shaded at its vertices (its radiance varies no faster than its visibility, and the
+    /// RSL path's Lambertian term is exact where a cosine-fitted lobe is not); `auto` draws a
+    /// glossy object per pixel.
+    pub fn of(method: ObjectMethod, brdf: &Brdf) -> Self {
+        if brdf.is_lambertian() {
+            return Drawn::Vertex;
+        }
+        match method {
+            ObjectMethod::Auto | ObjectMethod::RslPixel => Drawn::Pixel,
+            ObjectMethod::Rsl => Drawn::Vertex,
+            ObjectMethod::Hybrid => Drawn::Lobes,
+        }
+    }
+}
+
+impl Hybrid {
+    /// A frame with each object drawn as `drawn` says (one per object); with `per_pixel`
+    /// false, the image interpolates every object's vertices.
+    pub fn render_drawn(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        request: &Request,
+        drawn: &[Drawn],
+        per_pixel: bool,
+    ) -> Result<Frame> {
         let mut timings = Timings::default();
-        // Which objects, and their lobes.
-        let start = Instant::now();
         let n = engine.object_count();
+        anyhow::ensure!(drawn.len() == n, "{} drawing choices for {n} objects", drawn.len());
+        // The lobes of the objects drawn with them, and the environment prefiltered for them.
+        let start = Instant::now();
         let mut lobes: Vec<Option<Arc<MaterialLobes>>> = Vec::with_capacity(n);
-        for i in 0..n {
-            let brdf = *engine.brdf(i);
-            // A Lambertian object has no glossy detail to add: the RSL path's value stands
-            // (its Lambertian term is exact, where a cosine-fitted lobe is not).
-            lobes.push(if brdf.is_lambertian() { None } else { Some(self.lobes(&brdf)?) });
+        for (i, d) in drawn.iter().enumerate() {
+            lobes.push(if *d == Drawn::Lobes { Some(self.lobes(engine.brdf(i))?) } else { None });
         }
         let kappa_max =
             lobes.iter().flatten().flat_map(|l| l.lobes_per_view().map(|w| w.lobe.kappa)).fold(1.0f32, f32::max);
         let env = if lobes.iter().any(Option::is_some) { Some(self.environment(engine, kappa_max)) } else { None };
-        timings.add("lobes", start.elapsed().as_secs_f64() * 1e3, None);
+        if env.is_some() {
+            timings.add("lobes", start.elapsed().as_secs_f64() * 1e3, None);
+        }
 
-        let full = engine.shade_with(scene, request.time, Terms::default())?;
-        let mut shade_ms = full.shade_ms;
+        // Every object's RSL radiance at its vertices, with the covers of those drawn per pixel.
+        let start = Instant::now();
+        let state = scene.at(request.time);
+        let eye = scene.camera.eye;
+        let setup = engine.setup(scene, &state, eye, Terms::default())?;
+        let with_covers: Vec<bool> = drawn.iter().map(|d| *d == Drawn::Pixel).collect();
+        let (mut radiance, covers, mut stats) = rsl_shade::shade_covers(&setup, &with_covers);
+        let rest: Vec<bool> = with_covers.iter().map(|c| !c).collect();
+        let (rest_radiance, rest_stats) = rsl_shade::shade_objects(&setup, &rest);
+        stats = stats.plus(rest_stats);
+        for (i, r) in rest_radiance.into_iter().enumerate() {
+            if rest[i] {
+                radiance[i] = r;
+            }
+        }
+        let full = ShadedFrame::of(&setup, state, radiance, stats, 0.0);
         let mut radiance = full.radiance.clone();
-        let mut stats: FrameStats = full.stats;
-        // Per vertex of each glossy object: the visibility ratio, and its world shading frames.
+
+        // The lobes' objects: unshadowed lobe radiance × the RSL visibility ratio.
         let mut ratios: Vec<Option<Vec<Vec3>>> = vec![None; n];
         if let Some(env) = &env {
-            let bare = engine.shade_with(scene, request.time, Terms { self_visibility: false, occluders: false })?;
-            shade_ms += bare.shade_ms;
-            stats = stats.plus(bare.stats);
-            let start = Instant::now();
+            let bare_setup =
+                engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: false })?;
+            let which: Vec<bool> = lobes.iter().map(Option::is_some).collect();
+            let (bare, bare_stats) = rsl_shade::shade_objects(&bare_setup, &which);
+            stats = stats.plus(bare_stats);
             let env_from_world = full.state.world_from_env.inverse();
             let intensity = engine.intensity();
-            let eye = scene.camera.eye;
             for (i, l) in lobes.iter().enumerate() {
                 let Some(l) = l else { continue };
                 let (pos, nor) = (&full.positions[i], &full.normals[i]);
-                let (shadowed, unshadowed) = (&full.radiance[i], &bare.radiance[i]);
-                let ratio: Vec<Vec3> = shadowed
+                let ratio: Vec<Vec3> = full.radiance[i]
                     .iter()
-                    .zip(unshadowed)
+                    .zip(&bare[i])
                     .map(|(s, u)| {
                         Vec3::select(u.cmpgt(Vec3::ZERO), *s / u.max(Vec3::splat(f32::MIN_POSITIVE)), Vec3::ZERO)
                             .clamp(Vec3::ZERO, Vec3::ONE)
@@ -143,16 +189,20 @@ impl Method for Hybrid {
                     .collect();
                 ratios[i] = Some(ratio);
             }
-            shade_ms += start.elapsed().as_secs_f64() * 1e3;
         }
-        timings.add("shade", shade_ms, None);
-        let image = request.image.then(|| match (&env, self.per_pixel) {
-            (Some(env), true) => timings.time("draw per pixel", || {
-                let frames: Vec<Option<Vec<LocalFrame>>> = ratios
-                    .iter()
-                    .enumerate()
-                    .map(|(i, r)| {
-                        r.as_ref().map(|_| full.normals[i].iter().map(|&n| LocalFrame::from_normal(n)).collect())
+        timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
+
+        let image = request.image.then(|| {
+            if !per_pixel || drawn.iter().all(|d| *d == Drawn::Vertex) {
+                return timings.time("draw", || rasterise(engine, scene, &full.state, &full.positions, &radiance));
+            }
+            timings.time("draw per pixel", || {
+                let frames: Vec<Option<Vec<LocalFrame>>> = (0..n)
+                    .map(|i| match drawn[i] {
+                        Drawn::Vertex => None,
+                        // The RSL sum reads its tables in the vertices' shading frames.
+                        Drawn::Pixel => Some((0..full.positions[i].len()).map(|v| setup.shading_frame(i, v)).collect()),
+                        Drawn::Lobes => Some(full.normals[i].iter().map(|&n| LocalFrame::from_normal(n)).collect()),
                     })
                     .collect();
                 let meshes: Vec<PixelMesh<'_>> = scene
@@ -167,23 +217,27 @@ impl Method for Hybrid {
                     })
                     .collect();
                 let env_from_world = full.state.world_from_env.inverse();
-                let (intensity, eye) = (engine.intensity(), scene.camera.eye);
+                let intensity = engine.intensity();
+                let lights = setup.light_count();
                 rsl_shade::draw_pixels(
                     &scene.camera,
                     &meshes,
-                    || (),
-                    |p, _| {
-                        let (Some(l), Some(ratio)) = (&lobes[p.object], &ratios[p.object]) else {
-                            return Vec3::ZERO;
-                        };
-                        let view = (eye - p.position).normalize_or_zero();
-                        let ratio = p.fragment.interpolate(meshes[p.object].indices, ratio);
-                        l.radiance(env, &p.frame, view, |d| env_from_world * d) * intensity * ratio
+                    || vec![0.0f32; lights],
+                    |p, buf| match (&covers[p.object], &lobes[p.object], &env, &ratios[p.object]) {
+                        (Some(c), ..) => {
+                            c.at(meshes[p.object].indices, p.fragment, buf);
+                            setup.point(p.object, p.position, &p.frame, buf, &mut FrameStats::default())
+                        }
+                        (None, Some(l), Some(env), Some(ratio)) => {
+                            let view = (eye - p.position).normalize_or_zero();
+                            let ratio = p.fragment.interpolate(meshes[p.object].indices, ratio);
+                            l.radiance(env, &p.frame, view, |d| env_from_world * d) * intensity * ratio
+                        }
+                        _ => Vec3::ZERO,
                     },
                     |d| engine.background(&full.state, d),
                 )
-            }),
-            _ => timings.time("draw", || rasterise(engine, scene, &full.state, &full.positions, &radiance)),
+            })
         });
         Ok(Frame {
             state: full.state,
@@ -198,5 +252,46 @@ impl Method for Hybrid {
             shadow_rays: 0,
             timings,
         })
+    }
+}
+
+impl Method for Hybrid {
+    fn describe(&self) -> String {
+        format!("vMF lobes × RSL visibility on the CPU ({} threads)", rayon::current_num_threads())
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        let drawn: Vec<Drawn> =
+            (0..engine.object_count()).map(|i| Drawn::of(ObjectMethod::Hybrid, engine.brdf(i))).collect();
+        let per_pixel = self.per_pixel;
+        self.render_drawn(engine, scene, request, &drawn, per_pixel)
+    }
+}
+
+/// Each object drawn as its scene `method` asks ([`Drawn::of`]; `auto`: glossy objects per
+/// pixel), on the CPU.
+#[derive(Default)]
+pub struct PerObject {
+    hybrid: Hybrid,
+}
+
+impl PerObject {
+    /// Nothing prepared yet (lobes and the prefiltered environment are made when an object
+    /// first needs them, and kept).
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+impl Method for PerObject {
+    fn describe(&self) -> String {
+        format!("each object's own method on the CPU ({} threads)", rayon::current_num_threads())
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        engine.check(scene)?;
+        let drawn: Vec<Drawn> =
+            scene.objects.iter().enumerate().map(|(i, o)| Drawn::of(o.method, engine.brdf(i))).collect();
+        self.hybrid.render_drawn(engine, scene, request, &drawn, true)
     }
 }

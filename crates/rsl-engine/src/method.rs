@@ -4,10 +4,11 @@
 
 use crate::engine::{Engine, ShadedFrame};
 use crate::gpu::GpuRenderer;
+use crate::lobe::Drawn;
 use crate::progress::{Progress, Timings};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
-use rsl_scene::{Scene, SceneState};
+use rsl_scene::{ObjectMethod, Scene, SceneState};
 use rsl_shade::{FrameStats, Image, OracleParams, Oracles, RasterMesh, Terms, tonemap};
 use rsl_truth::{EnvLight, Estimate, TruthObject, TruthScene};
 use std::time::Instant;
@@ -172,32 +173,9 @@ impl Method for CpuRslPixels {
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
-        let state = scene.at(request.time);
-        let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
-        let glossy: Vec<bool> = (0..engine.object_count()).map(|i| !engine.brdf(i).is_lambertian()).collect();
-        let mut timings = Timings::default();
-        let start = Instant::now();
-        let (mut radiance, covers, stats) = rsl_shade::shade_covers(&setup, &glossy);
-        let lambertian: Vec<bool> = glossy.iter().map(|g| !g).collect();
-        let (rest, rest_stats) = rsl_shade::shade_objects(&setup, &lambertian);
-        for (i, r) in rest.into_iter().enumerate() {
-            if lambertian[i] {
-                radiance[i] = r;
-            }
-        }
-        let shade_ms = start.elapsed().as_secs_f64() * 1e3;
-        timings.add("shade", shade_ms, None);
-        let mut stats = stats.plus(rest_stats);
-        let image = request.image.then(|| {
-            timings.time("draw per pixel", || {
-                let (image, s) =
-                    rsl_shade::shade_image(&setup, &scene.camera, &covers, &radiance, |d| engine.background(&state, d));
-                stats = stats.plus(s);
-                image
-            })
-        });
-        let f = ShadedFrame::of(&setup, state, radiance, stats, shade_ms);
-        Ok(Frame::rsl(f, image, None, timings))
+        let drawn: Vec<Drawn> =
+            (0..engine.object_count()).map(|i| Drawn::of(ObjectMethod::RslPixel, engine.brdf(i))).collect();
+        crate::lobe::Hybrid::new().render_drawn(engine, scene, request, &drawn, true)
     }
 }
 

@@ -136,6 +136,28 @@ pub struct Object {
     pub motion: Motion,
     /// Whether the object shadows others.
     pub casts_shadows: bool,
+    /// How its radiance reaches the image (`method = "..."`; honoured by `--method auto`).
+    pub method: ObjectMethod,
+}
+
+/// How an object's radiance reaches the image, per object (`method = "auto" | "rsl" |
+/// "rsl_pixel" | "hybrid"`, default `auto`). A Lambertian object is always shaded at its
+/// vertices by the RSL path and interpolated: its radiance varies no faster than its
+/// visibility, and its BRDF term is exact.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObjectMethod {
+    /// `rsl_pixel` for a glossy object: the most accurate per covered pixel on every
+    /// bundled accuracy scene (README).
+    #[default]
+    Auto,
+    /// The RSL path at the vertices, interpolated across triangles (the fastest).
+    Rsl,
+    /// The RSL sum per pixel, with the visibility interpolated from the vertices.
+    RslPixel,
+    /// vMF lobes over the prefiltered environment per pixel, times the RSL path's visibility
+    /// ratio interpolated from the vertices.
+    Hybrid,
 }
 
 /// A loaded, validated scene.

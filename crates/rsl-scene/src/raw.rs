@@ -128,6 +128,8 @@ struct RawObject {
     motion: Option<RawMotion>,
     #[serde(default = "yes")]
     casts_shadows: bool,
+    #[serde(default)]
+    method: crate::ObjectMethod,
 }
 
 fn yes() -> bool {
@@ -441,7 +443,7 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<Tr
         Some(m) => motion(cx, &f("motion"), m, &transform)?,
     };
     reach(cx, &f, &mesh, &transform, &motion)?;
-    Ok(Object { name, source, mesh, transform, material, motion, casts_shadows: o.casts_shadows })
+    Ok(Object { name, source, mesh, transform, material, motion, casts_shadows: o.casts_shadows, method: o.method })
 }
 
 /// Fails when the object, placed at its transform or anywhere its motion takes it, reaches

@@ -147,6 +147,9 @@ impl Scene {
             if !o.casts_shadows {
                 t.insert("casts_shadows".into(), Value::Boolean(false));
             }
+            if o.method != crate::ObjectMethod::default() {
+                t.insert("method".into(), Value::try_from(o.method)?);
+            }
             objects.push(Value::Table(t));
         }
         root.insert("objects".into(), Value::Array(objects));

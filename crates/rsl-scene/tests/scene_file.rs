@@ -421,3 +421,27 @@ fn a_rotation_is_axis_and_degrees_or_a_unit_quaternion() {
     let s = object(&format!("rotation = {{ quaternion = [0.0, {half}, 0.0, {half}] }}")).unwrap();
     assert_eq!(s.objects[0].transform.rotation, glam::Quat::from_xyzw(0.0, half, 0.0, half));
 }
+
+#[test]
+fn an_objects_method_is_read_written_and_checked() {
+    use rsl_scene::ObjectMethod;
+    let object = |method: &str| {
+        parse(&format!("[[objects]]\nname = \"a\"\nprimitive = {{ kind = \"sphere\", radius = 1.0 }}\n{method}\n"))
+    };
+    assert_eq!(object("").unwrap().objects[0].method, ObjectMethod::Auto);
+    for (text, m) in [
+        ("auto", ObjectMethod::Auto),
+        ("rsl", ObjectMethod::Rsl),
+        ("rsl_pixel", ObjectMethod::RslPixel),
+        ("hybrid", ObjectMethod::Hybrid),
+    ] {
+        let s = object(&format!("method = \"{text}\"")).unwrap();
+        assert_eq!(s.objects[0].method, m);
+        let dir = temp_dir(&format!("method-{text}"));
+        let file = dir.join("written.toml");
+        std::fs::write(&file, s.to_toml(&file).unwrap()).unwrap();
+        assert_eq!(Scene::load(&file).unwrap().objects[0].method, m, "{text} written and read back");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    expect_err(object("method = \"fancy\""), &["method", "fancy"]);
+}

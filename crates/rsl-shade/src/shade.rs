@@ -725,6 +725,17 @@ impl<'a> FrameSetup<'a> {
         self.placed[i].position(v)
     }
 
+    /// The number of lights.
+    pub fn light_count(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// World shading frame of vertex `v` of object `i` (its normal, and its tangent for an
+    /// anisotropic material, at the object's current transform).
+    pub fn shading_frame(&self, i: usize, v: usize) -> Frame {
+        self.placed[i].shading_frame(v)
+    }
+
     /// World normal of vertex `v` of object `i`.
     pub fn normal(&self, i: usize, v: usize) -> Vec3 {
         let p = &self.placed[i];
@@ -852,7 +863,7 @@ impl<'a> FrameSetup<'a> {
     /// Radiance toward the eye from world point `x` of object `i` with world shading frame
     /// `frame`, each light weighted by its cover `covers[l]` (the RSL sum at a point that
     /// is not a vertex: a pixel's).
-    pub(crate) fn point(&self, i: usize, x: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
+    pub fn point(&self, i: usize, x: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
         let o = &self.placed[i].object;
         let lookup = o.table.view_lookup(frame.to_local((self.eye - x).normalize_or_zero()));
         if lookup == ViewLookup::Below {
