@@ -97,13 +97,14 @@ pub enum Drawn {
 }
 
 impl Drawn {
-    /// What an object of `brdf` asking for `method` gets: a Lambertian object is always
-    /// shaded at its vertices (its radiance varies no faster than its visibility, and the
-    /// RSL path's Lambertian term is exact where a cosine-fitted lobe is not); `auto` draws a
-    /// glossy object per pixel.
+    /// What an object of `brdf` asking for `method` gets: `auto` draws a glossy object per
+    /// pixel; a Lambertian object never gets lobes (the RSL path's Lambertian term is exact
+    /// where a cosine-fitted lobe is not), and is drawn per pixel only where that changes
+    /// something, for the shadows of traced lights ([`rsl_shade::drawn_per_pixel`]).
     pub fn of(method: ObjectMethod, brdf: &Brdf) -> Self {
         if brdf.is_lambertian() {
-            return Drawn::Vertex;
+            // Per pixel only for the shadows of traced lights ([`Hybrid::render_drawn`]).
+            return if method == ObjectMethod::Rsl { Drawn::Vertex } else { Drawn::Pixel };
         }
         match method {
             ObjectMethod::Auto | ObjectMethod::RslPixel => Drawn::Pixel,
@@ -145,6 +146,12 @@ impl Hybrid {
         let state = scene.at(request.time);
         let eye = scene.camera.eye;
         let setup = engine.setup(scene, &state, eye, Terms::default())?;
+        let drawn: Vec<Drawn> = (0..n)
+            .map(|i| match drawn[i] {
+                Drawn::Pixel if !rsl_shade::drawn_per_pixel(&setup, !engine.brdf(i).is_lambertian()) => Drawn::Vertex,
+                d => d,
+            })
+            .collect();
         let with_covers: Vec<bool> = drawn.iter().map(|d| *d == Drawn::Pixel).collect();
         let (mut radiance, covers, mut stats) = rsl_shade::shade_covers(&setup, &with_covers);
         let rest: Vec<bool> = with_covers.iter().map(|c| !c).collect();
@@ -225,8 +232,7 @@ impl Hybrid {
                     || vec![0.0f32; lights],
                     |p, buf| match (&covers[p.object], &lobes[p.object], &env, &ratios[p.object]) {
                         (Some(c), ..) => {
-                            c.at(meshes[p.object].indices, p.fragment, buf);
-                            setup.point(p.object, p.position, &p.frame, buf, &mut FrameStats::default())
+                            rsl_shade::point_radiance(&setup, c, &meshes[p.object], p, buf, &mut FrameStats::default())
                         }
                         (None, Some(l), Some(env), Some(ratio)) => {
                             let view = (eye - p.position).normalize_or_zero();

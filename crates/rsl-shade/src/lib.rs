@@ -9,7 +9,9 @@ pub mod shade;
 pub mod tonemap;
 
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
-pub use pixel::{Covers, PixelMesh, PixelPoint, draw_pixels, shade_covers, shade_image};
+pub use pixel::{
+    Covers, PixelMesh, PixelPoint, draw_pixels, drawn_per_pixel, point_radiance, shade_covers, shade_image,
+};
 pub use raster::{
     Fragment, Image, RasterMesh, background_image, fragments, rasterise, rasterise_changed, rasterise_over,
 };

@@ -34,6 +34,8 @@ pub struct Covers {
     pub lights: usize,
     /// `values[v * lights + l]`: light `l`'s cover at vertex `v`, in [0, 1] or [`UNDEFINED`].
     pub values: Vec<f32>,
+    /// Per vertex, the radiance of the lights that are not traced.
+    pub untraced: Vec<Vec3>,
 }
 
 impl Covers {
@@ -58,6 +60,9 @@ impl Covers {
     }
 }
 
+/// One block of vertices shaded: object, radiance, covers and untraced radiance, costs.
+type ShadedBlock = (usize, Vec<Vec3>, (Vec<f32>, Vec<Vec3>), FrameStats);
+
 /// Shades the objects `which` selects at their vertices, keeping every light's cover there:
 /// per object, the vertices' radiance (as [`crate::shade`] gives it, to float rounding) and
 /// the covers (`None` for the objects not selected, whose radiance comes back empty).
@@ -65,31 +70,36 @@ pub fn shade_covers(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, 
     let lights = setup.lights.len();
     let mut blocks = setup.blocks(BLOCK);
     blocks.retain(|&(i, _)| which.get(i).copied().unwrap_or(false));
-    let done: Vec<(usize, Vec<Vec3>, Vec<f32>, FrameStats)> = blocks
+    let done: Vec<ShadedBlock> = blocks
         .par_iter()
         .map_init(Vec::<(_, Lazy<'_>)>::new, |nears, &(i, b)| {
             let n = setup.placed[i].object.mesh.vertex_count();
             let range = b * BLOCK..((b + 1) * BLOCK).min(n);
             let mut stats = FrameStats::default();
             let mut covers = vec![0.0; range.len() * lights];
+            let mut untraced = vec![Vec3::ZERO; range.len()];
             let radiance = range
                 .clone()
                 .zip(covers.chunks_exact_mut(lights.max(1)))
-                .map(|(v, out)| setup.vertex_covers(i, v, nears, &mut stats, out))
+                .zip(&mut untraced)
+                .map(|((v, out), u)| setup.vertex_covers(i, v, nears, &mut stats, out, u))
                 .collect();
-            (i, radiance, covers, stats)
+            (i, radiance, (covers, untraced), stats)
         })
         .collect();
     let mut radiance: Vec<Vec<Vec3>> = vec![Vec::new(); setup.placed.len()];
     let mut covers: Vec<Option<Covers>> = (0..setup.placed.len())
-        .map(|i| which.get(i).copied().unwrap_or(false).then(|| Covers { lights, values: Vec::new() }))
+        .map(|i| {
+            which.get(i).copied().unwrap_or(false).then(|| Covers { lights, values: Vec::new(), untraced: Vec::new() })
+        })
         .collect();
     let mut stats = FrameStats::default();
     // Blocks come back in order (rayon's collect keeps it).
     for (i, r, c, s) in done {
         radiance[i].extend(r);
         if let Some(cv) = &mut covers[i] {
-            cv.values.extend(c);
+            cv.values.extend(c.0);
+            cv.untraced.extend(c.1);
         }
         stats = stats.plus(s);
     }
@@ -201,6 +211,7 @@ pub fn shade_image(
         })
         .collect();
     let lookups = std::sync::atomic::AtomicU64::new(0);
+    let rays = std::sync::atomic::AtomicU64::new(0);
     let lights = setup.lights.len();
     let image = draw_pixels(
         camera,
@@ -208,15 +219,82 @@ pub fn shade_image(
         || vec![0.0f32; lights],
         |p, buf| {
             let c = covers[p.object].as_ref().expect("objects with frames have covers");
-            c.at(meshes[p.object].indices, p.fragment, buf);
             let mut stats = FrameStats::default();
-            let l = setup.point(p.object, p.position, &p.frame, buf, &mut stats);
+            let l = point_radiance(setup, c, &meshes[p.object], p, buf, &mut stats);
             lookups.fetch_add(stats.brdf_lookups, std::sync::atomic::Ordering::Relaxed);
+            rays.fetch_add(stats.traced_rays, std::sync::atomic::Ordering::Relaxed);
             l
         },
         background,
     );
-    (image, FrameStats { brdf_lookups: lookups.into_inner(), ..FrameStats::default() })
+    let stats =
+        FrameStats { brdf_lookups: lookups.into_inner(), traced_rays: rays.into_inner(), ..FrameStats::default() };
+    (image, stats)
+}
+
+/// Rays per traced light at a pixel (the first of the light's pattern, its centre first):
+/// enough to place a sun's shadow edge within the pixel, a quarter of a vertex's rays at
+/// the presets.
+pub const PIXEL_RAYS: usize = 4;
+
+/// Whether an object is drawn per pixel by the RSL sum: a glossy one always (its highlights
+/// are sharper than its triangles), a Lambertian one when some light is traced (its sharp
+/// shadows are traced per pixel; otherwise its radiance varies no faster than its covers,
+/// and interpolating its vertices gives the same image).
+pub fn drawn_per_pixel(setup: &FrameSetup<'_>, glossy: bool) -> bool {
+    glossy || setup.traced.flags.contains(&true)
+}
+
+/// The RSL sum at `point` of an object with `covers` drawn as `mesh` (world positions): each
+/// light's cover interpolated from the vertices, except a traced light's, which is traced
+/// from the point itself ([`PIXEL_RAYS`] rays, masked with the face the point lies on).
+pub fn point_radiance(
+    setup: &FrameSetup<'_>,
+    covers: &Covers,
+    mesh: &PixelMesh<'_>,
+    point: &PixelPoint<'_>,
+    buf: &mut [f32],
+    stats: &mut FrameStats,
+) -> Vec3 {
+    if setup.view_independent(point.object) && setup.traced.flags.contains(&true) {
+        // A Lambertian object is drawn per pixel for its traced lights' shadows alone: the
+        // other lights' radiance varies no faster than their covers, and is interpolated.
+        buf.iter_mut().for_each(|c| *c = 0.0);
+        trace_at(setup, mesh, point, buf, stats);
+        return point.fragment.interpolate(mesh.indices, &covers.untraced)
+            + setup.point(point.object, point.position, &point.frame, buf, stats);
+    }
+    covers.at(mesh.indices, point.fragment, buf);
+    trace_at(setup, mesh, point, buf, stats);
+    setup.point(point.object, point.position, &point.frame, buf, stats)
+}
+
+/// The traced lights' covers at `point`, into `buf`.
+fn trace_at(
+    setup: &FrameSetup<'_>,
+    mesh: &PixelMesh<'_>,
+    point: &PixelPoint<'_>,
+    buf: &mut [f32],
+    stats: &mut FrameStats,
+) {
+    if setup.traced.flags.contains(&true) {
+        let t = 3 * point.fragment.triangle as usize;
+        let [a, b, c] = [0, 1, 2].map(|k| mesh.positions[mesh.indices[t + k] as usize]);
+        let n = point.frame.n;
+        let face = (b - a).cross(c - a).normalize_or_zero();
+        let face = if face.dot(n) < 0.0 { -face } else { face };
+        for (l, cover) in buf.iter_mut().enumerate() {
+            if setup.is_traced(l) {
+                *cover = setup.traced_cover_at(
+                    point.object,
+                    (point.position, n, face),
+                    l,
+                    PIXEL_RAYS,
+                    &mut stats.traced_rays,
+                );
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -226,7 +304,7 @@ mod tests {
     #[test]
     fn covers_interpolate_over_the_corners_that_see_a_light() {
         // Two lights, a triangle 0-1-2; light 1 is below vertex 2's horizon.
-        let covers = Covers { lights: 2, values: vec![1.0, 0.2, 0.5, 0.6, 0.0, UNDEFINED] };
+        let covers = Covers { lights: 2, values: vec![1.0, 0.2, 0.5, 0.6, 0.0, UNDEFINED], untraced: Vec::new() };
         let f = Fragment { mesh: 0, triangle: 0, weights: Vec3::new(0.5, 0.25, 0.25) };
         let mut out = [0.0; 2];
         covers.at(&[0, 1, 2], &f, &mut out);
@@ -234,7 +312,7 @@ mod tests {
         // Renormalised over vertices 0 and 1: (0.5·0.2 + 0.25·0.6) / 0.75.
         assert!((out[1] - (0.1 + 0.15) / 0.75).abs() < 1e-6, "{out:?}");
         // No corner sees it: nothing.
-        let covers = Covers { lights: 1, values: vec![UNDEFINED; 3] };
+        let covers = Covers { lights: 1, values: vec![UNDEFINED; 3], untraced: Vec::new() };
         let mut one = [0.5];
         covers.at(&[0, 1, 2], &f, &mut one);
         assert_eq!(one, [0.0]);

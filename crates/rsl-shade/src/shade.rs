@@ -211,9 +211,9 @@ pub struct TracedCovers {
 
 /// The traced lights of a frame (see [`Traced`]).
 #[derive(Clone, Debug, Default)]
-struct TracedSetup {
+pub(crate) struct TracedSetup {
     /// Per light, whether it is traced.
-    flags: Vec<bool>,
+    pub(crate) flags: Vec<bool>,
     /// Per traced light, the world directions of its rays.
     dirs: Vec<Vec<Vec3>>,
     /// Per light, its index in `dirs` when traced.
@@ -445,7 +445,7 @@ pub struct FrameSetup<'a> {
     reaches: Vec<(f32, f32)>,
     pub(crate) eye: Vec3,
     pub(crate) terms: Terms,
-    traced: TracedSetup,
+    pub(crate) traced: TracedSetup,
 }
 
 impl<'a> FrameSetup<'a> {
@@ -526,12 +526,59 @@ impl<'a> FrameSetup<'a> {
         others: bool,
         rays: &mut u64,
     ) -> f32 {
+        let p = &self.placed[i];
+        let x = p.position(v) + p.pose.normal(p.object.mesh.normals[v]).normalize_or_zero() * self.traced.lift;
+        let vis_frame = &p.object.frames.visibility[v];
+        let mask = p.object.mask.vertex(v);
+        let dirs = &self.traced.dirs[self.traced.index[l]];
+        // Among the directions above the horizon of the vertex's visibility frame, each
+        // weighted by its face-averaged mask (what the field's cover means).
+        let above = |d: Vec3| {
+            let local = vis_frame.to_local(p.pose.direction_to_object(d));
+            (local.z > 0.0).then(|| mask.at(local))
+        };
+        self.traced_from(i, x, l, dirs, (own, others), above, rays)
+    }
+
+    /// Traced light `l`'s cover at a point of object `i` that is not a vertex (a pixel's):
+    /// world position `x`, interpolated shading normal `n`, and the unit normal `face` of the
+    /// face it lies on (on `n`'s side); the first `max_rays` of the light's rays, among those above the
+    /// shading normal's horizon the share that the face sees and no object blocks (the
+    /// truth's pixels mask with the hit face likewise).
+    pub fn traced_cover_at(
+        &self,
+        i: usize,
+        (x, n, face): (Vec3, Vec3, Vec3),
+        l: usize,
+        max_rays: usize,
+        rays: &mut u64,
+    ) -> f32 {
+        let dirs = &self.traced.dirs[self.traced.index[l]];
+        let dirs = &dirs[..dirs.len().min(max_rays.max(1))];
+        let above = |d: Vec3| (n.dot(d) > 0.0).then(|| if face.dot(d) > 0.0 { 1.0 } else { 0.0 });
+        let terms = (self.terms.self_visibility, self.terms.occluders);
+        self.traced_from(i, x + n.normalize_or_zero() * self.traced.lift, l, dirs, terms, above, rays)
+    }
+
+    /// The traced cover from world point `x` (lifted off object `i`'s surface) along `dirs`:
+    /// over the directions `above` counts (with their weights), the weighted share that the
+    /// object itself (with `own`, when it can hide part of itself) and the others (with
+    /// `others`) leave unblocked; without `own`, every direction counts with weight one.
+    #[allow(clippy::too_many_arguments)]
+    fn traced_from(
+        &self,
+        i: usize,
+        x: Vec3,
+        l: usize,
+        dirs: &[Vec3],
+        (own, others): (bool, bool),
+        above: impl Fn(Vec3) -> Option<f32>,
+        rays: &mut u64,
+    ) -> f32 {
         if !own && !others {
             return 1.0;
         }
         let p = &self.placed[i];
-        let x = p.position(v) + p.pose.normal(p.object.mesh.normals[v]).normalize_or_zero() * self.traced.lift;
-        let dirs = &self.traced.dirs[self.traced.index[l]];
         let cone = self.cones[l];
         // The other objects the light's cone from `x` can meet, with `x` in their spaces.
         let mut casters: [(usize, Vec3); 8] = [(0, Vec3::ZERO); 8];
@@ -558,8 +605,6 @@ impl<'a> FrameSetup<'a> {
             return 1.0;
         }
         let x_own = p.point_to_object(x);
-        let vis_frame = &p.object.frames.visibility[v];
-        let mask = p.object.mask.vertex(v);
         let casters = casters[..count.min(8)].iter().chain(&more);
         let blocked_by = |j: usize, xo: Vec3, d: Vec3, rays: &mut u64| {
             *rays += 1;
@@ -572,14 +617,9 @@ impl<'a> FrameSetup<'a> {
         for &d in dirs {
             let mut weight = 1.0;
             if own {
-                // Among the directions above the horizon of the vertex's visibility frame,
-                // weighted by its face-averaged mask (what the field's cover means).
-                let local = vis_frame.to_local(p.pose.direction_to_object(d));
-                if local.z <= 0.0 {
-                    continue;
-                }
+                let Some(w) = above(d) else { continue };
                 counted += 1;
-                weight = mask.at(local);
+                weight = w;
                 if weight <= 0.0 {
                     continue;
                 }
@@ -823,6 +863,7 @@ impl<'a> FrameSetup<'a> {
         nears: &mut Vec<(Near, Lazy<'a>)>,
         stats: &mut FrameStats,
         out: &mut [f32],
+        untraced: &mut Vec3,
     ) -> Vec3 {
         let p = &self.placed[i];
         let o = &p.object;
@@ -854,10 +895,19 @@ impl<'a> FrameSetup<'a> {
             out[l] = cover;
             if lookup != ViewLookup::Below && cover > 0.0 {
                 stats.brdf_lookups += 1;
-                sum += light.radiance * o.table.integral_for(&lookup, frame.to_local(light.dir), r) * cover;
+                let term = light.radiance * o.table.integral_for(&lookup, frame.to_local(light.dir), r) * cover;
+                sum += term;
+                if !self.is_traced(l) {
+                    *untraced += term;
+                }
             }
         }
         sum
+    }
+
+    /// Whether object `i`'s BRDF is view-independent (Lambertian: one table for every view).
+    pub fn view_independent(&self, i: usize) -> bool {
+        self.placed[i].object.table.view_lookup(Vec3::Z) == ViewLookup::Single
     }
 
     /// Radiance toward the eye from world point `x` of object `i` with world shading frame

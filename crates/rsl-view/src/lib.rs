@@ -772,9 +772,10 @@ impl Viewer {
         let state = self.scene.at(self.time);
         let setup = engine.setup(&self.scene, &state, self.scene.camera.eye, rsl_shade::Terms::default())?;
         let n = self.scene.objects.len();
-        let glossy: Vec<bool> = (0..n).map(|i| !engine.brdf(i).is_lambertian()).collect();
-        let with_covers: Vec<bool> = (0..n).map(|i| self.dirty[i] && glossy[i]).collect();
-        let plain: Vec<bool> = (0..n).map(|i| self.dirty[i] && !glossy[i]).collect();
+        let per_pixel: Vec<bool> =
+            (0..n).map(|i| rsl_shade::drawn_per_pixel(&setup, !engine.brdf(i).is_lambertian())).collect();
+        let with_covers: Vec<bool> = (0..n).map(|i| self.dirty[i] && per_pixel[i]).collect();
+        let plain: Vec<bool> = (0..n).map(|i| self.dirty[i] && !per_pixel[i]).collect();
         let (mut radiance, covers, _) = rsl_shade::shade_covers(&setup, &with_covers);
         let (plain_radiance, _) = rsl_shade::shade_objects(&setup, &plain);
         for (i, (c, r)) in covers.into_iter().zip(plain_radiance).enumerate() {
