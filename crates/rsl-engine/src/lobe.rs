@@ -274,8 +274,8 @@ impl Method for Hybrid {
     }
 }
 
-/// Each object drawn as its scene `method` asks ([`Drawn::of`]; `auto`: glossy objects per
-/// pixel), on the CPU.
+/// Each object drawn as its scene `method` asks ([`Drawn::of`]; `auto`:
+/// [`PerObject::auto_choice`]), on the CPU.
 #[derive(Default)]
 pub struct PerObject {
     hybrid: Hybrid,
@@ -289,6 +289,39 @@ impl PerObject {
     }
 }
 
+impl PerObject {
+    /// What `auto` draws object `i` with: a glossy object gets the lobes when its sharpest
+    /// lobe is [`LOBE_RATIO`] times narrower than the squares that carry the light
+    /// ([`typical_square`]), where the RSL sum per pixel would show the squares' outlines
+    /// and gaps, and else the RSL sum per pixel.
+    pub fn auto_choice(&mut self, engine: &Engine, i: usize) -> Result<Drawn> {
+        let brdf = engine.brdf(i);
+        if brdf.is_lambertian() {
+            return Ok(Drawn::of(ObjectMethod::Auto, brdf));
+        }
+        let kappa = self.hybrid.lobes(brdf)?.lobes_per_view().map(|w| w.lobe.kappa).fold(0.0f32, f32::max);
+        let width = 1.0 / kappa.max(1e-6).sqrt();
+        Ok(if width * LOBE_RATIO < typical_square(engine.rsls()) { Drawn::Lobes } else { Drawn::Pixel })
+    }
+}
+
+/// How much narrower than the typical square a lobe must be for `auto` to draw it with the
+/// lobes rather than the RSL sum.
+pub const LOBE_RATIO: f32 = 8.0;
+
+/// The energy-weighted mean half-diagonal of `rsls` (in the equal-area plane; about the
+/// half-width of a square in radians): how large the squares that carry most of the light
+/// are. A sun or a studio's lamps make it small, a uniform sky large.
+pub fn typical_square(rsls: &[rsl_env::Rsl]) -> f32 {
+    let (mut sum, mut energy) = (0.0f64, 0.0f64);
+    for r in rsls {
+        let e = f64::from(rsl_sphere::sampling::luminance(r.intensity).max(0.0) * r.solid_angle());
+        sum += e * f64::from(r.half_diagonal);
+        energy += e;
+    }
+    if energy > 0.0 { (sum / energy) as f32 } else { 0.0 }
+}
+
 impl Method for PerObject {
     fn describe(&self) -> String {
         format!("each object's own method on the CPU ({} threads)", rayon::current_num_threads())
@@ -296,8 +329,13 @@ impl Method for PerObject {
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
         engine.check(scene)?;
-        let drawn: Vec<Drawn> =
-            scene.objects.iter().enumerate().map(|(i, o)| Drawn::of(o.method, engine.brdf(i))).collect();
+        let mut drawn = Vec::with_capacity(scene.objects.len());
+        for (i, o) in scene.objects.iter().enumerate() {
+            drawn.push(match o.method {
+                ObjectMethod::Auto => self.auto_choice(engine, i)?,
+                m => Drawn::of(m, engine.brdf(i)),
+            });
+        }
         self.hybrid.render_drawn(engine, scene, request, &drawn, true)
     }
 }

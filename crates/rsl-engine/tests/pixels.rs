@@ -5,7 +5,7 @@
 //! whose edge the lobes per pixel must put where the truth's is.
 
 use glam::Vec3;
-use rsl_engine::lobe::{Hybrid, PerObject};
+use rsl_engine::lobe::{Drawn, Hybrid, PerObject};
 use rsl_engine::method::{CpuRsl, CpuRslPixels, Frame, Method, Request, Truth};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, Layers};
@@ -215,6 +215,9 @@ fn a_mirror_ball_puts_a_sharp_horizon_where_the_truth_does() {
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let per_pixel = render(&mut CpuRslPixels, &engine, &s, true).image.expect("image");
     let lobes = render(&mut Hybrid::new(), &engine, &s, true).image.expect("image");
+    // `auto` takes the lobes here: the squares carrying the uniform sky are wide.
+    println!("typical square {:.4}", rsl_engine::lobe::typical_square(engine.rsls()));
+    assert_eq!(PerObject::new().auto_choice(&engine, 0).unwrap(), Drawn::Lobes);
     let neutral =
         Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
     let mut truth = Truth::new(&neutral, 256, 5).expect("truth");

@@ -147,8 +147,9 @@ pub struct Object {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ObjectMethod {
-    /// `rsl_pixel` for a glossy object: the most accurate per covered pixel on every
-    /// bundled accuracy scene (README).
+    /// For a glossy object, `rsl_pixel` (the most accurate per covered pixel on every bundled
+    /// accuracy scene, README), or `hybrid` where its lobe is much narrower than the squares
+    /// that carry the light (a near-mirror under a smooth sky; `rsl_engine::lobe::PerObject`).
     #[default]
     Auto,
     /// The RSL path at the vertices, interpolated across triangles (the fastest).
