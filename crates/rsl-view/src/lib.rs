@@ -164,8 +164,12 @@ pub struct Viewer {
     /// The environment thumbnail with its RSLs, for (environment key, RSL count).
     thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,
-    /// Whether glossy objects are drawn per pixel (`rsl_shade::pixel`).
+    /// Whether glossy objects are drawn per pixel (`rsl_shade::pixel`): once the view rests.
     per_pixel: bool,
+    /// The next refresh draws per pixel (set on the toggle, and once edits rest).
+    force_pixels: bool,
+    /// When an edit was last drawn interpolated while drawing per pixel is on.
+    pixels_pending: Option<Instant>,
     /// Per object drawn per pixel: every light's cover at its vertices.
     covers: Vec<Option<rsl_shade::Covers>>,
 }
@@ -335,6 +339,8 @@ impl Viewer {
             thumbnail: None,
             readout: None,
             per_pixel: false,
+            force_pixels: false,
+            pixels_pending: None,
             covers: vec![None; n],
         };
         v.prepare();
@@ -749,13 +755,33 @@ impl Viewer {
     }
 
     /// Draws glossy objects per pixel (each pixel's own normal and view in the RSL sum, the
-    /// visibility interpolated from the vertices; `rsl_engine::CpuRslPixels` renders the same
-    /// image), or interpolates every object's vertex radiance (faster: what a drag shows).
+    /// visibility interpolated from the vertices, traced lights traced per pixel;
+    /// `rsl_engine::CpuRslPixels` renders the same image) whenever the view rests
+    /// ([`Viewer::settle_pixels`]), or interpolates every object's vertex radiance always.
     pub fn set_per_pixel(&mut self, on: bool) {
         if self.per_pixel != on {
             self.per_pixel = on;
+            self.force_pixels = on;
+            self.pixels_pending = None;
             self.covers.iter_mut().for_each(|c| *c = None);
             self.mark_all();
+        }
+    }
+
+    /// Drawing per pixel costs hundreds of milliseconds a frame on 2 cores: while edits come
+    /// (a slider, a drag, the camera), frames are interpolated, and the view is drawn per
+    /// pixel again once it has rested for [`PREVIEW_REST`] (or at once with `now`); `true`
+    /// when that was started.
+    pub fn settle_pixels(&mut self, now: bool) -> bool {
+        match self.pixels_pending {
+            Some(t) if now || t.elapsed() >= PREVIEW_REST => {
+                self.pixels_pending = None;
+                self.force_pixels = true;
+                // Every object again, with its covers (interpolated frames did not keep them).
+                self.mark_all();
+                true
+            }
+            _ => false,
         }
     }
 
@@ -819,7 +845,10 @@ impl Viewer {
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
         if self.per_pixel {
-            return self.refresh_per_pixel(start);
+            if std::mem::take(&mut self.force_pixels) {
+                return self.refresh_per_pixel(start);
+            }
+            self.pixels_pending = Some(Instant::now());
         }
         let all = self.dirty.iter().all(|&d| d);
         // Only radiance changed (material edits): the image is redrawn where those objects
@@ -1167,6 +1196,10 @@ impl Viewer {
             ui.ctx().request_repaint_after(PREVIEW_REST);
             let r = self.settle(false).map(|_| ());
             self.report(r);
+        }
+        if self.pixels_pending.is_some() && self.previewing.is_none() {
+            ui.ctx().request_repaint_after(PREVIEW_REST);
+            self.settle_pixels(false);
         }
         let r = self.refresh().map(|_| ());
         self.report(r);

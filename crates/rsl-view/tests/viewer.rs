@@ -467,7 +467,31 @@ fn the_per_pixel_checkbox_draws_what_the_pixel_method_renders() {
     // The glossy objects' pixels changed, the floor's (Lambertian: interpolated) did not.
     let changed = interpolated.pixels.iter().zip(&drawn.pixels).filter(|(a, b)| (**a - **b).length() > 1e-3).count();
     assert!(changed > 1000, "{changed} pixels changed");
-    // Off again: the interpolated image comes back.
+    // An edit is drawn interpolated at once, and per pixel once the view rests.
+    let bunny = index(h.state(), "bunny");
+    let mut m = h.state().scene().objects[bunny].material.clone();
+    if let Material::Ggx { alpha, .. } = &mut m {
+        *alpha = 0.3;
+    }
+    h.state_mut().set_material(bunny, m).unwrap();
+    h.step();
+    assert!(!h.state_mut().settle_pixels(false), "per pixel before the view rested");
+    std::thread::sleep(rsl_view::PREVIEW_REST);
+    h.step();
+    h.step();
+    let v = h.state();
+    let expected = CpuRslPixels.render(v.engine().unwrap(), v.scene(), &request).unwrap().image.unwrap();
+    let drawn = v.linear_image().expect("an image");
+    for (k, (a, b)) in drawn.pixels.iter().zip(&expected.pixels).enumerate() {
+        assert!((*a - *b).abs().max_element() <= 1e-4 * b.max_element().max(1e-2), "rested, pixel {k}: {a} vs {b}");
+    }
+    // Off again: the interpolated image comes back (the edit undone first).
+    let mut m = h.state().scene().objects[bunny].material.clone();
+    if let Material::Ggx { alpha, .. } = &mut m {
+        *alpha = 0.15;
+    }
+    h.state_mut().set_material(bunny, m).unwrap();
+    h.state_mut().settle(true).unwrap();
     h.get_by_label("glossy objects per pixel").click();
     h.step();
     h.step();
