@@ -291,6 +291,28 @@ fn inputs_that_would_run_away_are_refused_before_any_work() {
         rsl().arg("render").arg(&tables).arg("--no-cache").arg("--out").arg(&png),
         &["BRDF table", "GB", "RSL_MAX_PREPARE_BYTES", "brdf_resolution or view_samples"],
     );
+    // Drawing per pixel keeps every light's cover at every vertex: bounded like a table (a
+    // 40,962-vertex ball and 1,500 RSLs is 0.25 GB; the limit lowered to 0.1 GB for the test).
+    let dense = write(
+        "dense.toml",
+        &format!(
+            "[quality]\npreset = \"draft\"\nenv_grid = 16\n[environment]\nconstant = [1.0, 1.0, 1.0]\nrsl_count = 1500\n\
+             {head}[[objects]]\nname = \"ball\"\nprimitive = {{ kind = \"sphere\", radius = 1.0, resolution = 143 }}\n\
+             material = {{ model = \"ggx\", alpha = 0.2 }}\n"
+        ),
+    );
+    fails(
+        rsl()
+            .env("RSL_MAX_PREPARE_BYTES", "100000000")
+            .arg("render")
+            .arg(&dense)
+            .arg("--no-cache")
+            .arg("--method")
+            .arg("pixel")
+            .arg("--out")
+            .arg(&png),
+        &["drawing per pixel", "GB", "RSL_MAX_PREPARE_BYTES", "method \"rsl\""],
+    );
     // Radiance that would overflow f32 once summed: an error naming the input at fault.
     let bright = write(
         "bright.toml",

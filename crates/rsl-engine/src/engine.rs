@@ -186,13 +186,17 @@ pub fn prepare_limit() -> Result<u64> {
 }
 
 /// Fails when `bytes` (what building `what` would take) is beyond [`prepare_limit`].
-fn check_size(what: &str, knobs: &str, bytes: u64) -> Result<()> {
+pub(crate) fn check_size(what: &str, knobs: &str, bytes: u64) -> Result<()> {
     let limit = prepare_limit()?;
     if bytes > limit {
+        // Gigabytes where that says something, else megabytes (a low limit set for a test).
+        let size = |b: u64| {
+            if b >= 100_000_000 { format!("{:.1} GB", b as f64 / 1e9) } else { format!("{:.1} MB", b as f64 / 1e6) }
+        };
         bail!(
-            "{what} would take {:.1} GB to build, more than the limit of {:.1} GB ({PREPARE_LIMIT_ENV}): lower {knobs}",
-            bytes as f64 / 1e9,
-            limit as f64 / 1e9
+            "{what} would take {} to build, more than the limit of {} ({PREPARE_LIMIT_ENV}): lower {knobs}",
+            size(bytes),
+            size(limit)
         );
     }
     Ok(())

@@ -153,6 +153,13 @@ impl Hybrid {
             })
             .collect();
         let with_covers: Vec<bool> = drawn.iter().map(|d| *d == Drawn::Pixel).collect();
+        // Every light's cover at every vertex drawn per pixel: bounded before it is made.
+        let covered: u64 = (0..n).filter(|&i| with_covers[i]).map(|i| engine.mesh(i).vertex_count() as u64).sum();
+        crate::engine::check_size(
+            "drawing per pixel (every light's cover at every vertex)",
+            "the RSL count or the meshes' vertices, or draw those objects with method \"rsl\"",
+            covered * (4 * setup.light_count() as u64 + 12),
+        )?;
         let (mut radiance, covers, mut stats) = rsl_shade::shade_covers(&setup, &with_covers);
         let rest: Vec<bool> = with_covers.iter().map(|c| !c).collect();
         let (rest_radiance, rest_stats) = rsl_shade::shade_objects(&setup, &rest);
