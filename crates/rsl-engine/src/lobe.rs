@@ -298,7 +298,7 @@ impl PerObject {
 
 impl PerObject {
     /// What `auto` draws object `i` with: a glossy object gets the lobes when its sharpest
-    /// lobe is [`LOBE_RATIO`] times narrower than the squares that carry the light
+    /// single-lobe fit is [`LOBE_RATIO`] times narrower than the squares that carry the light
     /// ([`typical_square`]), where the RSL sum per pixel would show the squares' outlines
     /// and gaps, and else the RSL sum per pixel.
     pub fn auto_choice(&mut self, engine: &Engine, i: usize) -> Result<Drawn> {
@@ -306,7 +306,7 @@ impl PerObject {
         if brdf.is_lambertian() {
             return Ok(Drawn::of(ObjectMethod::Auto, brdf));
         }
-        let kappa = self.hybrid.lobes(brdf)?.lobes_per_view().map(|w| w.lobe.kappa).fold(0.0f32, f32::max);
+        let kappa = self.hybrid.lobes(brdf)?.single_kappa_max();
         let width = 1.0 / kappa.max(1e-6).sqrt();
         Ok(if width * LOBE_RATIO < typical_square(engine.rsls()) { Drawn::Lobes } else { Drawn::Pixel })
     }

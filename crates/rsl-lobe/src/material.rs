@@ -2,19 +2,20 @@
 //! (Laurijssen & Dutré 2009, eq. 9 and 13–15).
 //!
 //! For each tabulated polar view angle `θ_k` (view in the local xz plane, normal +z), the
-//! specular part is fitted by one lobe from `S` stratified importance samples of the BRDF's
+//! specular part is fitted first by one lobe from `S` stratified importance samples of the BRDF's
 //! own sampling routine: with weights `w = f(ω)/pdf(ω)` (`f` the luminance of `ρ cos θ`),
 //! the weighted mean direction `n = Σ w ω / Σ w` gives `μ = n/|n|` and, from `r = |n|`,
 //! `κ = (3r − r³)/(1 − r²)` (eq. 13, the maximum-likelihood estimate for one lobe); the
 //! weight is the sampled albedo `α = Σ (ρ cos θ / pdf) / S`, per channel (eq. 15). Eq. 13
 //! matches the mean cosine, which a heavy tail drags down (a GGX lobe came out 50–70 % off
 //! in L2 at α ≤ 0.1), so `κ` is then refined to the L2-best value for that `μ` and `α`
-//! (golden-section search from eq. 13's estimate, the cross term from the same samples). The
-//! diffuse term is one fixed lobe about the normal: a cosine lobe has `r = 2/3`, so
-//! `κ = 46/15`, and weight `ρ_d`.
+//! (golden-section search from eq. 13's estimate, the cross term from the same samples).
+//! Where one lobe fits poorly (GGX's core and tail), a second about the same mean splits the
+//! weight with it (`fit_view`). The diffuse term is one fixed lobe about the normal: a cosine
+//! lobe has `r = 2/3`, so `κ = 46/15`, and weight `ρ_d`.
 //!
-//! A view between two tabulated angles interpolates the two fits (Laurijssen eq. 6): `μ` by
-//! a normalised blend, `κ` and `α` linearly. Rendering a lobe set under a prefiltered
+//! A view between two tabulated angles interpolates the two fits lobe by lobe (Laurijssen
+//! eq. 6): `μ` by a normalised blend, `κ` and `α` linearly. Rendering a lobe set under a prefiltered
 //! environment is one lookup per lobe ([`MaterialLobes::radiance`]).
 
 use crate::prefilter::Prefiltered;
@@ -58,9 +59,11 @@ impl Default for FitParams {
 pub struct MaterialLobes {
     brdf: Brdf,
     thetas: Vec<f32>,
-    /// The specular lobe per view (in the frame where the view has azimuth 0), if the BRDF has
-    /// a specular part.
-    specular: Vec<Option<WeightedLobe>>,
+    /// The specular lobes per view (in the frame where the view has azimuth 0), if the BRDF
+    /// has a specular part.
+    specular: Vec<Option<[WeightedLobe; 2]>>,
+    /// Per view, `κ` of the best single lobe (what one lobe's width would be).
+    single: Vec<f32>,
     /// The diffuse lobe (about the normal), if the BRDF has a diffuse term.
     diffuse: Option<WeightedLobe>,
 }
@@ -70,8 +73,9 @@ fn theta_max() -> f32 {
     89.9f32.to_radians()
 }
 
-/// The one-lobe fit of `ρ cos θ` of `specular` (a BRDF without diffuse term) for view `wo`.
-fn fit_view(specular: &Brdf, wo: Vec3, samples: usize) -> Option<WeightedLobe> {
+/// The fit of `ρ cos θ` of `specular` (a BRDF without diffuse term) for view `wo`: two lobes
+/// about one mean, the one with the larger weight first.
+fn fit_view(specular: &Brdf, wo: Vec3, samples: usize) -> Option<([WeightedLobe; 2], f32)> {
     let k = (samples as f64).sqrt().ceil().max(1.0) as usize;
     // Per sample: its direction, f/pdf (luminance) and f (luminance) at it.
     let mut points: Vec<(DVec3, f64, f64)> = Vec::with_capacity(k * k);
@@ -133,7 +137,53 @@ fn fit_view(specular: &Brdf, wo: Vec3, samples: usize) -> Option<WeightedLobe> {
         }
     }
     let kappa = (0.5 * (a + b)).exp();
-    Some(WeightedLobe { weight: (albedo / count).as_vec3(), lobe: Vmf::new(mean.as_vec3(), kappa as f32) })
+    let weight = (albedo / count).as_vec3();
+    // A second lobe about the same mean, for the core-and-tail shape of microfacet lobes: the
+    // pair (κ₁, κ₂) from a ladder of octaves around κ, and the split `t` of the weight
+    // (`tα` and `(1 − t)α`, so a furnace stays exact) that minimises the L2 distance in
+    // closed form for each pair. One lobe (`t = 1`) is among the candidates.
+    let ladder: Vec<f64> = (0..=10).map(|j| kappa * 2f64.powi(j - 5)).collect();
+    let cross: Vec<f64> = ladder
+        .iter()
+        .map(|&k| points.iter().map(|p| p.1 * crate::vmf::density_at(k, mean.dot(p.0))).sum::<f64>() / count)
+        .collect();
+    let lobe = |k: f64| Vmf { mean: mean.as_vec3(), kappa: k as f32 };
+    let gram = |i: usize, j: usize| lobe(ladder[i]).product_integral(&lobe(ladder[j]));
+    // `∫ f²` from the same samples, so that errors compare as squared distances.
+    let f2 = points.iter().map(|p| p.1 * p.2).sum::<f64>() / count;
+    let mut best = (f64::INFINITY, 5, 5, 1.0);
+    for i in 0..ladder.len() {
+        for j in 0..=i {
+            let (gii, gij, gjj) = (gram(i, i), gram(i, j), gram(j, j));
+            let denominator = gii - 2.0 * gij + gjj;
+            let t = if denominator > 1e-12 {
+                (((cross[i] - cross[j]) / alpha + gjj - gij) / denominator).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            let e = alpha * alpha * (t * t * gii + 2.0 * t * (1.0 - t) * gij + (1.0 - t) * (1.0 - t) * gjj)
+                - 2.0 * alpha * (t * cross[i] + (1.0 - t) * cross[j]);
+            if e < best.0 {
+                best = (e, i, j, t);
+            }
+        }
+    }
+    // Two lobes only where they pay: a squared L2 distance lower than one lobe's by a fifth
+    // of it and by 0.5 % of `∫ f²` (the sampled estimates are noisy near a perfect fit; a
+    // Phong lobe, a vMF in all but name, keeps one).
+    let single = alpha * alpha * gram(5, 5) - 2.0 * alpha * cross[5] + f2;
+    let gain = single - (best.0 + f2);
+    let (_, i, j, t) = if gain > 0.2 * single.max(0.0) + 0.005 * f2 { best } else { (single, 5, 5, 1.0) };
+    // Views are interpolated lobe by lobe: the first lobe is the main one (the larger
+    // share), the second the rest; a lobe left without weight takes the main one's κ, so
+    // that no weightless κ is blended into a neighbouring view's.
+    let (main, rest, share) = if t >= 0.5 { (ladder[i], ladder[j], t) } else { (ladder[j], ladder[i], 1.0 - t) };
+    let rest = if share >= 1.0 { main } else { rest };
+    let pair = [
+        WeightedLobe { weight: weight * share as f32, lobe: Vmf::new(mean.as_vec3(), main as f32) },
+        WeightedLobe { weight: weight * (1.0 - share) as f32, lobe: Vmf::new(mean.as_vec3(), rest as f32) },
+    ];
+    Some((pair, kappa as f32))
 }
 
 impl MaterialLobes {
@@ -147,7 +197,7 @@ impl MaterialLobes {
         let thetas = polar_views(v, theta_max());
         let specular_part = brdf.specular_part();
         let has_specular = !brdf.is_lambertian();
-        let specular = thetas
+        let fits: Vec<Option<([WeightedLobe; 2], f32)>> = thetas
             .par_iter()
             .map(|&t| {
                 has_specular
@@ -155,9 +205,11 @@ impl MaterialLobes {
                     .flatten()
             })
             .collect();
+        let specular = fits.iter().map(|f| f.map(|f| f.0)).collect();
+        let single = fits.iter().flatten().map(|f| f.1).collect();
         let d = brdf.diffuse();
         let diffuse = (d != Vec3::ZERO).then(|| WeightedLobe { weight: d, lobe: Vmf::new(Vec3::Z, COSINE_KAPPA) });
-        Ok(Self { brdf: *brdf, thetas, specular, diffuse })
+        Ok(Self { brdf: *brdf, thetas, specular, single, diffuse })
     }
 
     /// The fitted BRDF.
@@ -168,7 +220,13 @@ impl MaterialLobes {
     /// The fitted specular lobes, one per tabulated view (in the frame where the view has
     /// azimuth 0), where the BRDF has a specular part.
     pub fn lobes_per_view(&self) -> impl Iterator<Item = &WeightedLobe> {
-        self.specular.iter().flatten()
+        self.specular.iter().flatten().flatten().filter(|l| l.weight != Vec3::ZERO)
+    }
+
+    /// The sharpest single lobe's `κ` over the tabulated views (0 without a specular part):
+    /// the width `1/√κ` one lobe would have, whatever the fit split it into.
+    pub fn single_kappa_max(&self) -> f32 {
+        self.single.iter().copied().fold(0.0, f32::max)
     }
 
     /// The tabulated polar view angles.
@@ -186,28 +244,30 @@ impl MaterialLobes {
     /// [`MaterialLobes::lobes`] without allocating.
     fn lobes_at(&self, view: Vec3) -> impl Iterator<Item = WeightedLobe> {
         let above = !(view.z.is_nan() || view.z <= 0.0);
-        above.then(|| self.specular_at(view)).flatten().into_iter().chain(self.diffuse.filter(|_| above))
+        above.then(|| self.specular_at(view)).into_iter().flatten().chain(self.diffuse.filter(|_| above))
     }
 
-    /// The specular lobe for a view above the horizon (see [`MaterialLobes::lobes`]).
-    fn specular_at(&self, view: Vec3) -> Option<WeightedLobe> {
+    /// The specular lobes for a view above the horizon (see [`MaterialLobes::lobes`]).
+    fn specular_at(&self, view: Vec3) -> impl Iterator<Item = WeightedLobe> {
         let theta = view.z.clamp(-1.0, 1.0).acos().min(theta_max());
         let (k, f) = polar_view_between(theta, self.thetas.len(), theta_max());
         let rxy = Vec2::new(view.x, view.y).length();
         let (c, s) = if rxy > 1e-12 { (view.x / rxy, view.y / rxy) } else { (1.0, 0.0) };
-        let turn = |d: Vec3| Vec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z);
-        match (self.specular[k], self.specular[k + 1]) {
-            (Some(a), Some(b)) => {
+        let turn = move |d: Vec3| Vec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z);
+        let pair = match (self.specular[k], self.specular[k + 1]) {
+            (Some(a), Some(b)) => Some([0, 1].map(|m| {
+                let (a, b) = (a[m], b[m]);
                 let mean = (a.lobe.mean * (1.0 - f) + b.lobe.mean * f).normalize_or(a.lobe.mean);
                 let kappa = a.lobe.kappa * (1.0 - f) + b.lobe.kappa * f;
                 let weight = a.weight * (1.0 - f) + b.weight * f;
-                Some(WeightedLobe { weight, lobe: Vmf::new(turn(mean), kappa) })
-            }
+                WeightedLobe { weight, lobe: Vmf::new(turn(mean), kappa) }
+            })),
             (Some(a), None) | (None, Some(a)) => {
-                Some(WeightedLobe { lobe: Vmf::new(turn(a.lobe.mean), a.lobe.kappa), ..a })
+                Some(a.map(|l| WeightedLobe { lobe: Vmf::new(turn(l.lobe.mean), l.lobe.kappa), ..l }))
             }
             (None, None) => None,
-        }
+        };
+        pair.into_iter().flatten().filter(|l| l.weight != Vec3::ZERO)
     }
 
     /// Unshadowed reflected radiance toward `view` at a point with shading frame `frame`
