@@ -16,6 +16,9 @@ pub struct ViewArgs {
     /// UI frames to draw before the screenshot.
     #[arg(long, default_value_t = 3, requires = "screenshot")]
     pub frames: usize,
+    /// Start with glossy objects drawn per pixel (the "glossy objects per pixel" checkbox).
+    #[arg(long)]
+    pub per_pixel: bool,
     /// Precomputation options.
     #[command(flatten)]
     pub prepare: PrepareArgs,
@@ -39,7 +42,8 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     }
     let engine = args.prepare.options();
     let options = rsl_view::ViewerOptions { cache_dir: engine.cache_dir, quality: args.prepare.quality };
-    let viewer = rsl_view::Viewer::new(scene, options);
+    let mut viewer = rsl_view::Viewer::new(scene, options);
+    viewer.set_per_pixel(args.per_pixel);
     match &args.screenshot {
         Some(png) => {
             let img = rsl_view::screenshot(viewer, args.frames)?;
