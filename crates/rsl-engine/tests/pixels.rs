@@ -62,6 +62,19 @@ fn pixel_l2(a: &Image, b: &Image) -> f64 {
     (num / den).sqrt()
 }
 
+/// The truth's image of `s` at t = 0 (256 spp per pixel, `seed`), with its own noise
+/// (relative L2 of its standard errors over the covered pixels).
+fn truth_image(s: &Scene, seed: u64) -> (Image, f64) {
+    let neutral =
+        Engine::new(s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
+    let t = Truth::new(&neutral, 256, seed)
+        .expect("truth")
+        .render(&neutral, s, &Request { time: 0.0, image: true, vertices: false, exposure: None })
+        .expect("truth frame");
+    let noise = t.self_error.and_then(|e| e.pixels).expect("the truth's noise");
+    (t.image.expect("image"), noise)
+}
+
 #[test]
 fn per_pixel_vertices_are_the_cpu_paths() {
     let s = ball_scene();
@@ -85,14 +98,7 @@ fn a_highlight_between_vertices_is_drawn_per_pixel() {
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let interpolated = render(&mut CpuRsl, &engine, &s, true).image.expect("image");
     let per_pixel = render(&mut CpuRslPixels, &engine, &s, true).image.expect("image");
-    let neutral =
-        Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
-    let mut truth = Truth::new(&neutral, 256, 3).expect("truth");
-    let t = truth
-        .render(&neutral, &s, &Request { time: 0.0, image: true, vertices: false, exposure: None })
-        .expect("truth frame");
-    let noise = t.self_error.and_then(|e| e.pixels).expect("the truth's noise");
-    let t = t.image.expect("image");
+    let (t, noise) = truth_image(&s, 3);
     let (e_vertex, e_pixel) = (pixel_l2(&interpolated, &t), pixel_l2(&per_pixel, &t));
     println!(
         "per covered pixel against the truth (noise {noise:.4}): interpolated {e_vertex:.4}, per pixel {e_pixel:.4}"
@@ -137,14 +143,7 @@ fn lambertian_objects_are_drawn_per_pixel_for_traced_shadows_alone() {
     let f = render(&mut CpuRsl, &engine, &s, true);
     let interpolated = f.image.clone().expect("image");
     let per_pixel = render(&mut CpuRslPixels, &engine, &s, true).image.expect("image");
-    let neutral =
-        Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
-    let t = Truth::new(&neutral, 256, 4)
-        .expect("truth")
-        .render(&neutral, &s, &Request { time: 0.0, image: true, vertices: false, exposure: None })
-        .expect("truth frame")
-        .image
-        .expect("image");
+    let (t, _) = truth_image(&s, 4);
     let (e_vertex, e_pixel) = (object_pixel_l2(&s, &f, &interpolated, &t), object_pixel_l2(&s, &f, &per_pixel, &t));
     println!("floor per covered pixel: interpolated {:.4}, per pixel {:.4}", e_vertex[0], e_pixel[0]);
     // Measured: 0.195 interpolated, 0.054 per pixel (the truth's noise on the whole image: 0.047).
@@ -218,14 +217,7 @@ fn a_mirror_ball_puts_a_sharp_horizon_where_the_truth_does() {
     // `auto` takes the lobes here: the squares carrying the uniform sky are wide.
     println!("typical square {:.4}", rsl_engine::lobe::typical_square(engine.rsls()));
     assert_eq!(PerObject::new().auto_choice(&engine, 0).unwrap(), Drawn::Lobes);
-    let neutral =
-        Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
-    let mut truth = Truth::new(&neutral, 256, 5).expect("truth");
-    let t = truth
-        .render(&neutral, &s, &Request { time: 0.0, image: true, vertices: false, exposure: None })
-        .expect("truth frame")
-        .image
-        .expect("image");
+    let (t, _) = truth_image(&s, 5);
     std::fs::remove_dir_all(&dir).ok();
     let (e_rsl, e_lobes) = (pixel_l2(&per_pixel, &t), pixel_l2(&lobes, &t));
     println!("per covered pixel: RSL per pixel {e_rsl:.4}, lobes per pixel {e_lobes:.4}");
@@ -306,15 +298,7 @@ fn object_pixel_l2(s: &Scene, f: &Frame, a: &Image, b: &Image) -> Vec<f64> {
 
 #[test]
 fn each_object_is_drawn_by_its_own_method() {
-    let neutral_scene = mixed_scene("auto", "auto");
-    let neutral = Engine::new(&neutral_scene, EngineOptions { layers: Layers { rsl: false }, ..Default::default() })
-        .expect("engine");
-    let mut truth = Truth::new(&neutral, 256, 11).expect("truth");
-    let t = truth
-        .render(&neutral, &neutral_scene, &Request { time: 0.0, image: true, vertices: false, exposure: None })
-        .expect("truth frame");
-    let noise = t.self_error.and_then(|e| e.pixels).expect("noise");
-    let t = t.image.expect("image");
+    let (t, noise) = truth_image(&mixed_scene("auto", "auto"), 11);
     let mut rows = Vec::new();
     for (rough, sharp) in
         [("rsl", "rsl"), ("rsl_pixel", "rsl_pixel"), ("hybrid", "hybrid"), ("auto", "auto"), ("rsl_pixel", "hybrid")]

@@ -242,7 +242,7 @@ pub const PIXEL_RAYS: usize = 4;
 /// shadows are traced per pixel; otherwise its radiance varies no faster than its covers,
 /// and interpolating its vertices gives the same image).
 pub fn drawn_per_pixel(setup: &FrameSetup<'_>, glossy: bool) -> bool {
-    glossy || setup.traced.flags.contains(&true)
+    glossy || setup.traces_any()
 }
 
 /// The RSL sum at `point` of an object with `covers` drawn as `mesh` (world positions): each
@@ -256,7 +256,7 @@ pub fn point_radiance(
     buf: &mut [f32],
     stats: &mut FrameStats,
 ) -> Vec3 {
-    if setup.view_independent(point.object) && setup.traced.flags.contains(&true) {
+    if setup.view_independent(point.object) && setup.traces_any() {
         // A Lambertian object is drawn per pixel for its traced lights' shadows alone: the
         // other lights' radiance varies no faster than their covers, and is interpolated.
         buf.iter_mut().for_each(|c| *c = 0.0);
@@ -277,7 +277,7 @@ fn trace_at(
     buf: &mut [f32],
     stats: &mut FrameStats,
 ) {
-    if setup.traced.flags.contains(&true) {
+    if setup.traces_any() {
         let t = 3 * point.fragment.triangle as usize;
         let [a, b, c] = [0, 1, 2].map(|k| mesh.positions[mesh.indices[t + k] as usize]);
         let n = point.frame.n;

@@ -211,9 +211,9 @@ pub struct TracedCovers {
 
 /// The traced lights of a frame (see [`Traced`]).
 #[derive(Clone, Debug, Default)]
-pub(crate) struct TracedSetup {
+struct TracedSetup {
     /// Per light, whether it is traced.
-    pub(crate) flags: Vec<bool>,
+    flags: Vec<bool>,
     /// Per traced light, the world directions of its rays.
     dirs: Vec<Vec<Vec3>>,
     /// Per light, its index in `dirs` when traced.
@@ -445,7 +445,7 @@ pub struct FrameSetup<'a> {
     reaches: Vec<(f32, f32)>,
     pub(crate) eye: Vec3,
     pub(crate) terms: Terms,
-    pub(crate) traced: TracedSetup,
+    traced: TracedSetup,
 }
 
 impl<'a> FrameSetup<'a> {
@@ -496,6 +496,11 @@ impl<'a> FrameSetup<'a> {
         let radius = if lo.x <= hi.x { 0.5 * (hi - lo).length() } else { 0.0 };
         self.traced = TracedSetup { flags, dirs, index, lift: 1e-4 * radius.max(1e-6) };
         self
+    }
+
+    /// Whether any light is traced (its rays were laid out: O(1), for per-pixel callers).
+    pub fn traces_any(&self) -> bool {
+        !self.traced.dirs.is_empty()
     }
 
     /// Whether light `l` is traced.
