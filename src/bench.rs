@@ -15,7 +15,7 @@ pub struct BenchArgs {
     /// there are kept: a finished configuration is not measured again.
     #[arg(long)]
     pub out: PathBuf,
-    /// A sweep `KEY=V1,V2,…` over `rsl`, `quality` (draft, standard, paper, high), `method` (cpu, gpu, hybrid, pixel, auto)
+    /// A sweep `KEY=V1,V2,…` over `rsl`, `quality` (draft, standard, paper, high), `method` (cpu, gpu, hybrid, lobe, pixel, auto)
     /// or a quality knob (table_resolution, view_samples, env_grid, ovdf_directions,
     /// ovdf_shells, ovdf_vectors, cpca_clusters, cpca_vectors, traced_lights, shadow_rays);
     /// repeat for more. Default:

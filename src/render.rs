@@ -223,9 +223,14 @@ pub enum MethodArg {
     Auto,
     /// The Monte Carlo ground truth (multiple importance sampling, shadow rays).
     Truth,
-    /// vMF lobes over the prefiltered environment × the RSL path's visibility ratio (CPU; the
-    /// image per pixel; a comparison: less accurate than `pixel` on every scene measured so far).
+    /// vMF lobes over the prefiltered environment × the RSL path's visibility ratio (the image
+    /// per pixel: on the GPU with `--device gpu`, or `auto` with a hardware GPU; the vertices on
+    /// the CPU; less accurate than `pixel` on every bundled scene).
     Hybrid,
+    /// vMF lobes over the prefiltered environment, each shadowed by the self-visibility and
+    /// occluder fields over a square of its own width (the image per pixel, on the GPU as
+    /// `hybrid` is; nothing traced).
+    Lobe,
 }
 
 fn print_preparation(engine: &Engine) {
@@ -267,11 +272,19 @@ fn method_for(kind: MethodArg, device: Device, engine: &Engine, spp: u32, seed: 
             t.progress = crate::progress::bars();
             Box::new(t)
         }
-        MethodArg::Hybrid => {
-            if device == Device::Gpu {
-                bail!("--method hybrid runs on the CPU only; drop --device gpu");
+        MethodArg::Hybrid | MethodArg::Lobe => {
+            // The vertices (the RSL visibility ratio) are shaded on the CPU; the GPU, where
+            // there is one, draws the lobes per pixel.
+            let h = match device {
+                Device::Cpu => rsl_engine::lobe::Hybrid::new(),
+                Device::Gpu => rsl_engine::lobe::Hybrid::with_gpu(true).context("--device gpu")?,
+                Device::Auto => rsl_engine::lobe::Hybrid::with_gpu(false)?,
+            };
+            let h = h.with_fields(kind == MethodArg::Lobe);
+            if let Some(a) = h.gpu_adapter() {
+                eprintln!("drawing the lobes per pixel on the GPU: {a}");
             }
-            Box::new(rsl_engine::lobe::Hybrid::new())
+            Box::new(h)
         }
         MethodArg::Pixel | MethodArg::Auto => {
             if device == Device::Gpu {

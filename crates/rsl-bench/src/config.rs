@@ -12,6 +12,9 @@ pub enum MethodKind {
     Gpu,
     /// vMF lobes × RSL visibility on every object, CPU (`rsl_engine::lobe::Hybrid`).
     Hybrid,
+    /// vMF lobes each shadowed by the visibility fields over a square of its width, CPU
+    /// (`rsl_engine::lobe::Hybrid::lobe`).
+    Lobe,
     /// The CPU fast path with glossy objects' pixels shaded per pixel
     /// (`rsl_engine::CpuRslPixels`; its vertices are the CPU path's).
     Pixel,
@@ -26,6 +29,7 @@ impl MethodKind {
             MethodKind::Cpu => "cpu",
             MethodKind::Gpu => "gpu",
             MethodKind::Hybrid => "hybrid",
+            MethodKind::Lobe => "lobe",
             MethodKind::Pixel => "pixel",
             MethodKind::Auto => "auto",
         }
@@ -36,6 +40,7 @@ impl MethodKind {
             "cpu" => Some(MethodKind::Cpu),
             "gpu" => Some(MethodKind::Gpu),
             "hybrid" => Some(MethodKind::Hybrid),
+            "lobe" => Some(MethodKind::Lobe),
             "pixel" => Some(MethodKind::Pixel),
             "auto" => Some(MethodKind::Auto),
             _ => None,
@@ -154,7 +159,9 @@ pub fn configs(sweeps: &[Sweep]) -> Result<Vec<Config>> {
                     }
                     "method" => {
                         c.method = MethodKind::from_name(v).ok_or_else(|| {
-                            anyhow::anyhow!("--sweep method: `{v}` is not a method (cpu, gpu, hybrid)")
+                            anyhow::anyhow!(
+                                "--sweep method: `{v}` is not a method (cpu, gpu, hybrid, lobe, pixel, auto)"
+                            )
                         })?;
                     }
                     knob => {

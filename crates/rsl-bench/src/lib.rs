@@ -220,6 +220,7 @@ pub const GRID_ROWS: usize = 24;
 /// first [`GRID_ROWS`] configurations.
 fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: &mut Option<GpuRsl>) -> Result<()> {
     let mut hybrid = rsl_engine::lobe::Hybrid::new();
+    let mut lobe = rsl_engine::lobe::Hybrid::lobe();
     let mut pixel = CpuRslPixels;
     let mut auto = rsl_engine::lobe::PerObject::new();
     for scene_path in &options.scenes {
@@ -247,6 +248,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
                     MethodKind::Cpu => cpu,
                     MethodKind::Gpu => gpu.as_mut().context("the GPU was opened while measuring")?,
                     MethodKind::Hybrid => &mut hybrid,
+                    MethodKind::Lobe => &mut lobe,
                     MethodKind::Pixel => &mut pixel,
                     MethodKind::Auto => &mut auto,
                 };
@@ -342,6 +344,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
     let mut budget_rows = budget::read_rows(&budget_file)?;
     let mut cpu = CpuRsl;
     let mut hybrid = rsl_engine::lobe::Hybrid::new();
+    let mut lobe = rsl_engine::lobe::Hybrid::lobe();
     let mut pixel = CpuRslPixels;
     let mut auto = rsl_engine::lobe::PerObject::new();
     let mut gpu: Option<GpuRsl> = None;
@@ -421,6 +424,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     gpu.as_mut().expect("opened above")
                 }
                 MethodKind::Hybrid => &mut hybrid,
+                MethodKind::Lobe => &mut lobe,
                 MethodKind::Pixel => &mut pixel,
                 MethodKind::Auto => &mut auto,
             };

@@ -488,13 +488,22 @@ impl Engine {
     }
 
     fn decomposition_key(&self) -> u64 {
-        KeyHasher::default().u64(self.env.key).str("decomposition").finish()
+        KeyHasher::default()
+            .u64(self.env.key)
+            .str("decomposition")
+            .u64(u64::from(rsl_env::decompose::ALGORITHM_VERSION))
+            .finish()
     }
 
     /// The RSL set of `n` lights for the prepared environment and its key: memory, disk, or
     /// a decomposition (itself kept in memory, so other counts cost only the cut).
     fn rsl_set(&mut self, n: usize) -> Result<(Arc<Vec<Rsl>>, u64)> {
-        let key = KeyHasher::default().u64(self.env.key).str("rsl").u64(n as u64).finish();
+        let key = KeyHasher::default()
+            .u64(self.env.key)
+            .str("rsl")
+            .u64(u64::from(rsl_env::decompose::ALGORITHM_VERSION))
+            .u64(n as u64)
+            .finish();
         if let Some(s) = self.store.get::<Vec<Rsl>>(key) {
             self.stats.memory_hits += 1;
             return Ok((s, key));

@@ -5,10 +5,10 @@
 //!
 //! The lobes are meant to carry what a square light cannot, the environment's detail inside
 //! a lobe narrower than the squares; the ratio carries the shadows, self and from other
-//! objects, weighted as the RSL path weighs them. Measured (rsl-lobe README), one vMF lobe per
-//! view does not reproduce a microfacet lobe well enough for that: on every accuracy scene
-//! the plain RSL path is closer to the truth, so this is a comparison, not a default, and
-//! there is no automatic choice between the two yet.
+//! objects, weighted as the RSL path weighs them. Measured (rsl-lobe README), the lobes do
+//! not reproduce a microfacet lobe well enough to beat the RSL sum per pixel on the bundled
+//! scenes; [`PerObject`] chooses per object, and picks the lobes only where their width is
+//! well below the squares' (a near-mirror reflecting a sharp horizon).
 //!
 //! Prepared once and kept: the environment prefiltered up to the sharpest lobe the scene's
 //! materials need (`κ` rounded up to a power of two, at most 4096), and each material's lobes
@@ -16,16 +16,20 @@
 //!
 //! Images ([`Hybrid::per_pixel`], the default): each pixel of a glossy object looks its lobes
 //! up for its own interpolated normal and view (one prefiltered lookup per lobe), times the
-//! ratio interpolated from the vertices ([`rsl_shade::draw_pixels`]).
+//! ratio interpolated from the vertices ([`rsl_shade::draw_pixels`]); with a GPU
+//! ([`Hybrid::on_gpu`]) the same in its draw pass (`shaders/draw/lobes.wgsl`).
 
 use crate::engine::{Engine, EnvRadiance, ShadedFrame, brdf_key};
 use crate::method::{Frame, Method, Request, rasterise};
 use crate::progress::Timings;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use glam::Vec3;
 use rayon::prelude::*;
 use rsl_brdf::Brdf;
-use rsl_lobe::{FitParams, MaterialLobes, PrefilterParams, Prefiltered};
+use rsl_gpu::GpuContext;
+use rsl_gpu::draw::GpuDraw;
+use rsl_gpu::lobes::LobeObject;
+use rsl_lobe::{FitParams, MaterialLobes, PackedEnvironment, PackedMaterial, PrefilterParams, Prefiltered};
 use rsl_scene::{ObjectMethod, Scene};
 use rsl_shade::{FrameStats, PixelMesh, Terms};
 use rsl_sphere::Frame as LocalFrame;
@@ -42,8 +46,22 @@ pub struct Hybrid {
     /// and view, times the visibility ratio interpolated from the vertices (else the
     /// vertices' radiance is interpolated).
     pub per_pixel: bool,
+    /// Shadow each lobe by the visibility fields over a square of its width (`method =
+    /// "lobe"`, the variant (a)) instead of the RSL path's visibility ratio (variant
+    /// (b), the hybrid).
+    pub fields: bool,
     env: Option<(u64, u32, Arc<Prefiltered>)>,
     materials: HashMap<u64, Arc<MaterialLobes>>,
+    gpu: Option<GpuLobes>,
+}
+
+/// The GPU draw pass of [`Hybrid::on_gpu`] and what it holds.
+struct GpuLobes {
+    draw: GpuDraw,
+    /// The prefiltered environment uploaded: (content key, top κ).
+    lobe_env: Option<(u64, u32)>,
+    /// The backdrop uploaded: (content key, intensity bits).
+    backdrop: Option<(u64, u32)>,
 }
 
 impl Hybrid {
@@ -51,6 +69,44 @@ impl Hybrid {
     /// frame and kept), drawing glossy objects per pixel.
     pub fn new() -> Self {
         Self { per_pixel: true, ..Self::default() }
+    }
+
+    /// The lobe path with its own shadows (`--method lobe`, variant (a)): each lobe shadowed
+    /// by the visibility fields over a square of its width, drawn per pixel.
+    pub fn lobe() -> Self {
+        Self { fields: true, ..Self::new() }
+    }
+
+    /// A hybrid whose images are drawn per pixel on the GPU of `ctx` (the fragment shader
+    /// `shaders/draw/lobes.wgsl`); the vertices' RSL shading, the visibility ratio, stays on
+    /// the CPU. Objects drawn with the RSL sum per pixel ([`Drawn::Pixel`]) are drawn on the
+    /// CPU, as without a GPU.
+    pub fn on_gpu(ctx: Arc<GpuContext>) -> Result<Self> {
+        let draw = GpuDraw::new(ctx).context("building the GPU draw pass")?;
+        Ok(Self { gpu: Some(GpuLobes { draw, lobe_env: None, backdrop: None }), ..Self::new() })
+    }
+
+    /// This hybrid with each lobe shadowed by the fields ([`Hybrid::lobe`]) when `fields`.
+    pub fn with_fields(self, fields: bool) -> Self {
+        Self { fields, ..self }
+    }
+
+    /// A hybrid drawing on the best GPU adapter: any adapter when `software_ok` (an error when
+    /// there is none), else a hardware one only (none: the CPU, as [`Hybrid::new`]).
+    pub fn with_gpu(software_ok: bool) -> Result<Self> {
+        match GpuContext::new() {
+            Ok(ctx) if software_ok || ctx.info.device_type != rsl_gpu::wgpu::DeviceType::Cpu => {
+                Self::on_gpu(Arc::new(ctx))
+            }
+            Ok(_) => Ok(Self::new()),
+            Err(e) if software_ok => Err(e.into()),
+            Err(_) => Ok(Self::new()),
+        }
+    }
+
+    /// The GPU's adapter, in words, when the images are drawn there.
+    pub fn gpu_adapter(&self) -> Option<String> {
+        self.gpu.as_ref().map(|g| g.draw.context().describe())
     }
 
     /// The material lobes of `brdf` (fitted once per parameter set).
@@ -94,6 +150,18 @@ pub enum Drawn {
     Pixel,
     /// vMF lobes × the RSL visibility ratio (per pixel when the image is drawn per pixel).
     Lobes,
+    /// vMF lobes, each shadowed by the visibility fields over a square of its width
+    /// ([`lobe_half_diagonal`]) at the vertices; drawn per pixel as [`Drawn::Lobes`], with
+    /// that ratio.
+    LobeFields,
+}
+
+/// The half-diagonal of the square a vMF lobe of concentration `kappa` is shadowed over
+/// ([`Drawn::LobeFields`]): the square of the lobe's solid angle `2π/κ` (the inverse of its
+/// peak density `κ/2π`, for `κ ≫ 1`), `4r² = 2π/κ`, at most a hemisphere (`4r² = 2π`).
+pub fn lobe_half_diagonal(kappa: f32) -> f32 {
+    let hemisphere = std::f32::consts::FRAC_PI_2.sqrt();
+    if kappa.is_finite() && kappa > 1.0 { (std::f32::consts::FRAC_PI_2 / kappa).sqrt() } else { hemisphere }
 }
 
 impl Drawn {
@@ -110,6 +178,7 @@ impl Drawn {
             ObjectMethod::Auto | ObjectMethod::RslPixel => Drawn::Pixel,
             ObjectMethod::Rsl => Drawn::Vertex,
             ObjectMethod::Hybrid => Drawn::Lobes,
+            ObjectMethod::Lobe => Drawn::LobeFields,
         }
     }
 }
@@ -132,7 +201,8 @@ impl Hybrid {
         let start = Instant::now();
         let mut lobes: Vec<Option<Arc<MaterialLobes>>> = Vec::with_capacity(n);
         for (i, d) in drawn.iter().enumerate() {
-            lobes.push(if *d == Drawn::Lobes { Some(self.lobes(engine.brdf(i))?) } else { None });
+            let with_lobes = matches!(d, Drawn::Lobes | Drawn::LobeFields);
+            lobes.push(if with_lobes { Some(self.lobes(engine.brdf(i))?) } else { None });
         }
         let kappa_max =
             lobes.iter().flatten().flat_map(|l| l.lobes_per_view().map(|w| w.lobe.kappa)).fold(1.0f32, f32::max);
@@ -177,7 +247,7 @@ impl Hybrid {
         if let Some(env) = &env {
             let bare_setup =
                 engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: false })?;
-            let which: Vec<bool> = lobes.iter().map(Option::is_some).collect();
+            let which: Vec<bool> = (0..n).map(|i| lobes[i].is_some() && drawn[i] == Drawn::Lobes).collect();
             let (bare, bare_stats) = rsl_shade::shade_objects(&bare_setup, &which);
             stats = stats.plus(bare_stats);
             let env_from_world = full.state.world_from_env.inverse();
@@ -185,6 +255,57 @@ impl Hybrid {
             for (i, l) in lobes.iter().enumerate() {
                 let Some(l) = l else { continue };
                 let (pos, nor) = (&full.positions[i], &full.normals[i]);
+                if drawn[i] == Drawn::LobeFields {
+                    // Each lobe shadowed by the fields over a square of its width: the
+                    // radiance, and its ratio to the unshadowed lobes for the pixels.
+                    let (shaded, ratio, lobe_stats) = (0..pos.len())
+                        .into_par_iter()
+                        .map(|v| {
+                            let frame = LocalFrame::from_normal(nor[v]);
+                            let view = frame.to_local((eye - pos[v]).normalize_or_zero());
+                            let lobes = l.lobes(view);
+                            let squares: Vec<(Vec3, f32)> = lobes
+                                .iter()
+                                .map(|w| (frame.to_world(w.lobe.mean), lobe_half_diagonal(w.lobe.kappa)))
+                                .collect();
+                            let mut covers = vec![0.0f32; squares.len()];
+                            let mut st = FrameStats::default();
+                            setup.square_covers(i, v, &squares, &mut covers, &mut st);
+                            let (mut shadowed, mut bare) = (Vec3::ZERO, Vec3::ZERO);
+                            for ((w, (d, _)), c) in lobes.iter().zip(&squares).zip(&covers) {
+                                let value = w.weight * env.lookup(env_from_world * *d, w.lobe.kappa);
+                                bare += value;
+                                shadowed += value * *c;
+                            }
+                            let ratio = Vec3::select(
+                                bare.cmpgt(Vec3::ZERO),
+                                shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)),
+                                Vec3::ZERO,
+                            )
+                            .clamp(Vec3::ZERO, Vec3::ONE);
+                            (shadowed * intensity, ratio, st)
+                        })
+                        .fold(
+                            || (Vec::new(), Vec::new(), FrameStats::default()),
+                            |(mut r, mut q, s), (x, y, st)| {
+                                r.push(x);
+                                q.push(y);
+                                (r, q, s.plus(st))
+                            },
+                        )
+                        .reduce(
+                            || (Vec::new(), Vec::new(), FrameStats::default()),
+                            |(mut r, mut q, s), (r2, q2, s2)| {
+                                r.extend(r2);
+                                q.extend(q2);
+                                (r, q, s.plus(s2))
+                            },
+                        );
+                    stats = stats.plus(lobe_stats);
+                    radiance[i] = shaded;
+                    ratios[i] = Some(ratio);
+                    continue;
+                }
                 let ratio: Vec<Vec3> = full.radiance[i]
                     .iter()
                     .zip(&bare[i])
@@ -206,50 +327,98 @@ impl Hybrid {
         }
         timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
 
-        let image = request.image.then(|| {
-            if !per_pixel || drawn.iter().all(|d| *d == Drawn::Vertex) {
-                return timings.time("draw", || rasterise(engine, scene, &full.state, &full.positions, &radiance));
-            }
-            timings.time("draw per pixel", || {
-                let frames: Vec<Option<Vec<LocalFrame>>> = (0..n)
-                    .map(|i| match drawn[i] {
-                        Drawn::Vertex => None,
-                        // The RSL sum reads its tables in the vertices' shading frames.
-                        Drawn::Pixel => Some((0..full.positions[i].len()).map(|v| setup.shading_frame(i, v)).collect()),
-                        Drawn::Lobes => Some(full.normals[i].iter().map(|&n| LocalFrame::from_normal(n)).collect()),
-                    })
-                    .collect();
-                let meshes: Vec<PixelMesh<'_>> = scene
-                    .objects
-                    .iter()
-                    .enumerate()
-                    .map(|(i, o)| PixelMesh {
+        let gpu_image = match (&mut self.gpu, &env) {
+            (Some(gpu), Some(env_p)) if request.image && per_pixel && !drawn.contains(&Drawn::Pixel) => {
+                let top = kappa_max.clamp(1.0, 4096.0).log2().ceil().exp2() as u32;
+                let env_key = engine.environment_key();
+                if gpu.lobe_env != Some((env_key, top)) {
+                    gpu.lobe_env = None;
+                    gpu.draw
+                        .set_lobe_environment(&PackedEnvironment::new(env_p))
+                        .context("uploading the prefiltered environment")?;
+                    gpu.lobe_env = Some((env_key, top));
+                }
+                let backdrop = (env_key, engine.intensity().to_bits());
+                if gpu.backdrop != Some(backdrop) {
+                    gpu.backdrop = None;
+                    gpu.draw.set_backdrop(&crate::gpu::backdrop(engine)).context("uploading the environment map")?;
+                    gpu.backdrop = Some(backdrop);
+                }
+                let packed: Vec<Option<PackedMaterial>> =
+                    lobes.iter().map(|l| l.as_deref().map(PackedMaterial::new)).collect();
+                let objects: Vec<LobeObject<'_>> = (0..n)
+                    .map(|i| LobeObject {
                         positions: &full.positions[i],
-                        indices: &o.mesh.indices,
-                        frames: frames[i].as_deref(),
-                        radiance: &radiance[i],
+                        normals: &full.normals[i],
+                        indices: &scene.objects[i].mesh.indices,
+                        material: packed[i].as_ref(),
+                        values: ratios[i].as_deref().unwrap_or(radiance[i].as_slice()),
                     })
                     .collect();
-                let env_from_world = full.state.world_from_env.inverse();
-                let intensity = engine.intensity();
-                let lights = setup.light_count();
-                rsl_shade::draw_pixels(
-                    &scene.camera,
-                    &meshes,
-                    || vec![0.0f32; lights],
-                    |p, buf| match (&covers[p.object], &lobes[p.object], &env, &ratios[p.object]) {
-                        (Some(c), ..) => {
-                            rsl_shade::point_radiance(&setup, c, &meshes[p.object], p, buf, &mut FrameStats::default())
-                        }
-                        (None, Some(l), Some(env), Some(ratio)) => {
-                            let view = (eye - p.position).normalize_or_zero();
-                            let ratio = p.fragment.interpolate(meshes[p.object].indices, ratio);
-                            l.radiance(env, &p.frame, view, |d| env_from_world * d) * intensity * ratio
-                        }
-                        _ => Vec3::ZERO,
-                    },
-                    |d| engine.background(&full.state, d),
-                )
+                let env_from_world = glam::Mat3::from_quat(full.state.world_from_env.inverse());
+                let start = Instant::now();
+                let pass = gpu.draw.draw_lobes(&objects, &scene.camera, env_from_world, eye, engine.intensity())?;
+                let (pixels, covered) = gpu.draw.read_linear()?;
+                timings.add("draw per pixel (GPU)", start.elapsed().as_secs_f64() * 1e3, pass.gpu_ms);
+                Some(rsl_shade::Image { width: scene.camera.width, height: scene.camera.height, pixels, covered })
+            }
+            _ => None,
+        };
+        let image = gpu_image.or_else(|| {
+            request.image.then(|| {
+                if !per_pixel || drawn.iter().all(|d| *d == Drawn::Vertex) {
+                    return timings.time("draw", || rasterise(engine, scene, &full.state, &full.positions, &radiance));
+                }
+                timings.time("draw per pixel", || {
+                    let frames: Vec<Option<Vec<LocalFrame>>> = (0..n)
+                        .map(|i| match drawn[i] {
+                            Drawn::Vertex => None,
+                            // The RSL sum reads its tables in the vertices' shading frames.
+                            Drawn::Pixel => {
+                                Some((0..full.positions[i].len()).map(|v| setup.shading_frame(i, v)).collect())
+                            }
+                            Drawn::Lobes | Drawn::LobeFields => {
+                                Some(full.normals[i].iter().map(|&n| LocalFrame::from_normal(n)).collect())
+                            }
+                        })
+                        .collect();
+                    let meshes: Vec<PixelMesh<'_>> = scene
+                        .objects
+                        .iter()
+                        .enumerate()
+                        .map(|(i, o)| PixelMesh {
+                            positions: &full.positions[i],
+                            indices: &o.mesh.indices,
+                            frames: frames[i].as_deref(),
+                            radiance: &radiance[i],
+                        })
+                        .collect();
+                    let env_from_world = full.state.world_from_env.inverse();
+                    let intensity = engine.intensity();
+                    let lights = setup.light_count();
+                    rsl_shade::draw_pixels(
+                        &scene.camera,
+                        &meshes,
+                        || vec![0.0f32; lights],
+                        |p, buf| match (&covers[p.object], &lobes[p.object], &env, &ratios[p.object]) {
+                            (Some(c), ..) => rsl_shade::point_radiance(
+                                &setup,
+                                c,
+                                &meshes[p.object],
+                                p,
+                                buf,
+                                &mut FrameStats::default(),
+                            ),
+                            (None, Some(l), Some(env), Some(ratio)) => {
+                                let view = (eye - p.position).normalize_or_zero();
+                                let ratio = p.fragment.interpolate(meshes[p.object].indices, ratio);
+                                l.radiance(env, &p.frame, view, |d| env_from_world * d) * intensity * ratio
+                            }
+                            _ => Vec3::ZERO,
+                        },
+                        |d| engine.background(&full.state, d),
+                    )
+                })
             })
         });
         Ok(Frame {
@@ -270,12 +439,25 @@ impl Hybrid {
 
 impl Method for Hybrid {
     fn describe(&self) -> String {
-        format!("vMF lobes × RSL visibility on the CPU ({} threads)", rayon::current_num_threads())
+        let threads = rayon::current_num_threads();
+        let what = if self.fields { "vMF lobes shadowed by the fields" } else { "vMF lobes × RSL visibility" };
+        match self.gpu_adapter() {
+            Some(a) => format!("{what}: vertices on the CPU ({threads} threads), pixels on {a}"),
+            None => format!("{what} on the CPU ({threads} threads)"),
+        }
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
-        let drawn: Vec<Drawn> =
-            (0..engine.object_count()).map(|i| Drawn::of(ObjectMethod::Hybrid, engine.brdf(i))).collect();
+        // On the GPU a Lambertian object is drawn from its vertices: the RSL sum per pixel,
+        // which would trace its shadows of the traced lights pixel by pixel, is CPU-only.
+        let on_gpu = self.gpu.is_some();
+        let method = if self.fields { ObjectMethod::Lobe } else { ObjectMethod::Hybrid };
+        let drawn: Vec<Drawn> = (0..engine.object_count())
+            .map(|i| match Drawn::of(method, engine.brdf(i)) {
+                Drawn::Pixel if on_gpu => Drawn::Vertex,
+                d => d,
+            })
+            .collect();
         let per_pixel = self.per_pixel;
         self.render_drawn(engine, scene, request, &drawn, per_pixel)
     }

@@ -94,6 +94,11 @@ pub struct LevelError {
     pub relative_light_variance: f64,
 }
 
+/// The version of the light sets this crate makes: bumped whenever a change makes different
+/// RSLs from the same map and grid (2: the fit error sums the RGB channels), so that caches
+/// keyed with it never serve a set made the old way.
+pub const ALGORITHM_VERSION: u32 = 2;
+
 /// The whole merge tree of one environment: RSLs for every region count from 1 to the
 /// number of texels, without recomputation.
 #[derive(Clone, Debug)]
@@ -119,7 +124,7 @@ impl Decomposition {
     pub fn new(env: &CubeEnv) -> Self {
         let grid = env.grid;
         let n = grid.len();
-        let table = TexelTable::new(&grid, (0..n).map(|t| env.luminance_energy(t)).collect());
+        let table = TexelTable::new(&grid, &env.energy);
         let mut stats: Vec<RegionStats> =
             (0..n).map(|t| RegionStats::texel(table.dir[t], table.omega[t], env.energy[t])).collect();
         stats.reserve(n);

@@ -284,3 +284,37 @@ fn a_sun_smaller_than_a_texel_keeps_its_place_and_size() {
         assert!(moved < 0.1 * r_texel, "texel {t} moved by {moved}, r = {r_texel}");
     }
 }
+
+#[test]
+fn an_edge_of_colour_alone_bounds_the_regions() {
+    // A blue sky over a yellow ground of the same luminance: a luminance-only fit sees a
+    // uniform map and cuts across the horizon; the RGB fit keeps the two apart.
+    let mut env = CubeEnv::constant(8, Vec3::ZERO);
+    let blue = [0.0, 0.0, 1.0 / 0.0722];
+    let yellow = [1.0 / (0.2126 + 0.7152), 1.0 / (0.2126 + 0.7152), 0.0];
+    for t in 0..env.grid.len() {
+        let o = env.grid.texel_solid_angle(t);
+        let c = if env.grid.texel_dir(t).y > 0.0 { blue } else { yellow };
+        env.energy[t] = c.map(|x| x * o);
+        assert_close("luminance", env.luminance_energy(t) / o, 1.0, 1e-12, 0.0);
+    }
+    let d = Decomposition::new(&env);
+    let regions = d.regions(2).unwrap();
+    for n in 2..=40 {
+        let regions = d.regions(n).unwrap();
+        for r in 0..n as u32 {
+            let sky: Vec<bool> =
+                (0..env.grid.len()).filter(|&t| regions[t] == r).map(|t| env.grid.texel_dir(t).y > 0.0).collect();
+            assert!(sky.iter().all(|&s| s == sky[0]), "N={n}: region {r} straddles the horizon");
+        }
+    }
+    // At two regions they are the two hemispheres, each holding its own colour exactly.
+    let rsls = d.rsls(2).unwrap();
+    let sky_energy: [f64; 3] = (0..env.grid.len())
+        .filter(|&t| regions[t] == 0)
+        .fold([0.0; 3], |a, t| [0, 1, 2].map(|c| a[c] + env.energy[t][c]));
+    for (got, want) in rsls[0].energy.iter().zip(sky_energy) {
+        assert_close("region energy", *got, want, 1e-9, 1e-12);
+    }
+    check_energy_all_n(&env, &d);
+}

@@ -4,6 +4,7 @@
 //! headless into a linear RGBA32F texture (alpha = covered by an object), then tonemapping
 //! to 8-bit sRGB (`shaders/draw/tonemap.wgsl`); both can be read back.
 
+use crate::lobes::{LobeObject, LobeParams, LobeVertex, pack_environment, pack_objects};
 use crate::shade::{GpuShading, PassTime, columns};
 use crate::{GpuContext, GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
@@ -102,6 +103,27 @@ pub struct GpuDraw {
     intensity: f32,
     target: Option<Target>,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+    lobes: Option<LobePass>,
+}
+
+/// The lobe path's pipeline and buffers ([`GpuDraw::draw_lobes`]), made on first use.
+struct LobePass {
+    pipeline: wgpu::RenderPipeline,
+    params: wgpu::Buffer,
+    levels: wgpu::Buffer,
+    texels: wgpu::Buffer,
+    level_count: u32,
+    materials: wgpu::Buffer,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+}
+
+/// The objects of one draw pass.
+enum Objects<'a> {
+    /// The shading pass's vertices, their radiance interpolated.
+    Shaded(&'a GpuShading),
+    /// The lobe path per pixel, from the buffers [`GpuDraw::draw_lobes`] filled.
+    Lobes(u32),
 }
 
 impl GpuDraw {
@@ -172,7 +194,105 @@ impl GpuDraw {
             intensity: 1.0,
             target: None,
             timestamps,
+            lobes: None,
             ctx,
+        })
+    }
+
+    /// The device context.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Sets the prefiltered environment the lobe path reads ([`GpuDraw::draw_lobes`]); the
+    /// first call builds the lobe pipeline.
+    pub fn set_lobe_environment(&mut self, env: &rsl_lobe::PackedEnvironment) -> Result<(), GpuError> {
+        self.ctx.check_alive()?;
+        if env.levels.is_empty() {
+            return Err(GpuError::Scene("a prefiltered environment without levels".into()));
+        }
+        let (levels, texels) = pack_environment(env);
+        let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
+        let bytes = (texels.len() * 16) as u64;
+        if bytes > limit {
+            return Err(GpuError::TooLarge { what: "the prefiltered environment".into(), bytes, limit });
+        }
+        if self.lobes.is_none() {
+            let attrs = [
+                wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 0, shader_location: 0 },
+                wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 16, shader_location: 1 },
+                wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 32, shader_location: 2 },
+            ];
+            let layout = wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<LobeVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &attrs,
+            };
+            let pipeline = render_pipeline(&self.ctx, &shaders::DRAW_LOBES, &[layout], true)?;
+            let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+            self.lobes = Some(LobePass {
+                pipeline,
+                params: self.buffer(
+                    "lobe params",
+                    std::mem::size_of::<LobeParams>() as u64,
+                    wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                ),
+                levels: self.buffer("prefiltered levels", 16, storage),
+                texels: self.buffer("prefiltered texels", 16, storage),
+                level_count: 0,
+                materials: self.buffer("material lobes", 16, storage),
+                vertices: self.buffer("lobe vertices", 48, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
+                indices: self.buffer("lobe indices", 4, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
+            });
+        }
+        let level_bytes: Vec<u8> = bytemuck::cast_slice(&levels).to_vec();
+        let texel_bytes: Vec<u8> = bytemuck::cast_slice(&texels).to_vec();
+        let (ctx, lobes) = (self.ctx.clone(), self.lobes.as_mut().expect("just made"));
+        upload(&ctx, &mut lobes.levels, &level_bytes, "prefiltered levels");
+        upload(&ctx, &mut lobes.texels, &texel_bytes, "prefiltered texels");
+        lobes.level_count = levels.len() as u32;
+        Ok(())
+    }
+
+    /// Draws `objects` per pixel through the lobe path (`shaders/draw/lobes.wgsl`: each
+    /// pixel's own normal and view, one prefiltered lookup per lobe, times its interpolated
+    /// visibility ratio; objects without a material interpolate their radiance), with the
+    /// environment behind, into the linear image; waits for it. `eye` is the camera's eye and
+    /// `intensity` the environment's. Needs [`GpuDraw::set_lobe_environment`] first.
+    pub fn draw_lobes(
+        &mut self,
+        objects: &[LobeObject<'_>],
+        camera: &Camera,
+        env_from_world: Mat3,
+        eye: Vec3,
+        intensity: f32,
+    ) -> Result<PassTime, GpuError> {
+        self.ctx.check_alive()?;
+        let (vertices, indices, materials) = pack_objects(objects).map_err(GpuError::Scene)?;
+        let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
+        let bytes = (materials.len() * 16) as u64;
+        if bytes > limit {
+            return Err(GpuError::TooLarge { what: "the material lobes".into(), bytes, limit });
+        }
+        let ctx = self.ctx.clone();
+        let Some(lobes) = self.lobes.as_mut() else {
+            return Err(GpuError::Scene("draw_lobes before set_lobe_environment".into()));
+        };
+        let params =
+            LobeParams { eye: eye.extend(intensity).to_array(), levels: lobes.level_count, ..Default::default() };
+        ctx.queue.write_buffer(&lobes.params, 0, bytemuck::bytes_of(&params));
+        upload(&ctx, &mut lobes.materials, bytemuck::cast_slice(&materials), "material lobes");
+        upload(&ctx, &mut lobes.vertices, bytemuck::cast_slice(&vertices), "lobe vertices");
+        upload(&ctx, &mut lobes.indices, bytemuck::cast_slice(&indices), "lobe indices");
+        self.pass(Objects::Lobes(indices.len() as u32), camera, env_from_world)
+    }
+
+    fn buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage,
+            mapped_at_creation: false,
         })
     }
 
@@ -259,6 +379,11 @@ impl GpuDraw {
     /// Draws the shaded vertices of `shading` seen by `camera`, with the environment (seen
     /// through `env_from_world`) behind them, into the linear image; waits for it.
     pub fn draw(&mut self, shading: &GpuShading, camera: &Camera, env_from_world: Mat3) -> Result<PassTime, GpuError> {
+        self.pass(Objects::Shaded(shading), camera, env_from_world)
+    }
+
+    /// One draw pass: the background, then `objects`.
+    fn pass(&mut self, objects: Objects<'_>, camera: &Camera, env_from_world: Mat3) -> Result<PassTime, GpuError> {
         self.ctx.check_alive()?;
         let (width, height) = (camera.width, camera.height);
         let t = (0.5 * camera.fov_y).tan();
@@ -287,12 +412,33 @@ impl GpuDraw {
                 wgpu::BindGroupEntry { binding: 1, resource: self.texels.as_entire_binding() },
             ],
         });
-        let obj_bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("draw objects"),
-            layout: &self.objects.get_bind_group_layout(0),
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() }],
-        });
-        let (background, objects) = (self.background.clone(), self.objects.clone());
+        let (obj_pipeline, obj_bind) = match (&objects, &self.lobes) {
+            (Objects::Shaded(_), _) => (
+                self.objects.clone(),
+                d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("draw objects"),
+                    layout: &self.objects.get_bind_group_layout(0),
+                    entries: &[wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() }],
+                }),
+            ),
+            (Objects::Lobes(_), Some(l)) => (
+                l.pipeline.clone(),
+                d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("draw lobes"),
+                    layout: &l.pipeline.get_bind_group_layout(0),
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: l.params.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: l.levels.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 3, resource: l.texels.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 4, resource: l.materials.as_entire_binding() },
+                    ],
+                }),
+            ),
+            (Objects::Lobes(_), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
+        };
+        let lobe_buffers = self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone()));
+        let background = self.background.clone();
         let timestamps = self.timestamps.as_ref().map(|(s, r)| (s.clone(), r.clone()));
         let target = self.target(width, height)?;
         let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
@@ -327,15 +473,28 @@ impl GpuDraw {
             pass.set_pipeline(&background);
             pass.set_bind_group(0, &bg_bind, &[]);
             pass.draw(0..3, 0..1);
-            let (indices, count) = shading.index_buffer();
-            let n = u64::from(shading.vertex_count()) * 16;
-            if count > 0 {
-                pass.set_pipeline(&objects);
-                pass.set_bind_group(0, &obj_bind, &[]);
-                pass.set_vertex_buffer(0, shading.shaded_buffer().slice(0..n));
-                pass.set_vertex_buffer(1, shading.shaded_buffer().slice(n..2 * n));
-                pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..count, 0, 0..1);
+            match objects {
+                Objects::Shaded(shading) => {
+                    let (indices, count) = shading.index_buffer();
+                    let n = u64::from(shading.vertex_count()) * 16;
+                    if count > 0 {
+                        pass.set_pipeline(&obj_pipeline);
+                        pass.set_bind_group(0, &obj_bind, &[]);
+                        pass.set_vertex_buffer(0, shading.shaded_buffer().slice(0..n));
+                        pass.set_vertex_buffer(1, shading.shaded_buffer().slice(n..2 * n));
+                        pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
+                        pass.draw_indexed(0..count, 0, 0..1);
+                    }
+                }
+                Objects::Lobes(count) => {
+                    if let (Some((vertices, indices)), true) = (&lobe_buffers, count > 0) {
+                        pass.set_pipeline(&obj_pipeline);
+                        pass.set_bind_group(0, &obj_bind, &[]);
+                        pass.set_vertex_buffer(0, vertices.slice(..));
+                        pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
+                        pass.draw_indexed(0..count, 0, 0..1);
+                    }
+                }
             }
         }
         if let Some((set, resolve)) = &timestamps {
@@ -608,4 +767,20 @@ fn render_pipeline(
         Some(e) => Err(GpuError::Shader { name: shader.name, message: e.to_string() }),
         None => Ok(pipeline),
     }
+}
+
+/// Writes `bytes` into `buffer`, growing it (to the next power of two) when too small.
+fn upload(ctx: &GpuContext, buffer: &mut wgpu::Buffer, bytes: &[u8], label: &str) {
+    if bytes.is_empty() {
+        return;
+    }
+    if buffer.size() < bytes.len() as u64 {
+        *buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: (bytes.len() as u64).next_power_of_two(),
+            usage: buffer.usage(),
+            mapped_at_creation: false,
+        });
+    }
+    ctx.queue.write_buffer(buffer, 0, bytes);
 }

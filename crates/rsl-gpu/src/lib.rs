@@ -5,6 +5,7 @@
 
 pub mod draw;
 pub mod hemi_map;
+pub mod lobes;
 pub mod shade;
 pub mod shaders;
 pub mod testing;

@@ -75,6 +75,16 @@ pub const DRAW_OBJECTS: Shader = Shader {
     entry_points: &["vs_objects", "fs_objects"],
 };
 
+/// The objects per pixel through the lobe path: vMF lobes over the prefiltered environment
+/// × the RSL visibility ratio (`rsl_engine::lobe::Hybrid` on the GPU).
+pub const DRAW_LOBES: Shader = Shader {
+    name: "draw/lobes",
+    path: "draw/lobes.wgsl",
+    common: &[MATH, FRAME, DRAW],
+    text: include_str!("../../../shaders/draw/lobes.wgsl"),
+    entry_points: &["vs_lobes", "fs_lobes"],
+};
+
 /// Exposure, the filmic curve and sRGB encoding of the linear image into 8-bit pixels.
 pub const TONEMAP: Shader = Shader {
     name: "draw/tonemap",
@@ -94,7 +104,8 @@ pub const TONEMAP_TEXTURE: Shader = Shader {
 };
 
 /// Every registered shader.
-pub const ALL: &[Shader] = &[HEMI_MAP, SHADE_VERTICES, DRAW_BACKGROUND, DRAW_OBJECTS, TONEMAP, TONEMAP_TEXTURE];
+pub const ALL: &[Shader] =
+    &[HEMI_MAP, SHADE_VERTICES, DRAW_BACKGROUND, DRAW_OBJECTS, DRAW_LOBES, TONEMAP, TONEMAP_TEXTURE];
 
 /// Looks a shader up by name.
 pub fn by_name(name: &str) -> Option<&'static Shader> {

@@ -138,4 +138,5 @@ fn draw_layouts_match_wgsl() {
         [clip_from_world, world_from_camera, env_from_world, lens, constant, map_width, map_height, pad0, pad1]
     );
     assert_layout!(shaders::TONEMAP, "ToneParams", ToneParams, [exposure, width, height, pad]);
+    assert_layout!(shaders::DRAW_LOBES, "LobeParams", rsl_gpu::lobes::LobeParams, [eye, levels, pad0, pad1, pad2]);
 }

@@ -234,6 +234,12 @@ impl MaterialLobes {
         &self.thetas
     }
 
+    /// What [`crate::packed::PackedMaterial`] flattens: the largest polar view fitted, the
+    /// specular lobes per tabulated view, the diffuse lobe.
+    pub(crate) fn parts(&self) -> (f32, &[Option<[WeightedLobe; 2]>], Option<WeightedLobe>) {
+        (theta_max(), &self.specular, self.diffuse)
+    }
+
     /// The lobes for view `view` (unit, local frame: normal +z), in that frame: the specular
     /// lobe interpolated between the two nearest tabulated views and turned to the view's
     /// azimuth, then the diffuse lobe. Views at or below the horizon reflect nothing.

@@ -141,7 +141,7 @@ pub struct Object {
 }
 
 /// How an object's radiance reaches the image, per object (`method = "auto" | "rsl" |
-/// "rsl_pixel" | "hybrid"`, default `auto`). A Lambertian object is always shaded at its
+/// "rsl_pixel" | "hybrid" | "lobe"`, default `auto`). A Lambertian object is always shaded at its
 /// vertices by the RSL path and interpolated: its radiance varies no faster than its
 /// visibility, and its BRDF term is exact.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -159,6 +159,10 @@ pub enum ObjectMethod {
     /// vMF lobes over the prefiltered environment per pixel, times the RSL path's visibility
     /// ratio interpolated from the vertices.
     Hybrid,
+    /// vMF lobes over the prefiltered environment per pixel, each lobe shadowed by the
+    /// self-visibility and occluder fields over a square of its own width (at the vertices,
+    /// as a ratio interpolated across the triangle).
+    Lobe,
 }
 
 /// A loaded, validated scene.

@@ -954,19 +954,63 @@ impl<'a> FrameSetup<'a> {
                 stats.occluders_culled += 1;
                 continue;
             }
-            let q = &self.placed[n.j];
-            if let Lazy::Unknown = at {
-                *at = match q.object.ovdf.and_then(|f| Some(f.prepare(&f.locate(n.x_object)?))) {
-                    Some(prepared) => Lazy::Ready(prepared),
-                    None => Lazy::Outside,
-                };
-            }
-            if let Lazy::Ready(at) = at {
+            if let Some(at) = self.located(n, at) {
                 stats.occluder_lookups += 1;
-                cover *= at.coverage(q.light_dirs[l], light.half_diagonal);
+                cover *= at.coverage(self.placed[n.j].light_dirs[l], light.half_diagonal);
             }
         }
         cover
+    }
+
+    /// Occluder `n`'s field prepared at the vertex (located on first use), or `None` where
+    /// the vertex is beyond it.
+    fn located<'s>(&self, n: &Near, at: &'s mut Lazy<'a>) -> Option<&'s OvdfLookup<'a>> {
+        if let Lazy::Unknown = at {
+            let field = self.placed[n.j].object.ovdf;
+            *at = match field.and_then(|f| Some(f.prepare(&f.locate(n.x_object)?))) {
+                Some(prepared) => Lazy::Ready(prepared),
+                None => Lazy::Outside,
+            };
+        }
+        match at {
+            Lazy::Ready(at) => Some(at),
+            _ => None,
+        }
+    }
+
+    /// The covers at vertex `v` of object `i` of square lights toward world directions
+    /// `squares[k].0` with half-diagonals `squares[k].1` (solid angle `4r²`), into `out`: the
+    /// self-visibility field's coverage above the horizon times the face mask's share, times
+    /// every other object's occluder field, as the terms ask — the fields only, nothing
+    /// traced. The lobe path's own shadows (`rsl_engine::lobe`, `method = "lobe"`) read it
+    /// with one square per lobe, matched to the lobe's width.
+    pub fn square_covers(&self, i: usize, v: usize, squares: &[(Vec3, f32)], out: &mut [f32], stats: &mut FrameStats) {
+        let p = &self.placed[i];
+        let o = &p.object;
+        let mut nears = Vec::new();
+        if self.terms.occluders {
+            self.nears(i, p.position(v), &mut nears);
+        }
+        for (&(dir, r), cover) in squares.iter().zip(out.iter_mut()) {
+            *cover = 1.0;
+            if self.terms.self_visibility {
+                let q = hemi_from_dir(o.frames.visibility[v].to_local(p.pose.direction_to_object(dir)));
+                stats.self_lookups += 1;
+                *cover = o.svdf.vertex(v).coverage_above_horizon(q, r);
+                if *cover > 0.0 {
+                    *cover *= o.mask.vertex(v).share_above_horizon_with(q, r, rsl_vis::mask::reach(r));
+                }
+            }
+            for (n, at) in nears.iter_mut() {
+                if *cover <= 0.0 {
+                    break;
+                }
+                if let Some(at) = self.located(n, at) {
+                    stats.occluder_lookups += 1;
+                    *cover *= at.coverage(self.placed[n.j].pose.direction_to_object(dir), r);
+                }
+            }
+        }
     }
 
     /// The occluders near world point `x` on object `i` (every other object whose field

@@ -1,0 +1,224 @@
+// The objects per pixel through the lobe path, mirroring rsl_lobe::MaterialLobes::radiance
+// and rsl_lobe::Prefiltered::lookup (rsl_engine::lobe::Hybrid draws the same on the CPU):
+// each pixel's own interpolated normal and view give its material lobes (interpolated
+// between the two nearest tabulated polar views, turned to the view's azimuth), one
+// prefiltered lookup per lobe, times the RSL visibility ratio interpolated from the
+// vertices. Vertices of objects drawn without lobes carry their radiance instead.
+// Uses common/math.wgsl, common/frame.wgsl, common/draw.wgsl.
+
+struct LobeParams {
+    // xyz: the camera eye (world); w: the environment's intensity.
+    eye: vec4<f32>,
+    // Number of prefiltered levels.
+    levels: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(1) var<uniform> lobe: LobeParams;
+// Per level: x = κ (bits), y = R, z = first texel; faces bordered by one texel
+// (rsl_lobe::packed::PackedLevel).
+@group(0) @binding(2) var<storage, read> levels: array<vec4<u32>>;
+@group(0) @binding(3) var<storage, read> env_texels: array<vec4<f32>>;
+// Per material (rsl_gpu::lobes::pack_material): [θ_max, views, 0, 0], the diffuse lobe
+// (mean, κ) and weight, one flag per view, then per view two lobes of (mean, κ), weight.
+@group(0) @binding(4) var<storage, read> materials: array<vec4<f32>>;
+
+// No material: the vertex carries its radiance in `ratio`.
+const NO_MATERIAL: u32 = 0xffffffffu;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) ratio: vec3<f32>,
+    @location(3) @interpolate(flat) material: u32,
+}
+
+@vertex
+fn vs_lobes(
+    @location(0) position: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @location(2) ratio: vec4<f32>,
+) -> VertexOut {
+    return VertexOut(
+        draw.clip_from_world * vec4<f32>(position.xyz, 1.0),
+        position.xyz,
+        normal.xyz,
+        ratio.xyz,
+        bitcast<u32>(normal.w),
+    );
+}
+
+// rsl_sphere::cube::face_uv_from_dir: (face, u, v).
+fn face_uv(d: vec3<f32>) -> vec3<f32> {
+    let a = abs(d);
+    var face = 0u;
+    var n = vec3<f32>(1.0, 0.0, 0.0);
+    var u = vec3<f32>(0.0, 0.0, -1.0);
+    var v = vec3<f32>(0.0, 1.0, 0.0);
+    if a.x >= a.y && a.x >= a.z {
+        if d.x <= 0.0 {
+            face = 1u;
+            n = vec3<f32>(-1.0, 0.0, 0.0);
+            u = vec3<f32>(0.0, 0.0, 1.0);
+        }
+    } else if a.y >= a.z {
+        v = vec3<f32>(0.0, 0.0, -1.0);
+        u = vec3<f32>(1.0, 0.0, 0.0);
+        face = 2u;
+        n = vec3<f32>(0.0, 1.0, 0.0);
+        if d.y <= 0.0 {
+            face = 3u;
+            n = vec3<f32>(0.0, -1.0, 0.0);
+            v = vec3<f32>(0.0, 0.0, 1.0);
+        }
+    } else {
+        u = vec3<f32>(1.0, 0.0, 0.0);
+        face = 4u;
+        n = vec3<f32>(0.0, 0.0, 1.0);
+        if d.z <= 0.0 {
+            face = 5u;
+            n = vec3<f32>(0.0, 0.0, -1.0);
+            u = vec3<f32>(-1.0, 0.0, 0.0);
+        }
+    }
+    let m = dot(d, n);
+    return vec3<f32>(f32(face), clamp(dot(d, u) / m, -1.0, 1.0), clamp(dot(d, v) / m, -1.0, 1.0));
+}
+
+// rsl_lobe::prefilter's bilinear lookup in one level (across seams through the border).
+fn level_bilinear(level: u32, d: vec3<f32>) -> vec3<f32> {
+    let info = levels[level];
+    let r = info.y;
+    if r == 1u {
+        // One texel per face: the level is constant (κ = 0), as the CPU reads it.
+        return env_texels[info.z + 4u].xyz;
+    }
+    let fuv = face_uv(d);
+    let m = f32(r);
+    let gx = (fuv.y + 1.0) * 0.5 * m - 0.5;
+    let gy = (fuv.z + 1.0) * 0.5 * m - 0.5;
+    let x0 = floor(gx);
+    let y0 = floor(gy);
+    let fx = gx - x0;
+    let fy = gy - y0;
+    let side = r + 2u;
+    // Bordered coordinates: texel i sits at i + 1.
+    let i = u32(clamp(x0 + 1.0, 0.0, m));
+    let j = u32(clamp(y0 + 1.0, 0.0, m));
+    let base = info.z + (u32(fuv.x) * side + j) * side + i;
+    let t00 = env_texels[base].xyz;
+    let t10 = env_texels[base + 1u].xyz;
+    let t01 = env_texels[base + side].xyz;
+    let t11 = env_texels[base + side + 1u].xyz;
+    return t00 * ((1.0 - fx) * (1.0 - fy)) + t10 * (fx * (1.0 - fy)) + t01 * ((1.0 - fx) * fy) + t11 * (fx * fy);
+}
+
+// rsl_lobe::Prefiltered::lookup: bilinear within a level, linear in log₂ κ between levels.
+fn prefiltered(d: vec3<f32>, kappa_in: f32) -> vec3<f32> {
+    var kappa = max(kappa_in, 0.0);
+    if !(kappa == kappa) || kappa > F32_MAX {
+        kappa = 0.0;
+    }
+    let last = lobe.levels - 1u;
+    var a = 0u;
+    var f = kappa;
+    if kappa > 1.0 {
+        let t = log2(kappa) + 1.0;
+        if t >= f32(last) {
+            return level_bilinear(last, d);
+        }
+        a = u32(floor(t));
+        f = t - f32(a);
+    }
+    let lo = level_bilinear(a, d);
+    if f <= 0.0 || a >= last {
+        return lo;
+    }
+    return lo * (1.0 - f) + level_bilinear(a + 1u, d) * f;
+}
+
+struct Lobe {
+    mean: vec3<f32>,
+    kappa: f32,
+    weight: vec3<f32>,
+}
+
+fn material_lobe(at: u32) -> Lobe {
+    let a = materials[at];
+    return Lobe(a.xyz, a.w, materials[at + 1u].xyz);
+}
+
+// Σ_j α_j P_{κ_j}(μ_j) for view `view` (local frame) at a point of frame `f`.
+fn lobe_radiance(base: u32, f: Frame, view: vec3<f32>) -> vec3<f32> {
+    if !(view.z > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let head = materials[base];
+    let theta_max = head.x;
+    let views = u32(head.y);
+    var sum = vec3<f32>(0.0);
+    let diffuse = material_lobe(base + 1u);
+    let to_env = draw.env_from_world;
+    // Specular: between the two nearest tabulated views (rsl_brdf::table::polar_view_between).
+    let theta = min(acos_precise(view.z), theta_max);
+    let t = (1.0 - sqrt(max(1.0 - theta / theta_max, 0.0))) * f32(views - 1u);
+    let k = min(u32(floor(t)), views - 2u);
+    let frac = clamp(t - f32(k), 0.0, 1.0);
+    let rxy = length(view.xy);
+    var c = 1.0;
+    var s = 0.0;
+    if rxy > 1e-12 {
+        c = view.x / rxy;
+        s = view.y / rxy;
+    }
+    let has_a = materials[base + 3u + k].x > 0.0;
+    let has_b = materials[base + 3u + k + 1u].x > 0.0;
+    let lobes = base + 3u + views;
+    for (var m = 0u; m < 2u; m++) {
+        let la = material_lobe(lobes + 2u * (2u * k + m));
+        let lb = material_lobe(lobes + 2u * (2u * (k + 1u) + m));
+        var l = la;
+        if has_a && has_b {
+            let mixed = la.mean * (1.0 - frac) + lb.mean * frac;
+            let tm = try_normalize(mixed);
+            l = Lobe(
+                select(la.mean, tm.xyz, tm.w > 0.0),
+                la.kappa * (1.0 - frac) + lb.kappa * frac,
+                la.weight * (1.0 - frac) + lb.weight * frac,
+            );
+        } else if has_b {
+            l = lb;
+        } else if !has_a {
+            continue;
+        }
+        if all(l.weight == vec3<f32>(0.0)) {
+            continue;
+        }
+        // Vmf::new: renormalised (zero: +z), κ ≥ 0.
+        let turned = vec3<f32>(c * l.mean.x - s * l.mean.y, s * l.mean.x + c * l.mean.y, l.mean.z);
+        let tn = try_normalize(turned);
+        let mean = select(vec3<f32>(0.0, 0.0, 1.0), tn.xyz, tn.w > 0.0);
+        let world = f.t * mean.x + f.b * mean.y + f.n * mean.z;
+        sum += l.weight * prefiltered(to_env * world, max(l.kappa, 0.0));
+    }
+    if any(diffuse.weight != vec3<f32>(0.0)) {
+        let world = f.t * diffuse.mean.x + f.b * diffuse.mean.y + f.n * diffuse.mean.z;
+        sum += diffuse.weight * prefiltered(to_env * world, diffuse.kappa);
+    }
+    return sum;
+}
+
+@fragment
+fn fs_lobes(v: VertexOut) -> @location(0) vec4<f32> {
+    if v.material == NO_MATERIAL {
+        return vec4<f32>(v.ratio, 1.0);
+    }
+    let f = frame_from_normal(v.normal);
+    let view = normalize_or_zero(lobe.eye.xyz - v.position);
+    let radiance = lobe_radiance(v.material, f, to_local(f, view)) * lobe.eye.w * v.ratio;
+    // Alpha 1: covered by an object.
+    return vec4<f32>(radiance, 1.0);
+}
