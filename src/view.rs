@@ -16,12 +16,43 @@ pub struct ViewArgs {
     /// UI frames to draw before the screenshot.
     #[arg(long, default_value_t = 3, requires = "screenshot")]
     pub frames: usize,
-    /// Start with glossy objects drawn per pixel (the "glossy objects per pixel" checkbox).
-    #[arg(long)]
+    /// Start with glossy objects drawn per pixel by the RSL sum (`--drawing pixel`).
+    #[arg(long, conflicts_with = "drawing")]
     pub per_pixel: bool,
+    /// How glossy objects are drawn once the view rests (the "drawing" drop-down): as
+    /// `rsl render --method` draws them.
+    #[arg(long, value_enum)]
+    pub drawing: Option<DrawingArg>,
     /// Precomputation options.
     #[command(flatten)]
     pub prepare: PrepareArgs,
+}
+
+/// The viewer's drawing choices, by `rsl render --method` name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DrawingArg {
+    /// Every object's vertices interpolated.
+    Rsl,
+    /// The RSL sum per pixel.
+    Pixel,
+    /// vMF lobes per pixel × the RSL visibility ratio.
+    Hybrid,
+    /// vMF lobes per pixel, shadowed by the fields over each lobe.
+    Lobe,
+    /// Each object as its scene `method` says.
+    Auto,
+}
+
+impl DrawingArg {
+    fn drawing(self) -> rsl_view::Drawing {
+        match self {
+            DrawingArg::Rsl => rsl_view::Drawing::Vertices,
+            DrawingArg::Pixel => rsl_view::Drawing::RslPixel,
+            DrawingArg::Hybrid => rsl_view::Drawing::Hybrid,
+            DrawingArg::Lobe => rsl_view::Drawing::Lobe,
+            DrawingArg::Auto => rsl_view::Drawing::Auto,
+        }
+    }
 }
 
 /// Frames a screenshot may draw (each costs a UI pass and possibly a reshade).
@@ -44,6 +75,9 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     let options = rsl_view::ViewerOptions { cache_dir: engine.cache_dir, quality: args.prepare.quality };
     let mut viewer = rsl_view::Viewer::new(scene, options);
     viewer.set_per_pixel(args.per_pixel);
+    if let Some(d) = args.drawing {
+        viewer.set_drawing(d.drawing());
+    }
     match &args.screenshot {
         Some(png) => {
             let img = rsl_view::screenshot(viewer, args.frames)?;

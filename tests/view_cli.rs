@@ -52,12 +52,17 @@ fn a_headless_screenshot_shows_the_whole_viewer() {
     colours.sort_unstable();
     colours.dedup();
     assert!(colours.len() > 1000, "only {} colours in the view", colours.len());
-    // `--per-pixel` starts with glossy objects drawn per pixel: another image of the view,
-    // the side panel (but for its checkbox and the timings line) the same.
-    let per_pixel = dir.join("per-pixel.png");
-    run(&[&args[..], &["--per-pixel", "--screenshot", per_pixel.to_str().unwrap(), "--frames", "2"]].concat()).unwrap();
-    let other = image::open(&per_pixel).unwrap().to_rgb8();
-    let changed = img.enumerate_pixels().filter(|(x, y, p)| *x > 400 && other.get_pixel(*x, *y) != *p).count();
-    assert!(changed > 5000, "only {changed} pixels of the view changed");
+    // `--per-pixel` (and `--drawing lobe`) start with glossy objects drawn per pixel: other
+    // images of the view, the side panel (but for its drop-down and the timings line) the same.
+    for how in [&["--per-pixel"][..], &["--drawing", "lobe"][..]] {
+        let per_pixel = dir.join("per-pixel.png");
+        run(&[&args[..], how, &["--screenshot", per_pixel.to_str().unwrap(), "--frames", "2"]].concat()).unwrap();
+        let other = image::open(&per_pixel).unwrap().to_rgb8();
+        let changed = img.enumerate_pixels().filter(|(x, y, p)| *x > 400 && other.get_pixel(*x, *y) != *p).count();
+        assert!(changed > 5000, "{how:?}: only {changed} pixels of the view changed");
+    }
+    // The two ways of choosing cannot be mixed.
+    let e = run(&[&args[..], &["--per-pixel", "--drawing", "hybrid"]].concat()).unwrap_err();
+    assert!(format!("{e:#}").contains("cannot be used with"), "{e:#}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -164,14 +164,51 @@ pub struct Viewer {
     /// The environment thumbnail with its RSLs, for (environment key, RSL count).
     thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,
-    /// Whether glossy objects are drawn per pixel (`rsl_shade::pixel`): once the view rests.
-    per_pixel: bool,
+    /// How glossy objects are drawn once the view rests.
+    drawing: Drawing,
+    /// The lobe methods' state (prefiltered environment, material lobes), kept between frames.
+    hybrid: rsl_engine::lobe::Hybrid,
+    lobe: rsl_engine::lobe::Hybrid,
+    per_object: rsl_engine::lobe::PerObject,
     /// The next refresh draws per pixel (set on the toggle, and once edits rest).
     force_pixels: bool,
     /// When an edit was last drawn interpolated while drawing per pixel is on.
     pixels_pending: Option<Instant>,
     /// Per object drawn per pixel: every light's cover at its vertices.
     covers: Vec<Option<rsl_shade::Covers>>,
+}
+
+/// How the viewer draws glossy objects once the view rests (while edits come, every object's
+/// vertex radiance is interpolated): what `rsl render --method` draws for the same name.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Drawing {
+    /// Every object's vertex radiance interpolated (`rsl`), always.
+    #[default]
+    Vertices,
+    /// The RSL sum per pixel (`pixel`; `rsl_engine::CpuRslPixels`).
+    RslPixel,
+    /// vMF lobes per pixel × the RSL visibility ratio (`hybrid`).
+    Hybrid,
+    /// vMF lobes per pixel, each shadowed by the fields over a square of its width (`lobe`).
+    Lobe,
+    /// Each object as its scene `method` says (`auto`).
+    Auto,
+}
+
+impl Drawing {
+    /// Every choice, in the order the drop-down lists them.
+    pub const ALL: [Drawing; 5] = [Drawing::Vertices, Drawing::RslPixel, Drawing::Hybrid, Drawing::Lobe, Drawing::Auto];
+
+    /// Its label in the drop-down.
+    pub fn label(self) -> &'static str {
+        match self {
+            Drawing::Vertices => "vertices interpolated (rsl)",
+            Drawing::RslPixel => "RSL sum per pixel (pixel)",
+            Drawing::Hybrid => "lobes × RSL visibility (hybrid)",
+            Drawing::Lobe => "lobes shadowed by fields (lobe)",
+            Drawing::Auto => "per object (auto)",
+        }
+    }
 }
 
 /// Frames kept in the timings graph.
@@ -338,7 +375,10 @@ impl Viewer {
             moved: true,
             thumbnail: None,
             readout: None,
-            per_pixel: false,
+            drawing: Drawing::Vertices,
+            hybrid: rsl_engine::lobe::Hybrid::new(),
+            lobe: rsl_engine::lobe::Hybrid::lobe(),
+            per_object: rsl_engine::lobe::PerObject::new(),
             force_pixels: false,
             pixels_pending: None,
             covers: vec![None; n],
@@ -759,13 +799,23 @@ impl Viewer {
     /// `rsl_engine::CpuRslPixels` renders the same image) whenever the view rests
     /// ([`Viewer::settle_pixels`]), or interpolates every object's vertex radiance always.
     pub fn set_per_pixel(&mut self, on: bool) {
-        if self.per_pixel != on {
-            self.per_pixel = on;
-            self.force_pixels = on;
+        self.set_drawing(if on { Drawing::RslPixel } else { Drawing::Vertices });
+    }
+
+    /// How glossy objects are drawn once the view rests ([`Drawing`]); drawn that way at once.
+    pub fn set_drawing(&mut self, drawing: Drawing) {
+        if self.drawing != drawing {
+            self.drawing = drawing;
+            self.force_pixels = drawing != Drawing::Vertices;
             self.pixels_pending = None;
             self.covers.iter_mut().for_each(|c| *c = None);
             self.mark_all();
         }
+    }
+
+    /// How glossy objects are drawn once the view rests.
+    pub fn drawing(&self) -> Drawing {
+        self.drawing
     }
 
     /// Drawing per pixel costs hundreds of milliseconds a frame on 2 cores: while edits come
@@ -785,9 +835,43 @@ impl Viewer {
         }
     }
 
-    /// Whether glossy objects are drawn per pixel.
+    /// Whether glossy objects are drawn with the RSL sum per pixel.
     pub fn per_pixel(&self) -> bool {
-        self.per_pixel
+        self.drawing == Drawing::RslPixel
+    }
+
+    /// [`Viewer::refresh`] through one of the lobe methods (or `auto`): the whole frame by
+    /// the engine's method, as `rsl render --method` draws it.
+    fn refresh_method(&mut self, start: Instant) -> Result<bool> {
+        let Some(engine) = &self.engine else { return Ok(false) };
+        let request = rsl_engine::Request { time: self.time, image: true, vertices: true, exposure: None };
+        use rsl_engine::Method;
+        let frame = match self.drawing {
+            Drawing::Hybrid => self.hybrid.render(engine, &self.scene, &request)?,
+            Drawing::Lobe => self.lobe.render(engine, &self.scene, &request)?,
+            _ => self.per_object.render(engine, &self.scene, &request)?,
+        };
+        let n = self.scene.objects.len();
+        for (i, (p, r)) in frame.positions.into_iter().zip(frame.radiance).enumerate().take(n) {
+            self.counters.vertices_shaded += r.len() as u64;
+            self.counters.objects_shaded += 1;
+            self.positions[i] = p;
+            self.radiance[i] = r;
+        }
+        self.counters.shaded_frames += 1;
+        self.counters.rasterised += 1;
+        self.dirty.iter_mut().for_each(|d| *d = false);
+        self.moved = false;
+        let stages = &frame.timings.stages;
+        let raster_ms: f64 = stages.iter().filter(|s| s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
+        let shade_ms: f64 = stages.iter().filter(|s| !s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
+        let image = frame.image.ok_or_else(|| anyhow::anyhow!("the method drew no image"))?;
+        let t2 = Instant::now();
+        let exposure = *self.exposure.get_or_insert_with(|| exposure_for(&image));
+        let pixels: Vec<Color32> = image.pixels.par_iter().map(|&c| colour(c, exposure)).collect();
+        self.background = None;
+        self.show(image, pixels, [start, t2], shade_ms, raster_ms);
+        Ok(true)
     }
 
     /// [`Viewer::refresh`] per pixel: the dirty objects shaded at their vertices (glossy ones
@@ -844,9 +928,12 @@ impl Viewer {
             return Ok(false);
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
-        if self.per_pixel {
+        if self.drawing != Drawing::Vertices {
             if std::mem::take(&mut self.force_pixels) {
-                return self.refresh_per_pixel(start);
+                return match self.drawing {
+                    Drawing::RslPixel => self.refresh_per_pixel(start),
+                    _ => self.refresh_method(start),
+                };
             }
             self.pixels_pending = Some(Instant::now());
         }
@@ -1023,12 +1110,20 @@ impl Viewer {
         ui.add(egui::Slider::new(&mut deg, -180.0..=180.0).text("environment °"));
         self.set_environment_degrees(deg);
         self.environment_thumbnail(ui);
-        let mut per_pixel = self.per_pixel;
-        ui.checkbox(&mut per_pixel, "glossy objects per pixel")
-            .on_hover_text("Sharp highlights: the RSL sum for each pixel's own normal and view (slower)");
-        if per_pixel != self.per_pixel {
-            self.set_per_pixel(per_pixel);
-        }
+        let mut drawing = self.drawing;
+        egui::ComboBox::from_label("drawing")
+            .selected_text(drawing.label())
+            .show_ui(ui, |ui| {
+                for d in Drawing::ALL {
+                    ui.selectable_value(&mut drawing, d, d.label());
+                }
+            })
+            .response
+            .on_hover_text(
+                "How glossy objects are drawn once the view rests (per pixel: sharp highlights, slower); \
+                 edits in between are drawn from the vertices",
+            );
+        self.set_drawing(drawing);
         let mut truth = self.truth_on;
         ui.checkbox(&mut truth, "progressive truth (error readout)");
         if truth != self.truth_on {

@@ -445,16 +445,13 @@ fn the_ui_widgets_drive_the_edits() {
 
 #[test]
 fn the_per_pixel_checkbox_draws_what_the_pixel_method_renders() {
-    use egui_kittest::kittest::Queryable;
     use rsl_engine::method::{CpuRslPixels, Method, Request};
     let Some(mut h) = harness("the_per_pixel_checkbox_draws_what_the_pixel_method_renders", Some(cache())) else {
         return;
     };
     ready(&mut h);
     let interpolated = h.state().linear_image().expect("an image").clone();
-    h.get_by_label("glossy objects per pixel").click();
-    h.step();
-    h.step();
+    choose_drawing(&mut h, rsl_view::Drawing::RslPixel);
     assert!(h.state().per_pixel());
     let v = h.state();
     let drawn = v.linear_image().expect("an image");
@@ -492,8 +489,54 @@ fn the_per_pixel_checkbox_draws_what_the_pixel_method_renders() {
     }
     h.state_mut().set_material(bunny, m).unwrap();
     h.state_mut().settle(true).unwrap();
-    h.get_by_label("glossy objects per pixel").click();
-    h.step();
-    h.step();
+    choose_drawing(&mut h, rsl_view::Drawing::Vertices);
     assert_eq!(h.state().linear_image().unwrap().pixels, interpolated.pixels);
+}
+
+/// Picks `drawing` in the "drawing" drop-down, and lets the viewer draw it.
+fn choose_drawing(h: &mut Harness<'static, Viewer>, drawing: rsl_view::Drawing) {
+    use egui_kittest::kittest::Queryable;
+    h.get_by_label("drawing").click();
+    // The list opens on the next pass.
+    h.step();
+    h.step();
+    h.get_by_label(drawing.label()).click();
+    h.step();
+    h.step();
+    h.step();
+    assert_eq!(h.state().drawing(), drawing);
+}
+
+#[test]
+fn the_drawing_menu_draws_what_each_lobe_method_renders() {
+    use rsl_engine::lobe::{Hybrid, PerObject};
+    use rsl_engine::method::{Method, Request};
+    let Some(mut h) = harness("the_drawing_menu_draws_what_each_lobe_method_renders", Some(cache())) else {
+        return;
+    };
+    ready(&mut h);
+    let interpolated = h.state().linear_image().expect("an image").clone();
+    let request = Request { time: 0.0, image: true, vertices: false, exposure: None };
+    let methods: [(rsl_view::Drawing, Box<dyn Method>); 3] = [
+        (rsl_view::Drawing::Hybrid, Box::new(Hybrid::new())),
+        (rsl_view::Drawing::Lobe, Box::new(Hybrid::lobe())),
+        (rsl_view::Drawing::Auto, Box::new(PerObject::new())),
+    ];
+    for (drawing, mut method) in methods {
+        choose_drawing(&mut h, drawing);
+        let v = h.state();
+        let drawn = v.linear_image().expect("an image");
+        let expected = method.render(v.engine().unwrap(), v.scene(), &request).unwrap().image.unwrap();
+        assert_eq!(drawn.covered, expected.covered, "{drawing:?}");
+        for (k, (a, b)) in drawn.pixels.iter().zip(&expected.pixels).enumerate() {
+            assert!(
+                (*a - *b).abs().max_element() <= 1e-4 * b.max_element().max(1e-2),
+                "{drawing:?}, pixel {k}: {a} vs {b}"
+            );
+        }
+        let changed =
+            interpolated.pixels.iter().zip(&drawn.pixels).filter(|(a, b)| (**a - **b).length() > 1e-3).count();
+        println!("{drawing:?}: {changed} pixels differ from the interpolated image");
+        assert!(changed > 1000, "{drawing:?}: {changed} pixels changed");
+    }
 }
