@@ -866,12 +866,18 @@ impl Viewer {
         let raster_ms: f64 = stages.iter().filter(|s| s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
         let shade_ms: f64 = stages.iter().filter(|s| !s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
         let image = frame.image.ok_or_else(|| anyhow::anyhow!("the method drew no image"))?;
+        self.show_whole(image, start, shade_ms, raster_ms);
+        Ok(true)
+    }
+
+    /// Shows a whole image drawn per pixel: tonemapped and uploaded.
+    fn show_whole(&mut self, image: rsl_shade::Image, start: Instant, shade_ms: f64, raster_ms: f64) {
         let t2 = Instant::now();
         let exposure = *self.exposure.get_or_insert_with(|| exposure_for(&image));
         let pixels: Vec<Color32> = image.pixels.par_iter().map(|&c| colour(c, exposure)).collect();
+        // The next interpolated frame starts afresh (its background may be stale).
         self.background = None;
         self.show(image, pixels, [start, t2], shade_ms, raster_ms);
-        Ok(true)
     }
 
     /// [`Viewer::refresh`] per pixel: the dirty objects shaded at their vertices (glossy ones
@@ -911,12 +917,7 @@ impl Viewer {
         });
         self.counters.rasterised += 1;
         let raster_ms = t1.elapsed().as_secs_f64() * 1e3;
-        let t2 = Instant::now();
-        let exposure = *self.exposure.get_or_insert_with(|| exposure_for(&image));
-        let pixels: Vec<Color32> = image.pixels.par_iter().map(|&c| colour(c, exposure)).collect();
-        // The next interpolated frame starts afresh (its background may be stale).
-        self.background = None;
-        self.show(image, pixels, [start, t2], shade_ms, raster_ms);
+        self.show_whole(image, start, shade_ms, raster_ms);
         Ok(true)
     }
 

@@ -444,9 +444,9 @@ fn the_ui_widgets_drive_the_edits() {
 }
 
 #[test]
-fn the_per_pixel_checkbox_draws_what_the_pixel_method_renders() {
+fn the_per_pixel_drawing_draws_what_the_pixel_method_renders() {
     use rsl_engine::method::{CpuRslPixels, Method, Request};
-    let Some(mut h) = harness("the_per_pixel_checkbox_draws_what_the_pixel_method_renders", Some(cache())) else {
+    let Some(mut h) = harness("the_per_pixel_drawing_draws_what_the_pixel_method_renders", Some(cache())) else {
         return;
     };
     ready(&mut h);
