@@ -122,23 +122,87 @@ impl Hybrid {
 
     /// The environment prefiltered up to `kappa_max` (rebuilt when the map or the need changes).
     fn environment(&mut self, engine: &Engine, kappa_max: f32) -> Arc<Prefiltered> {
+        match self.environment_job_for(engine, kappa_max) {
+            None => self.env.as_ref().expect("held").2.clone(),
+            Some(job) => {
+                let p = job.run();
+                let out = p.prefiltered.clone();
+                self.install(p);
+                out
+            }
+        }
+    }
+
+    /// The prefiltering the next frame of `engine`'s scene would do before drawing (every
+    /// glossy object's lobes fitted, here), as a job to run on another thread and give back
+    /// with [`Hybrid::install`]; `None` when what is held suffices. A viewer runs it on a
+    /// worker so that its frames keep coming.
+    pub fn environment_job(&mut self, engine: &Engine) -> Result<Option<EnvironmentJob>> {
+        let mut kappa_max = 1.0f32;
+        for i in 0..engine.object_count() {
+            if !engine.brdf(i).is_lambertian() {
+                let l = self.lobes(engine.brdf(i))?;
+                kappa_max = l.lobes_per_view().map(|w| w.lobe.kappa).fold(kappa_max, f32::max);
+            }
+        }
+        Ok(self.environment_job_for(engine, kappa_max))
+    }
+
+    fn environment_job_for(&self, engine: &Engine, kappa_max: f32) -> Option<EnvironmentJob> {
         let top = kappa_max.clamp(1.0, 4096.0).log2().ceil().exp2() as u32;
         let key = engine.environment_key();
-        if let Some((k, t, p)) = &self.env
+        if let Some((k, t, _)) = &self.env
             && *k == key
             && *t >= top
         {
-            return p.clone();
+            return None;
         }
         let map = match engine.environment() {
             EnvRadiance::Map(m) => m.clone(),
             EnvRadiance::Constant(c) => Arc::new(LatLongMap::from_fn(8, 4, |_| *c)),
         };
-        let params = PrefilterParams { kappa_max: top as f32, ..Default::default() };
-        let p = Arc::new(Prefiltered::build(&map, &params));
-        self.env = Some((key, top, p.clone()));
-        p
+        Some(EnvironmentJob { key, top, map })
     }
+
+    /// Takes a prefiltered environment made by an [`EnvironmentJob`] (kept when it serves the
+    /// environment held now or a newer need).
+    pub fn install(&mut self, p: PreparedEnvironment) {
+        let keep = match &self.env {
+            Some((k, t, _)) => *k != p.key || *t < p.top,
+            None => true,
+        };
+        if keep {
+            self.env = Some((p.key, p.top, p.prefiltered));
+        }
+    }
+}
+
+/// The prefiltering a [`Hybrid`] needs ([`Hybrid::environment_job`]): `Send`, to run anywhere.
+#[derive(Clone, Debug)]
+pub struct EnvironmentJob {
+    key: u64,
+    top: u32,
+    map: Arc<LatLongMap>,
+}
+
+impl EnvironmentJob {
+    /// Prefilters the map (seconds for a map with a sun, on 2 cores).
+    pub fn run(self) -> PreparedEnvironment {
+        let params = PrefilterParams { kappa_max: self.top as f32, ..Default::default() };
+        PreparedEnvironment {
+            key: self.key,
+            top: self.top,
+            prefiltered: Arc::new(Prefiltered::build(&self.map, &params)),
+        }
+    }
+}
+
+/// What an [`EnvironmentJob`] made, for [`Hybrid::install`].
+#[derive(Clone, Debug)]
+pub struct PreparedEnvironment {
+    key: u64,
+    top: u32,
+    prefiltered: Arc<Prefiltered>,
 }
 
 /// How one object is drawn by [`Hybrid::render_drawn`].
@@ -468,6 +532,13 @@ impl Method for Hybrid {
 #[derive(Default)]
 pub struct PerObject {
     hybrid: Hybrid,
+}
+
+impl PerObject {
+    /// The hybrid it draws its lobe objects with (to give it a prefiltered environment).
+    pub fn hybrid_mut(&mut self) -> &mut Hybrid {
+        &mut self.hybrid
+    }
 }
 
 impl PerObject {

@@ -170,6 +170,9 @@ pub struct Viewer {
     hybrid: rsl_engine::lobe::Hybrid,
     lobe: rsl_engine::lobe::Hybrid,
     per_object: rsl_engine::lobe::PerObject,
+    /// The lobe methods' environment being prefiltered on a worker thread (seconds): frames
+    /// are drawn from the vertices meanwhile.
+    lobe_job: Option<std::thread::JoinHandle<rsl_engine::lobe::PreparedEnvironment>>,
     /// The next refresh draws per pixel (set on the toggle, and once edits rest).
     force_pixels: bool,
     /// When an edit was last drawn interpolated while drawing per pixel is on.
@@ -379,6 +382,7 @@ impl Viewer {
             hybrid: rsl_engine::lobe::Hybrid::new(),
             lobe: rsl_engine::lobe::Hybrid::lobe(),
             per_object: rsl_engine::lobe::PerObject::new(),
+            lobe_job: None,
             force_pixels: false,
             pixels_pending: None,
             covers: vec![None; n],
@@ -840,6 +844,54 @@ impl Viewer {
         self.drawing == Drawing::RslPixel
     }
 
+    /// Whether the drawing's prefiltered environment is ready: if not, it is started on a
+    /// worker thread (once) and `false` comes back; a finished worker's result is taken.
+    fn lobes_ready(&mut self) -> Result<bool> {
+        if self.lobe_job.as_ref().is_some_and(|h| !h.is_finished()) {
+            return Ok(false);
+        }
+        if let Some(h) = self.lobe_job.take() {
+            let p = h.join().map_err(|_| anyhow!("prefiltering the environment failed"))?;
+            self.hybrid.install(p.clone());
+            self.lobe.install(p.clone());
+            self.per_object.hybrid_mut().install(p);
+        }
+        let Some(engine) = &self.engine else { return Ok(true) };
+        let method = match self.drawing {
+            Drawing::Hybrid => &mut self.hybrid,
+            Drawing::Lobe => &mut self.lobe,
+            Drawing::Auto => self.per_object.hybrid_mut(),
+            Drawing::Vertices | Drawing::RslPixel => return Ok(true),
+        };
+        match method.environment_job(engine)? {
+            None => Ok(true),
+            Some(job) => {
+                let handle = std::thread::Builder::new()
+                    .name("rsl-view prefilter".into())
+                    .spawn(move || job.run())
+                    .context("starting the prefiltering thread")?;
+                self.lobe_job = Some(handle);
+                Ok(false)
+            }
+        }
+    }
+
+    /// Waits for the environment being prefiltered for the lobes, if any (tests and the
+    /// headless screenshot); the next refresh draws with them.
+    pub fn wait_lobes(&mut self) {
+        if let Some(h) = &self.lobe_job {
+            while !h.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+            }
+            self.mark_all();
+        }
+    }
+
+    /// Whether the lobes' environment is being prefiltered on the worker thread.
+    pub fn is_prefiltering(&self) -> bool {
+        self.lobe_job.is_some()
+    }
+
     /// [`Viewer::refresh`] through one of the lobe methods (or `auto`): the whole frame by
     /// the engine's method, as `rsl render --method` draws it.
     fn refresh_method(&mut self, start: Instant) -> Result<bool> {
@@ -924,20 +976,22 @@ impl Viewer {
     /// Shades what changed and rasterises a new image; `false` when nothing changed (no
     /// shading, no rasterising).
     pub fn refresh(&mut self) -> Result<bool> {
-        let Some(engine) = &self.engine else { return Ok(false) };
-        if !self.dirty.iter().any(|&d| d) {
+        if self.engine.is_none() || !self.dirty.iter().any(|&d| d) {
             return Ok(false);
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
         if self.drawing != Drawing::Vertices {
-            if std::mem::take(&mut self.force_pixels) {
+            if self.force_pixels && !self.lobes_ready()? {
+                // Drawn from the vertices until the worker has prefiltered the environment
+                // (`force_pixels` stays: the frame after it draws per pixel).
+            } else if std::mem::take(&mut self.force_pixels) {
                 return match self.drawing {
                     Drawing::RslPixel => self.refresh_per_pixel(start),
                     _ => self.refresh_method(start),
                 };
             }
-            self.pixels_pending = Some(Instant::now());
         }
+        let Some(engine) = &self.engine else { return Ok(false) };
         let all = self.dirty.iter().all(|&d| d);
         // Only radiance changed (material edits): the image is redrawn where those objects
         // are, over the last one.
@@ -1016,6 +1070,11 @@ impl Viewer {
                 .collect(),
         };
         self.show(image, pixels, [start, t2], shade_ms, raster_ms);
+        if self.drawing != Drawing::Vertices {
+            // Per pixel again once the view has rested PREVIEW_REST after this frame (and,
+            // while the worker prefilters, a check that often).
+            self.pixels_pending = Some(Instant::now());
+        }
         Ok(true)
     }
 
@@ -1484,6 +1543,8 @@ pub fn screenshot(viewer: Viewer, frames: usize) -> Result<image_rgba::Rgba> {
         .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
     for _ in 0..frames.max(1) {
         harness.step();
+        // A drawing with lobes prefilters on a worker: the next frame draws with them.
+        harness.state_mut().wait_lobes();
     }
     if let Some(e) = harness.state().error() {
         return Err(anyhow!("{e}"));

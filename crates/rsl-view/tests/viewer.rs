@@ -502,6 +502,8 @@ fn choose_drawing(h: &mut Harness<'static, Viewer>, drawing: rsl_view::Drawing) 
     h.step();
     h.get_by_label(drawing.label()).click();
     h.step();
+    // Lobes: the environment is prefiltered on a worker while frames keep coming.
+    h.state_mut().wait_lobes();
     h.step();
     h.step();
     assert_eq!(h.state().drawing(), drawing);
@@ -522,6 +524,16 @@ fn the_drawing_menu_draws_what_each_lobe_method_renders() {
         (rsl_view::Drawing::Lobe, Box::new(Hybrid::lobe())),
         (rsl_view::Drawing::Auto, Box::new(PerObject::new())),
     ];
+    // The first drawing with lobes prefilters the environment (seconds) on a worker thread:
+    // the view keeps its image and frames keep coming meanwhile.
+    h.state_mut().set_drawing(rsl_view::Drawing::Hybrid);
+    let frames = h.state().counters().shaded_frames;
+    h.step();
+    assert!(h.state().is_prefiltering(), "prefiltering on the worker");
+    h.step();
+    assert!(h.state().counters().shaded_frames > frames, "frames drawn while prefiltering");
+    h.state_mut().set_drawing(rsl_view::Drawing::Vertices);
+    h.step();
     for (drawing, mut method) in methods {
         choose_drawing(&mut h, drawing);
         let v = h.state();
