@@ -322,7 +322,7 @@ impl Hybrid {
                 if drawn[i] == Drawn::LobeFields {
                     // Each lobe shadowed by the fields over a square of its width: the
                     // radiance, and its ratio to the unshadowed lobes for the pixels.
-                    let (shaded, ratio, lobe_stats) = (0..pos.len())
+                    let per_vertex: Vec<(Vec3, Vec3, FrameStats)> = (0..pos.len())
                         .into_par_iter()
                         .map(|v| {
                             let frame = LocalFrame::from_normal(nor[v]);
@@ -349,22 +349,10 @@ impl Hybrid {
                             .clamp(Vec3::ZERO, Vec3::ONE);
                             (shadowed * intensity, ratio, st)
                         })
-                        .fold(
-                            || (Vec::new(), Vec::new(), FrameStats::default()),
-                            |(mut r, mut q, s), (x, y, st)| {
-                                r.push(x);
-                                q.push(y);
-                                (r, q, s.plus(st))
-                            },
-                        )
-                        .reduce(
-                            || (Vec::new(), Vec::new(), FrameStats::default()),
-                            |(mut r, mut q, s), (r2, q2, s2)| {
-                                r.extend(r2);
-                                q.extend(q2);
-                                (r, q, s.plus(s2))
-                            },
-                        );
+                        .collect();
+                    let shaded = per_vertex.iter().map(|p| p.0).collect();
+                    let ratio = per_vertex.iter().map(|p| p.1).collect();
+                    let lobe_stats = per_vertex.iter().fold(FrameStats::default(), |a, p| a.plus(p.2));
                     stats = stats.plus(lobe_stats);
                     radiance[i] = shaded;
                     ratios[i] = Some(ratio);
