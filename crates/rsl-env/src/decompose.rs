@@ -95,9 +95,9 @@ pub struct LevelError {
 }
 
 /// The version of the light sets this crate makes: bumped whenever a change makes different
-/// RSLs from the same map and grid (2: the fit error sums the RGB channels), so that caches
-/// keyed with it never serve a set made the old way.
-pub const ALGORITHM_VERSION: u32 = 2;
+/// RSLs from the same map and grid (2: the fit error sums the RGB channels; 3: squares at most
+/// `fit::MAX_HALF_DIAGONAL`), so that caches keyed with it never serve a set made the old way.
+pub const ALGORITHM_VERSION: u32 = 3;
 
 /// The whole merge tree of one environment: RSLs for every region count from 1 to the
 /// number of texels, without recomputation.

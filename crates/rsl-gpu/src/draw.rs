@@ -69,8 +69,6 @@ pub enum Backdrop<'a> {
     Constant(Vec3),
 }
 
-/// Distance of the near clipping plane (the CPU rasteriser's).
-const NEAR: f32 = 1e-3;
 const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The format of display images ([`GpuDraw::tonemap_into`]): 8-bit, holding sRGB-encoded
@@ -390,7 +388,7 @@ impl GpuDraw {
         let aspect = width as f32 / height as f32;
         let view = camera.camera_from_world();
         // WebGPU: NDC depth in [0, 1], y up.
-        let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(camera.fov_y, aspect, NEAR);
+        let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(camera.fov_y, aspect, camera.near());
         let world_from_camera = Mat3::from_mat4(view.inverse());
         let params = DrawParams {
             clip_from_world: (proj * view).to_cols_array_2d(),

@@ -103,6 +103,13 @@ impl Camera {
     pub fn camera_from_world(&self) -> Mat4 {
         glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
     }
+
+    /// Distance of the near clipping plane from the eye: `1e-4` of the distance to the
+    /// target, so that a scene a millionth of a unit across is drawn as one a unit across
+    /// (a fixed plane clipped it away whole).
+    pub fn near(&self) -> f32 {
+        (1e-4 * self.eye.distance(self.target)).max(f32::MIN_POSITIVE)
+    }
 }
 
 /// Where an object's mesh came from.

@@ -34,9 +34,6 @@ pub struct Image {
     pub covered: Vec<bool>,
 }
 
-/// Distance of the near clipping plane from the eye (world units).
-pub const NEAR: f32 = 1e-3;
-
 #[derive(Clone, Copy)]
 struct ClipVertex {
     /// Camera-space position (looking down −z).
@@ -94,9 +91,9 @@ pub fn pixel_ray(camera: &Camera, x: u32, y: u32) -> Vec3 {
     (world_from_camera * Vec3::new(nx, ny, -1.0).extend(0.0)).xyz().normalize()
 }
 
-/// Clips a polygon to `z ≤ −NEAR` (Sutherland–Hodgman, one plane).
-fn clip_near(poly: &[ClipVertex]) -> Vec<ClipVertex> {
-    let inside = |v: &ClipVertex| v.p.z <= -NEAR;
+/// Clips a polygon to `z ≤ −near` (Sutherland–Hodgman, one plane).
+fn clip_near(poly: &[ClipVertex], near: f32) -> Vec<ClipVertex> {
+    let inside = |v: &ClipVertex| v.p.z <= -near;
     let mut out = Vec::with_capacity(4);
     for k in 0..poly.len() {
         let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
@@ -104,7 +101,7 @@ fn clip_near(poly: &[ClipVertex]) -> Vec<ClipVertex> {
             out.push(a);
         }
         if inside(&a) != inside(&b) {
-            let s = (-NEAR - a.p.z) / (b.p.z - a.p.z);
+            let s = (-near - a.p.z) / (b.p.z - a.p.z);
             out.push(ClipVertex { p: a.p.lerp(b.p, s), c: a.c.lerp(b.c, s) });
         }
     }
@@ -125,6 +122,7 @@ fn screen_triangles_with(
 ) -> Vec<ScreenTri> {
     let view = camera.camera_from_world();
     let proj = Projection::new(camera);
+    let near = camera.near();
     let (w, h) = (camera.width as i32, camera.height as i32);
     let corner = &corner;
     meshes
@@ -135,7 +133,7 @@ fn screen_triangles_with(
             let proj = &proj;
             indices.chunks_exact(3).enumerate().flat_map(move |(ti, t)| {
                 let verts = [0, 1, 2].map(|k| ClipVertex { p: cam[t[k] as usize], c: corner(mi, ti, k) });
-                let poly = if verts.iter().all(|v| v.p.z <= -NEAR) { verts.to_vec() } else { clip_near(&verts) };
+                let poly = if verts.iter().all(|v| v.p.z <= -near) { verts.to_vec() } else { clip_near(&verts, near) };
                 let mut tris = Vec::new();
                 for k in 1..poly.len().saturating_sub(1) {
                     let tri = [poly[0], poly[k], poly[k + 1]];

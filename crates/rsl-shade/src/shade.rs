@@ -494,7 +494,7 @@ impl<'a> FrameSetup<'a> {
             .flat_map(|p| (0..p.object.mesh.vertex_count()).map(|v| p.position(v)))
             .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
         let radius = if lo.x <= hi.x { 0.5 * (hi - lo).length() } else { 0.0 };
-        self.traced = TracedSetup { flags, dirs, index, lift: 1e-4 * radius.max(1e-6) };
+        self.traced = TracedSetup { flags, dirs, index, lift: 1e-4 * radius.max(f32::MIN_POSITIVE) };
         self
     }
 

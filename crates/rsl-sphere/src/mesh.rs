@@ -22,6 +22,25 @@ pub struct TriMesh {
 /// areas overflow on their way to `f32::MAX` (a BVH over a mesh 10²⁰ across panicked).
 pub const MAX_COORDINATE: f32 = 1e9;
 
+/// The power of two that brings points within `extent` of the origin, spread over a
+/// bounding box of half-diagonal `radius`, to a size a ray tracer can resolve: obvhs's
+/// traversal ignores boxes nearer than `1e-4` of its own units along a ray, so a scene a
+/// thousandth of a unit across lost every shadow closer than that. Ray tracers multiply
+/// their triangles and ray origins (and ray lengths) by this factor, which puts `radius`
+/// in `[1, 2)`; a power of two changes no digit of any coordinate. The factor is capped so
+/// that no coordinate grows past `1e30` (an object this far from the origin and this small
+/// has no f32 precision left anyway), and is 1 for an empty or degenerate box.
+pub fn ray_scale(radius: f32, extent: f32) -> f32 {
+    if !(radius.is_finite() && radius > 0.0 && extent.is_finite()) {
+        return 1.0;
+    }
+    let mut e = -(radius.log2().floor() as i32);
+    while e > 0 && extent * 2f32.powi(e) > 1e30 {
+        e -= 1;
+    }
+    2f32.powi(e.clamp(-126, 126))
+}
+
 /// A triangle's identity as a shape: its three corners' bit patterns, sorted, so that the
 /// same corners in any order give the same key. Ray tracers keep one triangle per key:
 /// coincident copies block the same rays, and a BVH cannot split them apart (10⁵ copies of
@@ -283,6 +302,20 @@ mod tests {
             tangents: None,
             indices: vec![0, 1, 2, 0, 2, 3],
         }
+    }
+
+    #[test]
+    fn ray_scale_puts_the_radius_in_one_to_two_by_a_power_of_two() {
+        for r in [1e-30f32, 3e-7, 0.7, 1.0, 1.5, 2.0, 4.4e6] {
+            let k = ray_scale(r, r);
+            assert!((1.0..2.0).contains(&(r * k)), "{r} × {k}");
+            assert_eq!(k.to_bits() & 0x007f_ffff, 0, "{k} is a power of two");
+        }
+        // Far from the origin the coordinates stay finite.
+        let k = ray_scale(1e-30, 1e9);
+        assert!(1e9 * k <= 1e30 && 1e9 * k * 2.0 > 1e30, "{k}");
+        assert_eq!(ray_scale(0.0, 0.0), 1.0);
+        assert_eq!(ray_scale(f32::NAN, 1.0), 1.0);
     }
 
     #[test]

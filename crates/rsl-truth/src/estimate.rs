@@ -153,6 +153,9 @@ pub struct TruthScene {
     env_from_world: Quat,
     world_from_env: Quat,
     offset: f32,
+    /// The BVH's triangles are world positions times this power of two
+    /// (`rsl_sphere::mesh::ray_scale`); ray origins are scaled alike.
+    scale: f32,
 }
 
 /// Which directions count at a point, besides the shadow ray.
@@ -256,6 +259,12 @@ impl TruthScene {
         let (lo, hi) =
             positions.iter().flatten().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| (l.min(p), h.max(p)));
         let radius = 0.5 * (hi - lo).length();
+        // Traced at a power-of-two scale (`rsl_sphere::mesh::ray_scale`), so that rays
+        // resolve scenes of any size.
+        let scale = rsl_sphere::mesh::ray_scale(radius, lo.abs().max(hi.abs()).max_element());
+        for t in &mut tris {
+            *t = Triangle { v0: t.v0 * scale, v1: t.v1 * scale, v2: t.v2 * scale };
+        }
         let faces = positions
             .iter()
             .zip(&frames)
@@ -279,7 +288,8 @@ impl TruthScene {
             env,
             env_from_world: world_from_env.inverse(),
             world_from_env,
-            offset: 1e-4 * radius.max(1e-6),
+            offset: 1e-4 * radius.max(f32::MIN_POSITIVE),
+            scale,
         })
     }
 
@@ -306,7 +316,7 @@ impl TruthScene {
     /// Whether light from world direction `dir` reaches `x` on object `receiver` past the
     /// triangles of the objects `blocks` accepts.
     fn visible_past(&self, x: Vec3, dir: Vec3, blocks: impl Fn(usize) -> bool) -> bool {
-        let ray = Ray::new(Vec3A::from(x), Vec3A::from(dir), 0.0, f32::INFINITY);
+        let ray = Ray::new(Vec3A::from(x * self.scale), Vec3A::from(dir), 0.0, f32::INFINITY);
         self.bvh.ray_traverse_miss(ray, |ray, id| {
             let k = self.bvh.primitive_indices[id] as usize;
             if blocks(self.owners[k].0 as usize) { self.tris[k].intersect(ray) } else { f32::INFINITY }
@@ -498,7 +508,7 @@ impl TruthScene {
     /// The closest surface along a ray: object, world position, interpolated shading frame
     /// and the hit face's unit normal (on the shading normal's side).
     fn hit(&self, origin: Vec3, dir: Vec3) -> Option<(usize, Vec3, Frame, Vec3)> {
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
+        let ray = Ray::new(Vec3A::from(origin * self.scale), Vec3A::from(dir), 0.0, f32::INFINITY);
         let mut hit = RayHit::none();
         if !self
             .bvh
@@ -509,7 +519,7 @@ impl TruthScene {
         let k = self.bvh.primitive_indices[hit.primitive_id as usize] as usize;
         let (i, t) = (self.owners[k].0 as usize, self.owners[k].1 as usize);
         let idx = &self.indices[i][3 * t..3 * t + 3];
-        let p = origin + dir * hit.t;
+        let p = origin + dir * (hit.t / self.scale);
         let [a, b, c] = [0, 1, 2].map(|m| self.positions[i][idx[m] as usize]);
         // Barycentric weights from sub-triangle areas.
         let n = (b - a).cross(c - a);

@@ -155,7 +155,7 @@ impl Ovdf {
         mesh.validate().map_err(|e| VisError::Mesh(e.to_string()))?;
         params.check()?;
         let (centre, radius) = mesh.bounding_sphere().unwrap_or_default();
-        let radius = radius.max(1e-6);
+        let radius = radius.max(f32::MIN_POSITIVE);
         if let Some(flat) = Flat::detect(mesh).filter(|_| closed_form) {
             progress(1, 1);
             return Self::from_flat(centre, radius, *params, flat).map_err(VisError::Params);

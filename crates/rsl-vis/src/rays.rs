@@ -33,6 +33,9 @@ pub enum VisError {
 pub struct Occluder {
     bvh: CwBvh,
     tris: Vec<Triangle>,
+    /// The triangles are stored times this power of two (`rsl_sphere::mesh::ray_scale`), so
+    /// that rays resolve objects of any size.
+    scale: f32,
     /// Zero-area triangles left out (they cannot block a ray).
     pub degenerate: usize,
     /// Copies of a triangle already in the BVH, left out (they block the same rays).
@@ -69,6 +72,10 @@ impl Occluder {
         if let Some(&bad) = mesh.indices.iter().find(|&&i| i as usize >= mesh.positions.len()) {
             return Err(VisError::Mesh(format!("index {bad} out of range ({} vertices)", mesh.positions.len())));
         }
+        let (lo, hi) =
+            mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| (l.min(p), h.max(p)));
+        let extent = lo.abs().max(hi.abs()).max_element();
+        let scale = rsl_sphere::mesh::ray_scale(0.5 * (hi - lo).length(), extent);
         let mut tris = Vec::with_capacity(mesh.triangle_count());
         let (mut degenerate, mut coincident) = (0, 0);
         let mut seen = std::collections::HashSet::with_capacity(mesh.triangle_count());
@@ -82,13 +89,13 @@ impl Occluder {
                 coincident += 1;
                 continue;
             }
-            tris.push(Triangle { v0: a.into(), v1: b.into(), v2: c.into() });
+            tris.push(Triangle { v0: (a * scale).into(), v1: (b * scale).into(), v2: (c * scale).into() });
         }
         if tris.is_empty() {
             return Err(VisError::AllDegenerate(degenerate));
         }
         let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
-        Ok(Self { bvh, tris, degenerate, coincident })
+        Ok(Self { bvh, tris, scale, degenerate, coincident })
     }
 
     /// Bytes held (triangles and BVH nodes).
@@ -105,7 +112,7 @@ impl Occluder {
 
     /// Whether the segment from `origin` along unit `dir` up to `tmax` hits any triangle.
     pub fn occluded(&self, origin: Vec3, dir: Vec3, tmax: f32) -> bool {
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, tmax);
+        let ray = Ray::new(Vec3A::from(origin * self.scale), Vec3A::from(dir), 0.0, tmax * self.scale);
         !self.bvh.ray_traverse_miss(ray, |ray, id| self.tris[self.bvh.primitive_indices[id] as usize].intersect(ray))
     }
 }

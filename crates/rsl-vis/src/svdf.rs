@@ -133,7 +133,7 @@ impl Svdf {
             return Ok(Svdf::Convex { vertices: nv });
         }
         // Rays start just off the surface and need not go past the object.
-        let (offset, tmax) = (1e-4 * radius.max(1e-6), 4.0 * radius.max(1e-6));
+        let (offset, tmax) = (1e-4 * radius.max(f32::MIN_POSITIVE), 4.0 * radius.max(f32::MIN_POSITIVE));
         let n = params.n;
         let traced = std::sync::atomic::AtomicUsize::new(0);
         // A report every 65,536 rays' worth of vertices (every 256 vertices at 16×16

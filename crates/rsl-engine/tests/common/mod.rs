@@ -31,6 +31,11 @@ pub fn facing(f: &Frame, i: usize, v: usize, eye: Vec3) -> bool {
 /// (R/d)²·cos θ of the cosine-weighted hemisphere (the form factor of a sphere), so the
 /// point reflects `albedo·L·(1 − (R/d)² cos θ)`.
 pub fn cap_scene(motion: &str) -> Scene {
+    cap_scene_at(motion, 1.0)
+}
+
+/// [`cap_scene`] with every length (and the camera's place) times `s`.
+pub fn cap_scene_at(motion: &str, s: f32) -> Scene {
     scene(&format!(
         r#"
         [quality]
@@ -42,20 +47,25 @@ pub fn cap_scene(motion: &str) -> Scene {
         constant = [1.0, 1.0, 1.0]
         rsl_count = 384
         [camera]
-        eye = [0.0, 3.0, 0.5]
+        eye = [0.0, {eye_y:e}, {eye_z:e}]
         target = [0.0, 0.0, 0.0]
         [[objects]]
         name = "ground"
-        primitive = {{ kind = "plane", size = 3.0, resolution = 30 }}
+        primitive = {{ kind = "plane", size = {size:e}, resolution = 30 }}
         material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
         casts_shadows = false
         [[objects]]
         name = "ball"
-        primitive = {{ kind = "sphere", radius = 0.4, resolution = 24 }}
-        translation = [0.0, 0.8, 0.0]
+        primitive = {{ kind = "sphere", radius = {radius:e}, resolution = 24 }}
+        translation = [0.0, {height:e}, 0.0]
         material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
         {motion}
-        "#
+        "#,
+        eye_y = 3.0 * s,
+        eye_z = 0.5 * s,
+        size = 3.0 * s,
+        radius = 0.4 * s,
+        height = 0.8 * s,
     ))
 }
 
