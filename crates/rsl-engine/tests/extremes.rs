@@ -122,7 +122,7 @@ fn views_that_graze_a_glossy_ball_reflect_what_the_truth_does() {
         // Per band of n·v: squared error, squared truth, vertices, squared standard error.
         let edges = [0.0, 0.05, 0.15, 0.4, 1.01];
         let mut bands = [(0.0f64, 0.0f64, 0usize, 0.0f64); 4];
-        for v in 0..rsl.radiance[0].len() {
+        for (v, se) in se[0].iter().enumerate() {
             let c = rsl.normals[0][v].dot((s.camera.eye - rsl.positions[0][v]).normalize());
             // A white furnace and albedos at most 1: no vertex may reflect more than 1 (the
             // GGX α = 0.1 table reflects up to 1.02 at n·v = 0.005, where the truth has 0.92).
@@ -132,7 +132,7 @@ fn views_that_graze_a_glossy_ball_reflect_what_the_truth_does() {
             bands[b].0 += f64::from((rsl.radiance[0][v] - t.radiance[0][v]).length_squared());
             bands[b].1 += f64::from(t.radiance[0][v].length_squared());
             bands[b].2 += 1;
-            bands[b].3 += f64::from(se[0][v].length_squared());
+            bands[b].3 += f64::from(se.length_squared());
         }
         for (b, &(err, norm, count, noise)) in bands.iter().enumerate() {
             let (e, n) = ((err / norm).sqrt(), (noise / norm).sqrt());

@@ -255,12 +255,20 @@ impl MaterialLobes {
 
     /// The specular lobes for a view above the horizon (see [`MaterialLobes::lobes`]).
     fn specular_at(&self, view: Vec3) -> impl Iterator<Item = WeightedLobe> {
+        self.specular_pair(view).into_iter().flatten().filter(|l| l.weight != Vec3::ZERO)
+    }
+
+    /// The two specular lobes for `view` (unit, local frame, above the horizon), in that
+    /// frame: interpolated between the two nearest tabulated views lobe by lobe and turned to
+    /// the view's azimuth, the main lobe first (a lobe may have zero weight); `None` without
+    /// a specular part.
+    pub fn specular_pair(&self, view: Vec3) -> Option<[WeightedLobe; 2]> {
         let theta = view.z.clamp(-1.0, 1.0).acos().min(theta_max());
         let (k, f) = polar_view_between(theta, self.thetas.len(), theta_max());
         let rxy = Vec2::new(view.x, view.y).length();
         let (c, s) = if rxy > 1e-12 { (view.x / rxy, view.y / rxy) } else { (1.0, 0.0) };
         let turn = move |d: Vec3| Vec3::new(c * d.x - s * d.y, s * d.x + c * d.y, d.z);
-        let pair = match (self.specular[k], self.specular[k + 1]) {
+        match (self.specular[k], self.specular[k + 1]) {
             (Some(a), Some(b)) => Some([0, 1].map(|m| {
                 let (a, b) = (a[m], b[m]);
                 let mean = (a.lobe.mean * (1.0 - f) + b.lobe.mean * f).normalize_or(a.lobe.mean);
@@ -272,8 +280,12 @@ impl MaterialLobes {
                 Some(a.map(|l| WeightedLobe { lobe: Vmf::new(turn(l.lobe.mean), l.lobe.kappa), ..l }))
             }
             (None, None) => None,
-        };
-        pair.into_iter().flatten().filter(|l| l.weight != Vec3::ZERO)
+        }
+    }
+
+    /// The diffuse lobe (about the normal, local frame), if the BRDF has a diffuse term.
+    pub fn diffuse_lobe(&self) -> Option<WeightedLobe> {
+        self.diffuse
     }
 
     /// Unshadowed reflected radiance toward `view` at a point with shading frame `frame`

@@ -1,0 +1,423 @@
+//! Transport lobes (Green et al. 2006, §3–5): per vertex and per view, the transport
+//! `ρ(ω, v)·cos θ·V_self(ω)` as weighted vMF lobes, the views fixed in object space (a
+//! geodesic sphere: 92 views at frequency 3, Green's count), so that an object rotates freely.
+//!
+//! **Fit.** Green fits the sampled transport of each view by nonlinear optimisation, with
+//! terms that align corresponding lobes across views and vertices. Here each transport lobe
+//! is one of the material's lobes ([`MaterialLobes`], fitted to `ρ·cos` per view by
+//! Laurijssen's estimator) shadowed by the object itself and refitted, so lobe `k` of every
+//! view and vertex comes from the same material lobe and corresponds by construction (the
+//! role of Green's alignment terms). For a material lobe `α·γ_{μ,κ}` in the vertex's frame,
+//! `S` stratified samples `ω_s` of `γ` above the shading horizon are weighted by the
+//! visibility `h_s = V_self(ω_s) ∈ [0, 1]`, and:
+//! - the weight is `α·Σh_s/S⁺` (the visible share of the lobe above the horizon, `S⁺` the
+//!   samples there);
+//! - the mean is turned by the rotation that takes the samples' unshadowed mean direction to
+//!   their visibility-weighted one;
+//! - `κ` is the one whose mean cosine deficit `g(κ) = E[1 − μ·ω] = 1 − coth κ + 1/κ` is
+//!   `g(κ)` times the ratio of the weighted samples' deficit (about their mean) to the
+//!   unshadowed samples' (Laurijssen's eq. 13 matches the same moment; the ratio cancels the
+//!   samples' own error, and the horizon's cut).
+//!
+//! With `V_self = 1` every ratio is exactly 1 and the transport lobes are the material lobes.
+//! A view below a vertex's horizon keeps its lobes' shape (from the view just above the
+//! horizon) with zero weight, so that interpolation toward the horizon fades, as Green's
+//! zero-weighted views do. A lobe wholly shadowed keeps its shape with zero weight.
+//!
+//! **Diffuse part.** The material's diffuse lobe (a cosine lobe about the normal) is shadowed
+//! and refitted the same way, once per vertex (it does not depend on the view): a lobe about
+//! the vertex's unoccluded direction, the "bent normal", with the visible share as weight.
+//!
+//! **Rendering.** [`TransportLobes::lobes_at`] interpolates the lobes of the three views
+//! nearest the current one (barycentric weights on their spherical triangle), lobe by lobe:
+//! the weight and `κ` linearly, the mean as a normalised blend (the mean direction, not the
+//! radiance, as Green interpolates); one prefiltered lookup per lobe follows.
+
+use crate::material::{MaterialLobes, WeightedLobe};
+use crate::vmf::Vmf;
+use glam::{DVec3, Mat3, Quat, Vec2, Vec3};
+use rayon::prelude::*;
+use rsl_sphere::Frame;
+
+/// How transport lobes are fitted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TransportParams {
+    /// Geodesic frequency of the views: `10ν² + 2` views (3: 92).
+    pub frequency: u32,
+    /// Stratified samples per specular lobe (a square number is used: `⌈√S⌉²`).
+    pub samples: usize,
+    /// Stratified samples for the diffuse lobe.
+    pub diffuse_samples: usize,
+}
+
+impl Default for TransportParams {
+    fn default() -> Self {
+        Self { frequency: 3, samples: 64, diffuse_samples: 256 }
+    }
+}
+
+/// The views of a geodesic sphere of frequency `nu ≥ 1`: each face of an icosahedron split
+/// into `ν²` triangles, the `10ν² + 2` distinct corners projected to the unit sphere.
+pub fn geodesic_views(nu: u32) -> Vec<Vec3> {
+    let nu = nu.max(1);
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let corners: Vec<DVec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+    .collect();
+    const FACES: [[usize; 3]; 20] = [
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    let mut views: Vec<DVec3> = Vec::new();
+    let n = f64::from(nu);
+    for [a, b, c] in FACES {
+        let (a, b, c) = (corners[a], corners[b], corners[c]);
+        for i in 0..=nu {
+            for j in 0..=nu - i {
+                let p = (a + (b - a) * (f64::from(i) / n) + (c - a) * (f64::from(j) / n)).normalize();
+                // Points shared by faces come out equal to rounding; the closest distinct
+                // views are ~0.3/ν radians apart.
+                if !views.iter().any(|q| q.distance_squared(p) < 1e-12) {
+                    views.push(p);
+                }
+            }
+        }
+    }
+    views.into_iter().map(|v| v.as_vec3()).collect()
+}
+
+/// `g(κ) = E[1 − μ·ω]` for `ω` drawn from a vMF of concentration `κ`: `1 − coth κ + 1/κ`.
+fn deficit(kappa: f64) -> f64 {
+    if kappa < 1e-4 {
+        1.0 - kappa / 3.0
+    } else if kappa > 30.0 {
+        // coth κ = 1 to within e^{−60}.
+        1.0 / kappa
+    } else {
+        1.0 - 1.0 / kappa.tanh() + 1.0 / kappa
+    }
+}
+
+/// The `κ` with `g(κ) = target` (`g` falls from 1 at `κ = 0`); within `[0, 10⁷]`.
+fn kappa_of_deficit(target: f64) -> f64 {
+    if target >= 1.0 {
+        return 0.0;
+    }
+    if target <= 1e-7 {
+        return 1e7;
+    }
+    if target < 1.0 / 30.0 {
+        return 1.0 / target;
+    }
+    let (mut lo, mut hi) = (1e-4f64.ln(), 30f64.ln());
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if deficit(mid.exp()) > target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (0.5 * (lo + hi)).exp()
+}
+
+/// `lobe` (in the local frame: normal +z) shadowed by `visible` (local directions, values in
+/// `[0, 1]`) and refitted from `k×k` stratified samples (see the module's text).
+fn shadowed(lobe: &WeightedLobe, k: usize, visible: &impl Fn(Vec3) -> f32) -> WeightedLobe {
+    if lobe.weight == Vec3::ZERO {
+        return *lobe;
+    }
+    let (mut above, mut seen) = (0usize, 0.0f64);
+    let (mut m_all, mut m_seen) = (DVec3::ZERO, DVec3::ZERO);
+    let mut samples: Vec<(DVec3, f64)> = Vec::with_capacity(k * k);
+    for j in 0..k {
+        for i in 0..k {
+            // Stratified with a fixed jitter (the fit is deterministic).
+            let jitter = |a: usize, b: usize| ((a * 7919 + b * 104_729) % 1000) as f32 / 1000.0;
+            let u = Vec2::new((i as f32 + jitter(i, j)) / k as f32, (j as f32 + jitter(j, i)) / k as f32);
+            let w = lobe.lobe.sample(u.x, u.y);
+            if w.z <= 0.0 {
+                continue;
+            }
+            let h = f64::from(visible(w).clamp(0.0, 1.0));
+            let d = w.as_dvec3();
+            above += 1;
+            seen += h;
+            m_all += d;
+            m_seen += d * h;
+            samples.push((d, h));
+        }
+    }
+    if above == 0 || seen <= 0.0 {
+        return WeightedLobe { weight: Vec3::ZERO, ..*lobe };
+    }
+    let (dir_all, dir_seen) = (m_all.normalize(), m_seen.normalize());
+    let d_all = samples.iter().map(|(d, _)| 1.0 - d.dot(dir_all)).sum::<f64>() / above as f64;
+    let d_seen = samples.iter().map(|(d, h)| h * (1.0 - d.dot(dir_seen))).sum::<f64>() / seen;
+    let kappa = f64::from(lobe.lobe.kappa);
+    let kappa = if d_all > 0.0 { kappa_of_deficit(deficit(kappa) * d_seen / d_all) } else { kappa };
+    let turn = Quat::from_rotation_arc(dir_all.as_vec3(), dir_seen.as_vec3());
+    WeightedLobe {
+        weight: lobe.weight * (seen / above as f64) as f32,
+        lobe: Vmf::new(turn * lobe.lobe.mean, kappa as f32),
+    }
+}
+
+/// One object's transport lobes: per vertex and per view, the specular lobes; per vertex, the
+/// diffuse lobe. Object space.
+#[derive(Clone, Debug)]
+pub struct TransportLobes {
+    views: Vec<Vec3>,
+    /// Specular lobes per view (0 without a specular part, else 2).
+    per_view: usize,
+    /// `[vertex][view][lobe]`, flattened.
+    specular: Vec<WeightedLobe>,
+    /// Per vertex, when the material has a diffuse term.
+    diffuse: Vec<Option<WeightedLobe>>,
+}
+
+impl TransportLobes {
+    /// Bytes one vertex takes at `params` (for a budget check before fitting).
+    pub fn bytes_per_vertex(material: &MaterialLobes, params: &TransportParams) -> usize {
+        let views = 10 * params.frequency.max(1) as usize * params.frequency.max(1) as usize + 2;
+        let per_view = if material.brdf().is_lambertian() { 0 } else { 2 };
+        (views * per_view + 1) * std::mem::size_of::<WeightedLobe>()
+    }
+
+    /// Fits the transport lobes of an object of `material` whose vertices have shading frames
+    /// `frames` (object space), `visible(v, d)` the self-visibility of vertex `v` toward
+    /// object-space direction `d` (in `[0, 1]`). `progress(done, total)` is called as
+    /// vertices finish.
+    pub fn fit(
+        material: &MaterialLobes,
+        frames: &[Frame],
+        params: &TransportParams,
+        visible: impl Fn(usize, Vec3) -> f32 + Sync,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Self {
+        let views = geodesic_views(params.frequency);
+        let per_view = if material.brdf().is_lambertian() { 0 } else { 2 };
+        let k = (params.samples as f64).sqrt().ceil().max(1.0) as usize;
+        let kd = (params.diffuse_samples as f64).sqrt().ceil().max(1.0) as usize;
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let total = frames.len();
+        let fitted: Vec<(Vec<WeightedLobe>, Option<WeightedLobe>)> = frames
+            .par_iter()
+            .enumerate()
+            .map(|(v, frame)| {
+                let vis = |d: Vec3| visible(v, frame.to_world(d));
+                let mut spec = Vec::with_capacity(views.len() * per_view);
+                for &view in &views {
+                    if per_view == 0 {
+                        break;
+                    }
+                    let local = frame.to_local(view);
+                    // Below the horizon: the lobes of the view just above it, weightless.
+                    let above = local.z > 0.0;
+                    let shown = if above { local } else { horizon_view(local) };
+                    let pair = material.specular_pair(shown);
+                    for lobe in pair.unwrap_or([WeightedLobe { weight: Vec3::ZERO, lobe: Vmf::new(Vec3::Z, 1.0) }; 2]) {
+                        let fitted = if above { shadowed(&lobe, k, &vis) } else { lobe };
+                        let weight = if above { fitted.weight } else { Vec3::ZERO };
+                        spec.push(WeightedLobe { weight, lobe: frame_lobe(frame, fitted.lobe) });
+                    }
+                }
+                let diffuse = material.diffuse_lobe().map(|d| {
+                    let s = shadowed(&d, kd, &vis);
+                    WeightedLobe { lobe: frame_lobe(frame, s.lobe), ..s }
+                });
+                let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                if n.is_multiple_of(1024) || n == total {
+                    progress(n, total);
+                }
+                (spec, diffuse)
+            })
+            .collect();
+        let mut specular = Vec::with_capacity(total * views.len() * per_view);
+        let mut diffuse = Vec::with_capacity(total);
+        for (s, d) in fitted {
+            specular.extend(s);
+            diffuse.push(d);
+        }
+        Self { views, per_view, specular, diffuse }
+    }
+
+    /// The views (object space).
+    pub fn views(&self) -> &[Vec3] {
+        &self.views
+    }
+
+    /// Vertices fitted.
+    pub fn vertex_count(&self) -> usize {
+        self.diffuse.len()
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(self.specular.as_slice()) + std::mem::size_of_val(self.diffuse.as_slice())
+    }
+
+    /// The specular lobes of vertex `v` at view number `j` (object space).
+    pub fn at_view(&self, v: usize, j: usize) -> &[WeightedLobe] {
+        let start = (v * self.views.len() + j) * self.per_view;
+        &self.specular[start..start + self.per_view]
+    }
+
+    /// The diffuse lobe of vertex `v` (object space), if the material has a diffuse term.
+    pub fn diffuse(&self, v: usize) -> Option<WeightedLobe> {
+        self.diffuse[v]
+    }
+
+    /// The three views nearest unit object-space direction `view`, with barycentric weights
+    /// on their spherical triangle (non-negative, summing to 1).
+    pub fn nearest_views(&self, view: Vec3) -> [(usize, f32); 3] {
+        let mut best = [(0usize, f32::NEG_INFINITY); 3];
+        for (j, v) in self.views.iter().enumerate() {
+            let c = v.dot(view);
+            if c > best[2].1 {
+                best[2] = (j, c);
+                if best[2].1 > best[1].1 {
+                    best.swap(1, 2);
+                    if best[1].1 > best[0].1 {
+                        best.swap(0, 1);
+                    }
+                }
+            }
+        }
+        let [a, b, c] = best.map(|(j, _)| self.views[j]);
+        let m = Mat3::from_cols(a, b, c);
+        let w = if m.determinant().abs() > 1e-6 { m.inverse() * view } else { Vec3::X };
+        let w = w.max(Vec3::ZERO);
+        let w = if w.element_sum() > 0.0 { w / w.element_sum() } else { Vec3::X };
+        [(best[0].0, w.x), (best[1].0, w.y), (best[2].0, w.z)]
+    }
+
+    /// The lobes of vertex `v` for unit object-space view `view` into `out` (object space):
+    /// each specular lobe interpolated across the three nearest views, then the diffuse lobe.
+    pub fn lobes_at(&self, v: usize, view: Vec3, out: &mut Vec<WeightedLobe>) {
+        out.clear();
+        if self.per_view > 0 {
+            let near = self.nearest_views(view);
+            for k in 0..self.per_view {
+                let (mut weight, mut mean, mut kappa) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
+                let first = self.at_view(v, near[0].0)[k].lobe.mean;
+                for &(j, w) in &near {
+                    let l = self.at_view(v, j)[k];
+                    weight += l.weight * w;
+                    mean += l.lobe.mean * w;
+                    kappa += l.lobe.kappa * w;
+                }
+                if weight != Vec3::ZERO {
+                    out.push(WeightedLobe { weight, lobe: Vmf::new(mean.normalize_or(first), kappa) });
+                }
+            }
+        }
+        out.extend(self.diffuse[v].filter(|d| d.weight != Vec3::ZERO));
+    }
+}
+
+/// A view below the horizon brought just above it, at the same azimuth.
+fn horizon_view(local: Vec3) -> Vec3 {
+    let xy = Vec2::new(local.x, local.y).normalize_or(Vec2::X);
+    Vec3::new(xy.x, xy.y, 0.0).lerp(Vec3::Z, 1e-3).normalize()
+}
+
+/// A lobe in `frame`'s local coordinates carried to the frame's space.
+fn frame_lobe(frame: &Frame, l: Vmf) -> Vmf {
+    Vmf::new(frame.to_world(l.mean), l.kappa)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn geodesic_views_count_ten_nu_squared_plus_two_and_cover_the_sphere() {
+        for nu in 1..=4 {
+            let v = geodesic_views(nu);
+            assert_eq!(v.len() as u32, 10 * nu * nu + 2, "frequency {nu}");
+            assert!(v.iter().all(|d| (d.length() - 1.0).abs() < 1e-6));
+        }
+        // No direction is far from a view at frequency 3: the covering radius of the 92 views.
+        let v = geodesic_views(3);
+        let mut worst = 1.0f32;
+        for i in 0..2000 {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / 2000.0;
+            let phi = i as f32 * 2.399_963;
+            let d = Vec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+            worst = worst.min(v.iter().map(|q| q.dot(d)).fold(-1.0, f32::max));
+        }
+        assert!(worst.acos() < 0.25, "covering radius {} rad", worst.acos());
+    }
+
+    #[test]
+    fn the_deficit_inverts() {
+        for kappa in [1e-3, 0.5, 3.0666, 10.0, 29.0, 31.0, 200.0, 1e4, 1e6] {
+            let back = kappa_of_deficit(deficit(kappa));
+            assert!((back / kappa - 1.0).abs() < 1e-6, "{kappa} → {back}");
+        }
+    }
+
+    #[test]
+    fn the_deficit_is_the_mean_cosine_deficit_of_the_lobe() {
+        // Brute force: E[1 − μ·ω] under γ by quadrature in cos θ.
+        for kappa in [0.3f64, 3.0, 30.0, 300.0] {
+            let n = 200_000;
+            let (mut num, mut den) = (0.0, 0.0);
+            for i in 0..n {
+                let c = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+                let w = crate::vmf::density_at(kappa, c);
+                num += w * (1.0 - c);
+                den += w;
+            }
+            assert!((num / den / deficit(kappa) - 1.0).abs() < 1e-3, "κ {kappa}");
+        }
+    }
+
+    #[test]
+    fn nearest_views_reproduce_a_view_from_its_triangle() {
+        let t = TransportLobes { views: geodesic_views(3), per_view: 0, specular: vec![], diffuse: vec![] };
+        for i in 0..500 {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / 500.0;
+            let phi = i as f32 * 2.399_963;
+            let d = Vec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+            let near = t.nearest_views(d);
+            let sum: f32 = near.iter().map(|n| n.1).sum();
+            assert!((sum - 1.0).abs() < 1e-5 && near.iter().all(|n| n.1 >= 0.0));
+            let blend: Vec3 = near.iter().map(|&(j, w)| t.views[j] * w).sum();
+            assert!(blend.normalize().dot(d) > 0.999, "{d}: {blend}");
+        }
+    }
+}

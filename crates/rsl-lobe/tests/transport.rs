@@ -1,0 +1,130 @@
+//! Transport lobes against independent answers: with nothing in the way they are the material
+//! lobes, and a half-space in the way leaves each lobe the share of its mass that quadrature
+//! finds on the visible side, turned toward it.
+
+use glam::Vec3;
+use rsl_brdf::Brdf;
+use rsl_lobe::transport::geodesic_views;
+use rsl_lobe::{FitParams, MaterialLobes, TransportLobes, TransportParams, Vmf, WeightedLobe};
+use rsl_sphere::Frame;
+
+fn frames() -> Vec<Frame> {
+    [Vec3::Z, Vec3::new(0.3, 1.0, -0.2), Vec3::new(-1.0, -0.1, 0.05), Vec3::new(0.2, -0.4, -1.0)]
+        .iter()
+        .map(|n| Frame::from_normal(n.normalize()))
+        .collect()
+}
+
+fn close(a: &WeightedLobe, b: &WeightedLobe) -> bool {
+    (a.weight - b.weight).abs().max_element() <= 1e-5 * b.weight.max_element().max(1e-6)
+        && a.lobe.mean.dot(b.lobe.mean) > 1.0 - 1e-6
+        && (a.lobe.kappa / b.lobe.kappa - 1.0).abs() < 1e-4
+}
+
+#[test]
+fn with_nothing_in_the_way_the_transport_lobes_are_the_material_lobes() {
+    let params = TransportParams::default();
+    for brdf in [
+        Brdf::Ggx { alpha: 0.05, specular: Vec3::new(0.9, 0.7, 0.5), diffuse: Vec3::splat(0.1) },
+        Brdf::Beckmann { alpha: 0.3, specular: Vec3::splat(0.8), diffuse: Vec3::ZERO },
+        Brdf::Lambert { albedo: Vec3::new(0.2, 0.4, 0.6) },
+    ] {
+        let material = MaterialLobes::fit(&brdf, &FitParams::default()).unwrap();
+        let frames = frames();
+        let t = TransportLobes::fit(&material, &frames, &params, |_, _| 1.0, &|_, _| {});
+        assert_eq!(t.views().len(), 92);
+        let (mut checked, mut below) = (0, 0);
+        for (v, frame) in frames.iter().enumerate() {
+            for (j, &view) in t.views().iter().enumerate() {
+                let local = frame.to_local(view);
+                let got = t.at_view(v, j);
+                if local.z <= 0.0 {
+                    // Below the horizon: weightless.
+                    assert!(got.iter().all(|l| l.weight == Vec3::ZERO));
+                    below += 1;
+                    continue;
+                }
+                let Some(pair) = material.specular_pair(local) else {
+                    assert!(got.is_empty(), "{}: a Lambertian material has no specular lobes", brdf.name());
+                    continue;
+                };
+                for (g, m) in got.iter().zip(pair) {
+                    let m = WeightedLobe { lobe: Vmf::new(frame.to_world(m.lobe.mean), m.lobe.kappa), ..m };
+                    assert!(
+                        m.weight == Vec3::ZERO || close(g, &m),
+                        "{}: vertex {v}, view {j}: {g:?} vs {m:?}",
+                        brdf.name()
+                    );
+                    checked += 1;
+                }
+            }
+            if let Some(d) = material.diffuse_lobe() {
+                let d = WeightedLobe { lobe: Vmf::new(frame.to_world(d.lobe.mean), d.lobe.kappa), ..d };
+                assert!(close(&t.diffuse(v).unwrap(), &d), "{}: diffuse {:?} vs {d:?}", brdf.name(), t.diffuse(v));
+            }
+        }
+        assert!(below > 100);
+        assert!(brdf.is_lambertian() || checked > 300, "{checked}");
+    }
+}
+
+/// `(∫ γ [d·a > 0] over z > 0, ∫ γ over z > 0, ∫ γ·d [d·a > 0] over z > 0)` by a midpoint
+/// rule in (cos θ, φ) about the normal.
+fn quadrature(lobe: &Vmf, a: Vec3) -> (f64, f64, Vec3) {
+    let (nt, np) = (3000, 1200);
+    let (mut seen, mut all, mut mean) = (0.0f64, 0.0f64, Vec3::ZERO);
+    for i in 0..nt {
+        let z = (i as f32 + 0.5) / nt as f32;
+        let r = (1.0 - z * z).sqrt();
+        for j in 0..np {
+            let phi = std::f32::consts::TAU * (j as f32 + 0.5) / np as f32;
+            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let g = lobe.density(d);
+            all += g;
+            if d.dot(a) > 0.0 {
+                seen += g;
+                mean += d * g as f32;
+            }
+        }
+    }
+    (seen, all, mean.normalize())
+}
+
+#[test]
+fn a_half_space_in_the_way_leaves_each_lobe_its_visible_share() {
+    // A wall through the vertex, tilted 30° from the normal: directions with d·a ≤ 0 are hidden.
+    let a = Vec3::new(1.0, 0.0, 0.6).normalize();
+    let brdf = Brdf::Ggx { alpha: 0.3, specular: Vec3::splat(0.8), diffuse: Vec3::splat(0.2) };
+    let material = MaterialLobes::fit(&brdf, &FitParams::default()).unwrap();
+    let frame = Frame::from_normal(Vec3::Z);
+    let params = TransportParams { samples: 1024, diffuse_samples: 4096, ..Default::default() };
+    let t = TransportLobes::fit(&material, &[frame], &params, |_, d| f32::from(u8::from(d.dot(a) > 0.0)), &|_, _| {});
+    // The diffuse lobe: weight share and the bent direction, against quadrature.
+    let d = material.diffuse_lobe().unwrap();
+    let (seen, all, bent) = quadrature(&d.lobe, a);
+    let got = t.diffuse(0).unwrap();
+    let share = f64::from(got.weight.x / d.weight.x);
+    eprintln!("diffuse: share {share:.4} (quadrature {:.4}), mean {} (bent {bent})", seen / all, got.lobe.mean);
+    assert!((share - seen / all).abs() < 0.01, "share {share} against {}", seen / all);
+    assert!(got.lobe.mean.dot(bent) > 0.995, "{} against {bent}", got.lobe.mean);
+    // The specular lobes at views the wall cuts through.
+    let mut checked = 0;
+    for (j, &view) in geodesic_views(3).iter().enumerate() {
+        if view.z < 0.2 {
+            continue;
+        }
+        let Some(pair) = material.specular_pair(view) else { continue };
+        for (got, m) in t.at_view(0, j).iter().zip(pair) {
+            if m.weight == Vec3::ZERO {
+                continue;
+            }
+            let (seen, all, _) = quadrature(&m.lobe, a);
+            let share = f64::from(got.weight.x / m.weight.x);
+            if seen / all > 0.05 && seen / all < 0.95 {
+                checked += 1;
+            }
+            assert!((share - seen / all).abs() < 0.02, "view {j}: share {share} against {}", seen / all);
+        }
+    }
+    assert!(checked >= 3, "{checked} views cut through");
+}
