@@ -3,6 +3,11 @@
 //! environment, times the RSL path's visibility ratio `Σ_i E_i·B̄_i·V̄_i / Σ_i E_i·B̄_i` (the
 //! ratio estimator of Heitz et al. 2018, with RSL visibility in place of rays), per channel.
 //!
+//! Beside it, the lobe path with its own shadows (`method = "lobe"`, variant (a),
+//! [`Drawn::LobeFields`]): transport lobes (Green et al. 2006) carry the object's own
+//! shadows, and each lobe is shadowed by the other objects' occluder fields over a square of
+//! its width.
+//!
 //! The lobes are meant to carry what a square light cannot, the environment's detail inside
 //! a lobe narrower than the squares; the ratio carries the shadows, self and from other
 //! objects, weighted as the RSL path weighs them. Measured (rsl-lobe README), the lobes do
@@ -29,9 +34,12 @@ use rsl_brdf::Brdf;
 use rsl_gpu::GpuContext;
 use rsl_gpu::draw::GpuDraw;
 use rsl_gpu::lobes::LobeObject;
-use rsl_lobe::{FitParams, MaterialLobes, PackedEnvironment, PackedMaterial, PrefilterParams, Prefiltered};
+use rsl_lobe::{
+    FitParams, MaterialLobes, PackedEnvironment, PackedMaterial, PrefilterParams, Prefiltered, TransportLobes,
+    TransportParams, WeightedLobe,
+};
 use rsl_scene::{ObjectMethod, Scene};
-use rsl_shade::{FrameStats, PixelMesh, Terms};
+use rsl_shade::{FrameStats, PixelMesh, Pose, Terms};
 use rsl_sphere::Frame as LocalFrame;
 use rsl_sphere::latlong::LatLongMap;
 use std::collections::HashMap;
@@ -46,12 +54,18 @@ pub struct Hybrid {
     /// and view, times the visibility ratio interpolated from the vertices (else the
     /// vertices' radiance is interpolated).
     pub per_pixel: bool,
-    /// Shadow each lobe by the visibility fields over a square of its width (`method =
-    /// "lobe"`, the variant (a)) instead of the RSL path's visibility ratio (variant
-    /// (b), the hybrid).
+    /// Draw glossy objects with their transport lobes (their own shadows fitted in), each
+    /// shadowed by the other objects' occluder fields over a square of its width (`method =
+    /// "lobe"`, the variant (a)), instead of the material lobes times the RSL path's
+    /// visibility ratio (variant (b), the hybrid).
     pub fields: bool,
     env: Option<(u64, u32, Arc<Prefiltered>)>,
     materials: HashMap<u64, Arc<MaterialLobes>>,
+    /// Fit the transport lobes with nothing of the object in the way (`V_self = 1`: the
+    /// material lobes at the object-space views), to compare ([`Hybrid::without_self_shadows`]).
+    no_self_shadows: bool,
+    /// Transport lobes per (mesh, material), for [`Drawn::LobeFields`].
+    transport: HashMap<(u64, u64), Arc<TransportLobes>>,
     gpu: Option<GpuLobes>,
 }
 
@@ -71,8 +85,8 @@ impl Hybrid {
         Self { per_pixel: true, ..Self::default() }
     }
 
-    /// The lobe path with its own shadows (`--method lobe`, variant (a)): each lobe shadowed
-    /// by the visibility fields over a square of its width, drawn per pixel.
+    /// The lobe path with its own shadows (`--method lobe`, variant (a)): transport lobes,
+    /// each shadowed by the other objects' fields over a square of its width, drawn per pixel.
     pub fn lobe() -> Self {
         Self { fields: true, ..Self::new() }
     }
@@ -84,6 +98,12 @@ impl Hybrid {
     pub fn on_gpu(ctx: Arc<GpuContext>) -> Result<Self> {
         let draw = GpuDraw::new(ctx).context("building the GPU draw pass")?;
         Ok(Self { gpu: Some(GpuLobes { draw, lobe_env: None, backdrop: None }), ..Self::new() })
+    }
+
+    /// This method with the transport lobes fitted as if the object did not shadow itself
+    /// (`V_self = 1`), to measure what its own shadows are worth.
+    pub fn without_self_shadows(self) -> Self {
+        Self { no_self_shadows: true, transport: HashMap::new(), ..self }
     }
 
     /// This hybrid with each lobe shadowed by the fields ([`Hybrid::lobe`]) when `fields`.
@@ -118,6 +138,45 @@ impl Hybrid {
         let l = Arc::new(MaterialLobes::fit(brdf, &FitParams::default()).map_err(anyhow::Error::msg)?);
         self.materials.insert(key, l.clone());
         Ok(l)
+    }
+
+    /// The transport lobes of object `i` (fitted once per mesh and material): the material's
+    /// lobes shadowed by the object itself, per vertex and per view in object space
+    /// ([`rsl_lobe::transport`]). Self-visibility is traced against the object's triangles
+    /// from each vertex lifted along its normal (as the truth's rays start), times the face
+    /// mask (as the RSL path's self-visibility).
+    fn transport(&mut self, engine: &Engine, i: usize, material: &MaterialLobes) -> Result<Arc<TransportLobes>> {
+        let key = (engine.keys(i).mesh, brdf_key(engine.brdf(i)));
+        if let Some(t) = self.transport.get(&key) {
+            return Ok(t.clone());
+        }
+        let mesh = engine.mesh(i);
+        let params = TransportParams::default();
+        crate::engine::check_size(
+            "the transport lobes (per vertex and view)",
+            "the object's vertices, or draw it with method \"hybrid\"",
+            (TransportLobes::bytes_per_vertex(material, &params) * mesh.vertex_count()) as u64,
+        )?;
+        let occluder = rsl_vis::rays::Occluder::new(mesh).map_err(|e| anyhow::anyhow!("object {i}: {e}"))?;
+        let faces = rsl_sphere::faces::IncidentFaces::of(mesh);
+        let (_, radius) = mesh.bounding_sphere().unwrap_or_default();
+        let lift = 1e-4 * radius.max(f32::MIN_POSITIVE);
+        let frames = &engine.frames(i).visibility;
+        let no_self_shadows = self.no_self_shadows;
+        let visible = |v: usize, d: Vec3| {
+            if no_self_shadows {
+                return 1.0;
+            }
+            let h = faces.mask(v, d);
+            if h <= 0.0 || occluder.occluded(mesh.positions[v] + frames[v].n * lift, d, f32::INFINITY) {
+                0.0
+            } else {
+                h
+            }
+        };
+        let t = Arc::new(TransportLobes::fit(material, frames, &params, visible, &|_, _| {}));
+        self.transport.insert(key, t.clone());
+        Ok(t)
     }
 
     /// The environment prefiltered up to `kappa_max` (rebuilt when the map or the need changes).
@@ -214,9 +273,11 @@ pub enum Drawn {
     Pixel,
     /// vMF lobes × the RSL visibility ratio (per pixel when the image is drawn per pixel).
     Lobes,
-    /// vMF lobes, each shadowed by the visibility fields over a square of its width
-    /// ([`lobe_half_diagonal`]) at the vertices; drawn per pixel as [`Drawn::Lobes`], with
-    /// that ratio.
+    /// Transport lobes (the material's lobes shadowed by the object itself, per vertex and
+    /// view in object space; [`rsl_lobe::transport`]), each shadowed by the other objects'
+    /// occluder fields over a square of its width ([`lobe_half_diagonal`]) at the vertices;
+    /// drawn per pixel as [`Drawn::Lobes`], with the ratio of that to the unshadowed material
+    /// lobes.
     LobeFields,
 }
 
@@ -274,6 +335,16 @@ impl Hybrid {
         if env.is_some() {
             timings.add("lobes", start.elapsed().as_secs_f64() * 1e3, None);
         }
+        let start = Instant::now();
+        let mut transport: Vec<Option<Arc<TransportLobes>>> = vec![None; n];
+        for (i, l) in lobes.iter().enumerate() {
+            if let (Some(l), Drawn::LobeFields) = (l, drawn[i]) {
+                transport[i] = Some(self.transport(engine, i, l)?);
+            }
+        }
+        if transport.iter().any(Option::is_some) {
+            timings.add("transport", start.elapsed().as_secs_f64() * 1e3, None);
+        }
 
         // Every object's RSL radiance at its vertices, with the covers of those drawn per pixel.
         let start = Instant::now();
@@ -311,6 +382,8 @@ impl Hybrid {
         if let Some(env) = &env {
             let bare_setup =
                 engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: false })?;
+            // The other objects' fields alone: the transport lobes hold the object's own shadows.
+            let others = engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: true })?;
             let which: Vec<bool> = (0..n).map(|i| lobes[i].is_some() && drawn[i] == Drawn::Lobes).collect();
             let (bare, bare_stats) = rsl_shade::shade_objects(&bare_setup, &which);
             stats = stats.plus(bare_stats);
@@ -320,27 +393,34 @@ impl Hybrid {
                 let Some(l) = l else { continue };
                 let (pos, nor) = (&full.positions[i], &full.normals[i]);
                 if drawn[i] == Drawn::LobeFields {
-                    // Each lobe shadowed by the fields over a square of its width: the
-                    // radiance, and its ratio to the unshadowed lobes for the pixels.
+                    // The transport lobes (the object's own shadows fitted in), each shadowed
+                    // by the other objects' fields over a square of its width: the radiance,
+                    // and its ratio to the unshadowed material lobes for the pixels.
+                    let t = transport[i].as_ref().expect("fitted for every LobeFields object");
+                    let pose = Pose::new(&full.state.objects[i]);
+                    let to_world = |d: Vec3| (pose.linear_to_world * d).normalize_or(d);
                     let per_vertex: Vec<(Vec3, Vec3, FrameStats)> = (0..pos.len())
                         .into_par_iter()
-                        .map(|v| {
+                        .map_init(Vec::new, |lobes: &mut Vec<WeightedLobe>, v| {
+                            let to_eye = (eye - pos[v]).normalize_or_zero();
                             let frame = LocalFrame::from_normal(nor[v]);
-                            let view = frame.to_local((eye - pos[v]).normalize_or_zero());
-                            let lobes = l.lobes(view);
+                            let mut st = FrameStats::default();
+                            if frame.to_local(to_eye).z <= 0.0 {
+                                st.back_facing += 1;
+                                return (Vec3::ZERO, Vec3::ZERO, st);
+                            }
+                            t.lobes_at(v, pose.direction_to_object(to_eye), lobes);
                             let squares: Vec<(Vec3, f32)> = lobes
                                 .iter()
-                                .map(|w| (frame.to_world(w.lobe.mean), lobe_half_diagonal(w.lobe.kappa)))
+                                .map(|w| (to_world(w.lobe.mean), lobe_half_diagonal(w.lobe.kappa)))
                                 .collect();
                             let mut covers = vec![0.0f32; squares.len()];
-                            let mut st = FrameStats::default();
-                            setup.square_covers(i, v, &squares, &mut covers, &mut st);
-                            let (mut shadowed, mut bare) = (Vec3::ZERO, Vec3::ZERO);
+                            others.square_covers(i, v, &squares, &mut covers, &mut st);
+                            let mut shadowed = Vec3::ZERO;
                             for ((w, (d, _)), c) in lobes.iter().zip(&squares).zip(&covers) {
-                                let value = w.weight * env.lookup(env_from_world * *d, w.lobe.kappa);
-                                bare += value;
-                                shadowed += value * *c;
+                                shadowed += w.weight * env.lookup(env_from_world * *d, w.lobe.kappa) * *c;
                             }
+                            let bare = l.radiance(env, &frame, to_eye, |d| env_from_world * d);
                             let ratio = Vec3::select(
                                 bare.cmpgt(Vec3::ZERO),
                                 shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)),

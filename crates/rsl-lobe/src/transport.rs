@@ -20,18 +20,22 @@
 //!   samples' own error, and the horizon's cut).
 //!
 //! With `V_self = 1` every ratio is exactly 1 and the transport lobes are the material lobes.
-//! A view below a vertex's horizon keeps its lobes' shape (from the view just above the
-//! horizon) with zero weight, so that interpolation toward the horizon fades, as Green's
-//! zero-weighted views do. A lobe wholly shadowed keeps its shape with zero weight.
+//! A view below a vertex's horizon takes the lobes of the view just above the horizon at the
+//! same azimuth. Green gives those views zero weight, which darkens every view within a
+//! view spacing (0.3 rad at 92 views) of the horizon as it interpolates toward them; no view
+//! below the horizon is drawn (the vertex faces away), so they serve interpolation alone. A
+//! lobe wholly shadowed keeps its shape with zero weight.
 //!
 //! **Diffuse part.** The material's diffuse lobe (a cosine lobe about the normal) is shadowed
 //! and refitted the same way, once per vertex (it does not depend on the view): a lobe about
 //! the vertex's unoccluded direction, the "bent normal", with the visible share as weight.
 //!
 //! **Rendering.** [`TransportLobes::lobes_at`] interpolates the lobes of the three views
-//! nearest the current one (barycentric weights on their spherical triangle), lobe by lobe:
-//! the weight and `κ` linearly, the mean as a normalised blend (the mean direction, not the
-//! radiance, as Green interpolates); one prefiltered lookup per lobe follows.
+//! around the current one (barycentric weights on their geodesic triangle), lobe by lobe:
+//! the weight and the mean (a normalised blend) linearly, `κ` weighted by each view's weight
+//! too (the mean direction, not the radiance, as Green interpolates); one prefiltered lookup
+//! per lobe follows. Lobe `k` is the same lobe in every view: the sharper of the material's
+//! two first (the material orders them by weight, which flips from view to view).
 
 use crate::material::{MaterialLobes, WeightedLobe};
 use crate::vmf::Vmf;
@@ -59,6 +63,12 @@ impl Default for TransportParams {
 /// The views of a geodesic sphere of frequency `nu ≥ 1`: each face of an icosahedron split
 /// into `ν²` triangles, the `10ν² + 2` distinct corners projected to the unit sphere.
 pub fn geodesic_views(nu: u32) -> Vec<Vec3> {
+    geodesic(nu).0
+}
+
+/// [`geodesic_views`] and the `20ν²` triangles between them (counter-clockwise seen from
+/// outside).
+pub fn geodesic(nu: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let nu = nu.max(1);
     let t = (1.0 + 5f64.sqrt()) / 2.0;
     let corners: Vec<DVec3> = [
@@ -101,21 +111,91 @@ pub fn geodesic_views(nu: u32) -> Vec<Vec3> {
         [9, 8, 1],
     ];
     let mut views: Vec<DVec3> = Vec::new();
+    let mut triangles = Vec::with_capacity(20 * (nu * nu) as usize);
     let n = f64::from(nu);
     for [a, b, c] in FACES {
         let (a, b, c) = (corners[a], corners[b], corners[c]);
+        // The index of grid point (i, j) of this face, i + j ≤ ν.
+        let mut index = vec![0u32; ((nu + 1) * (nu + 1)) as usize];
         for i in 0..=nu {
             for j in 0..=nu - i {
                 let p = (a + (b - a) * (f64::from(i) / n) + (c - a) * (f64::from(j) / n)).normalize();
                 // Points shared by faces come out equal to rounding; the closest distinct
                 // views are ~0.3/ν radians apart.
-                if !views.iter().any(|q| q.distance_squared(p) < 1e-12) {
-                    views.push(p);
+                let k = match views.iter().position(|q| q.distance_squared(p) < 1e-12) {
+                    Some(k) => k,
+                    None => {
+                        views.push(p);
+                        views.len() - 1
+                    }
+                };
+                index[(i * (nu + 1) + j) as usize] = k as u32;
+            }
+        }
+        let at = |i: u32, j: u32| index[(i * (nu + 1) + j) as usize];
+        for i in 0..nu {
+            for j in 0..nu - i {
+                triangles.push([at(i, j), at(i + 1, j), at(i, j + 1)]);
+                if i + j + 1 < nu {
+                    triangles.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
                 }
             }
         }
     }
-    views.into_iter().map(|v| v.as_vec3()).collect()
+    (views.into_iter().map(|v| v.as_vec3()).collect(), triangles)
+}
+
+/// Where a view falls among the geodesic views: the spherical triangle holding it.
+#[derive(Clone, Debug)]
+struct ViewLocator {
+    triangles: Vec<[u32; 3]>,
+    /// Per triangle, the inverse of the matrix of its corners (barycentric weights of a
+    /// direction, up to scale).
+    inverses: Vec<Mat3>,
+    /// Per view, the triangles around it.
+    around: Vec<Vec<u32>>,
+}
+
+impl ViewLocator {
+    fn new(views: &[Vec3], triangles: Vec<[u32; 3]>) -> Self {
+        let inverses = triangles
+            .iter()
+            .map(|t| Mat3::from_cols(views[t[0] as usize], views[t[1] as usize], views[t[2] as usize]).inverse())
+            .collect();
+        let mut around = vec![Vec::new(); views.len()];
+        for (k, t) in triangles.iter().enumerate() {
+            for &c in t {
+                around[c as usize].push(k as u32);
+            }
+        }
+        Self { triangles, inverses, around }
+    }
+
+    /// The weights of `view` on triangle `k`, normalised to sum 1, and the most negative of
+    /// them before clamping (≥ 0 inside).
+    fn weights(&self, k: usize, view: Vec3) -> (Vec3, f32) {
+        let w = self.inverses[k] * view;
+        let sum = w.element_sum();
+        if sum <= 0.0 {
+            return (Vec3::X, f32::NEG_INFINITY);
+        }
+        let w = w / sum;
+        (w, w.min_element())
+    }
+
+    /// The triangle holding unit `view` and its barycentric weights: among the triangles
+    /// around the nearest view first (where it lies but for rounding), else among all.
+    fn locate(&self, nearest: usize, view: Vec3) -> ([u32; 3], Vec3) {
+        let best = |ks: &mut dyn Iterator<Item = usize>| {
+            ks.map(|k| (k, self.weights(k, view))).max_by(|a, b| a.1.1.total_cmp(&b.1.1)).expect("triangles")
+        };
+        let (mut k, (mut w, worst)) = best(&mut self.around[nearest].iter().map(|&k| k as usize));
+        if worst < -1e-5 {
+            (k, (w, _)) = best(&mut (0..self.triangles.len()));
+        }
+        let w = w.max(Vec3::ZERO);
+        (self.triangles[k], w / w.element_sum())
+    }
 }
 
 /// `g(κ) = E[1 − μ·ω]` for `ω` drawn from a vMF of concentration `κ`: `1 − coth κ + 1/κ`.
@@ -200,6 +280,7 @@ fn shadowed(lobe: &WeightedLobe, k: usize, visible: &impl Fn(Vec3) -> f32) -> We
 #[derive(Clone, Debug)]
 pub struct TransportLobes {
     views: Vec<Vec3>,
+    locator: ViewLocator,
     /// Specular lobes per view (0 without a specular part, else 2).
     per_view: usize,
     /// `[vertex][view][lobe]`, flattened.
@@ -227,7 +308,8 @@ impl TransportLobes {
         visible: impl Fn(usize, Vec3) -> f32 + Sync,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Self {
-        let views = geodesic_views(params.frequency);
+        let (views, triangles) = geodesic(params.frequency);
+        let locator = ViewLocator::new(&views, triangles);
         let per_view = if material.brdf().is_lambertian() { 0 } else { 2 };
         let k = (params.samples as f64).sqrt().ceil().max(1.0) as usize;
         let kd = (params.diffuse_samples as f64).sqrt().ceil().max(1.0) as usize;
@@ -244,14 +326,23 @@ impl TransportLobes {
                         break;
                     }
                     let local = frame.to_local(view);
-                    // Below the horizon: the lobes of the view just above it, weightless.
-                    let above = local.z > 0.0;
-                    let shown = if above { local } else { horizon_view(local) };
-                    let pair = material.specular_pair(shown);
-                    for lobe in pair.unwrap_or([WeightedLobe { weight: Vec3::ZERO, lobe: Vmf::new(Vec3::Z, 1.0) }; 2]) {
-                        let fitted = if above { shadowed(&lobe, k, &vis) } else { lobe };
-                        let weight = if above { fitted.weight } else { Vec3::ZERO };
-                        spec.push(WeightedLobe { weight, lobe: frame_lobe(frame, fitted.lobe) });
+                    // Below the horizon: the lobes of the view just above it, so that views
+                    // near the horizon interpolate toward it instead of fading (no view below
+                    // the horizon is drawn: the vertex faces away).
+                    let shown = if local.z > 0.0 { local } else { horizon_view(local) };
+                    let mut pair = material
+                        .specular_pair(shown)
+                        .unwrap_or([WeightedLobe { weight: Vec3::ZERO, lobe: Vmf::new(Vec3::Z, 1.0) }; 2]);
+                    // Lobe by lobe across views: the sharper lobe first where there are two,
+                    // the one lobe first where there is one (the material orders by share,
+                    // which flips between views).
+                    let key = |l: &WeightedLobe| if l.weight == Vec3::ZERO { f32::NEG_INFINITY } else { l.lobe.kappa };
+                    if key(&pair[1]) > key(&pair[0]) {
+                        pair.swap(0, 1);
+                    }
+                    for lobe in pair {
+                        let fitted = shadowed(&lobe, k, &vis);
+                        spec.push(WeightedLobe { weight: fitted.weight, lobe: frame_lobe(frame, fitted.lobe) });
                     }
                 }
                 let diffuse = material.diffuse_lobe().map(|d| {
@@ -271,7 +362,7 @@ impl TransportLobes {
             specular.extend(s);
             diffuse.push(d);
         }
-        Self { views, per_view, specular, diffuse }
+        Self { views, locator, per_view, specular, diffuse }
     }
 
     /// The views (object space).
@@ -300,28 +391,14 @@ impl TransportLobes {
         self.diffuse[v]
     }
 
-    /// The three views nearest unit object-space direction `view`, with barycentric weights
-    /// on their spherical triangle (non-negative, summing to 1).
+    /// The three views around unit object-space direction `view` (the geodesic triangle
+    /// holding it), with its barycentric weights there (non-negative, summing to 1).
     pub fn nearest_views(&self, view: Vec3) -> [(usize, f32); 3] {
-        let mut best = [(0usize, f32::NEG_INFINITY); 3];
-        for (j, v) in self.views.iter().enumerate() {
-            let c = v.dot(view);
-            if c > best[2].1 {
-                best[2] = (j, c);
-                if best[2].1 > best[1].1 {
-                    best.swap(1, 2);
-                    if best[1].1 > best[0].1 {
-                        best.swap(0, 1);
-                    }
-                }
-            }
-        }
-        let [a, b, c] = best.map(|(j, _)| self.views[j]);
-        let m = Mat3::from_cols(a, b, c);
-        let w = if m.determinant().abs() > 1e-6 { m.inverse() * view } else { Vec3::X };
-        let w = w.max(Vec3::ZERO);
-        let w = if w.element_sum() > 0.0 { w / w.element_sum() } else { Vec3::X };
-        [(best[0].0, w.x), (best[1].0, w.y), (best[2].0, w.z)]
+        let nearest = (0..self.views.len())
+            .max_by(|&a, &b| self.views[a].dot(view).total_cmp(&self.views[b].dot(view)))
+            .unwrap_or(0);
+        let (t, w) = self.locator.locate(nearest, view);
+        [(t[0] as usize, w.x), (t[1] as usize, w.y), (t[2] as usize, w.z)]
     }
 
     /// The lobes of vertex `v` for unit object-space view `view` into `out` (object space):
@@ -331,16 +408,22 @@ impl TransportLobes {
         if self.per_view > 0 {
             let near = self.nearest_views(view);
             for k in 0..self.per_view {
-                let (mut weight, mut mean, mut kappa) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
-                let first = self.at_view(v, near[0].0)[k].lobe.mean;
+                // The weight and the mean linearly (every view's lobe has a mean, weighted or
+                // not: a reflection's direction is linear in the view); κ weighted by each
+                // view's weight too, so that a lobe a view leaves empty (one lobe fitted
+                // there, or wholly shadowed) lends its width to none.
+                let (mut weight, mut mean, mut kappa, mut mass) = (Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32);
                 for &(j, w) in &near {
                     let l = self.at_view(v, j)[k];
+                    let m = w * l.weight.element_sum();
                     weight += l.weight * w;
                     mean += l.lobe.mean * w;
-                    kappa += l.lobe.kappa * w;
+                    kappa += l.lobe.kappa * m;
+                    mass += m;
                 }
-                if weight != Vec3::ZERO {
-                    out.push(WeightedLobe { weight, lobe: Vmf::new(mean.normalize_or(first), kappa) });
+                if mass > 0.0 {
+                    let first = self.at_view(v, near[0].0)[k].lobe.mean;
+                    out.push(WeightedLobe { weight, lobe: Vmf::new(mean.normalize_or(first), kappa / mass) });
                 }
             }
         }
@@ -368,6 +451,8 @@ mod tests {
         for nu in 1..=4 {
             let v = geodesic_views(nu);
             assert_eq!(v.len() as u32, 10 * nu * nu + 2, "frequency {nu}");
+            let (_, t) = geodesic(nu);
+            assert_eq!(t.len() as u32, 20 * nu * nu);
             assert!(v.iter().all(|d| (d.length() - 1.0).abs() < 1e-6));
         }
         // No direction is far from a view at frequency 3: the covering radius of the 92 views.
@@ -408,7 +493,9 @@ mod tests {
 
     #[test]
     fn nearest_views_reproduce_a_view_from_its_triangle() {
-        let t = TransportLobes { views: geodesic_views(3), per_view: 0, specular: vec![], diffuse: vec![] };
+        let (views, triangles) = geodesic(3);
+        let locator = ViewLocator::new(&views, triangles);
+        let t = TransportLobes { views, locator, per_view: 0, specular: vec![], diffuse: vec![] };
         for i in 0..500 {
             let z = 1.0 - 2.0 * (i as f32 + 0.5) / 500.0;
             let phi = i as f32 * 2.399_963;
@@ -417,7 +504,8 @@ mod tests {
             let sum: f32 = near.iter().map(|n| n.1).sum();
             assert!((sum - 1.0).abs() < 1e-5 && near.iter().all(|n| n.1 >= 0.0));
             let blend: Vec3 = near.iter().map(|&(j, w)| t.views[j] * w).sum();
-            assert!(blend.normalize().dot(d) > 0.999, "{d}: {blend}");
+            // Inside its triangle a view is its corners' blend exactly.
+            assert!(blend.normalize().dot(d) > 1.0 - 1e-6, "{d}: {blend}");
         }
     }
 }
