@@ -37,7 +37,8 @@ pub enum DrawingArg {
     Pixel,
     /// vMF lobes per pixel × the RSL visibility ratio.
     Hybrid,
-    /// vMF lobes per pixel, shadowed by the fields over each lobe.
+    /// Transport lobes (the object's own shadows fitted in), shadowed by the other objects'
+    /// fields over each lobe; drawn per pixel.
     Lobe,
     /// Each object as its scene `method` says.
     Auto,

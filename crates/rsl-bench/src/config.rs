@@ -12,8 +12,8 @@ pub enum MethodKind {
     Gpu,
     /// vMF lobes × RSL visibility on every object, CPU (`rsl_engine::lobe::Hybrid`).
     Hybrid,
-    /// vMF lobes each shadowed by the visibility fields over a square of its width, CPU
-    /// (`rsl_engine::lobe::Hybrid::lobe`).
+    /// Transport lobes, each shadowed by the other objects' fields over a square of its
+    /// width, CPU (`rsl_engine::lobe::Hybrid::lobe`).
     Lobe,
     /// The CPU fast path with glossy objects' pixels shaded per pixel
     /// (`rsl_engine::CpuRslPixels`; its vertices are the CPU path's).

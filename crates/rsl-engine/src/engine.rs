@@ -395,6 +395,11 @@ impl Engine {
         }
     }
 
+    /// Where long steps report their progress ([`EngineOptions::progress`]).
+    pub fn progress(&self) -> &Progress {
+        &self.options.progress
+    }
+
     /// Time spent preparing so far, by stage ([`stage`]).
     pub fn timings(&self) -> &Timings {
         &self.timings

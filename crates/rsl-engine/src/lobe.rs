@@ -64,8 +64,8 @@ pub struct Hybrid {
     /// Fit the transport lobes with nothing of the object in the way (`V_self = 1`: the
     /// material lobes at the object-space views), to compare ([`Hybrid::without_self_shadows`]).
     no_self_shadows: bool,
-    /// Transport lobes per (mesh, material), for [`Drawn::LobeFields`].
-    transport: HashMap<(u64, u64), Arc<TransportLobes>>,
+    /// Transport lobes, for [`Drawn::LobeFields`].
+    transport: HashMap<TransportKey, Arc<TransportLobes>>,
     gpu: Option<GpuLobes>,
 }
 
@@ -140,74 +140,86 @@ impl Hybrid {
         Ok(l)
     }
 
-    /// The transport lobes of object `i` (fitted once per mesh and material): the material's
-    /// lobes shadowed by the object itself, per vertex and per view in object space
-    /// ([`rsl_lobe::transport`]). Self-visibility is traced against the object's triangles
-    /// from each vertex lifted along its normal (as the truth's rays start), times the face
-    /// mask (as the RSL path's self-visibility).
-    fn transport(&mut self, engine: &Engine, i: usize, material: &MaterialLobes) -> Result<Arc<TransportLobes>> {
-        let key = (engine.keys(i).mesh, brdf_key(engine.brdf(i)));
+    /// The transport lobes of object `i` (fitted once per mesh and material, here if no
+    /// [`EnvironmentJob`] brought them).
+    fn transport(&mut self, engine: &Engine, i: usize, material: &Arc<MaterialLobes>) -> Result<Arc<TransportLobes>> {
+        match self.transport_job(engine, i, material)? {
+            Err(t) => Ok(t),
+            Ok(job) => {
+                let t = job.run()?;
+                self.transport.insert(job.key, t.clone());
+                Ok(t)
+            }
+        }
+    }
+
+    /// The fit of object `i`'s transport lobes as a job, or the lobes held (`Err`); the
+    /// memory they would take is checked first.
+    fn transport_job(
+        &self,
+        engine: &Engine,
+        i: usize,
+        material: &Arc<MaterialLobes>,
+    ) -> Result<Result<TransportJob, Arc<TransportLobes>>> {
+        let key = (engine.keys(i).mesh, brdf_key(engine.brdf(i)), self.no_self_shadows);
         if let Some(t) = self.transport.get(&key) {
-            return Ok(t.clone());
+            return Ok(Err(t.clone()));
         }
         let mesh = engine.mesh(i);
-        let params = TransportParams::default();
         crate::engine::check_size(
             "the transport lobes (per vertex and view)",
             "the object's vertices, or draw it with method \"hybrid\"",
-            (TransportLobes::bytes_per_vertex(material, &params) * mesh.vertex_count()) as u64,
+            (TransportLobes::bytes_per_vertex(material, &TransportParams::default()) * mesh.vertex_count()) as u64,
         )?;
-        let occluder = rsl_vis::rays::Occluder::new(mesh).map_err(|e| anyhow::anyhow!("object {i}: {e}"))?;
-        let faces = rsl_sphere::faces::IncidentFaces::of(mesh);
-        let (_, radius) = mesh.bounding_sphere().unwrap_or_default();
-        let lift = 1e-4 * radius.max(f32::MIN_POSITIVE);
-        let frames = &engine.frames(i).visibility;
-        let no_self_shadows = self.no_self_shadows;
-        let visible = |v: usize, d: Vec3| {
-            if no_self_shadows {
-                return 1.0;
-            }
-            let h = faces.mask(v, d);
-            if h <= 0.0 || occluder.occluded(mesh.positions[v] + frames[v].n * lift, d, f32::INFINITY) {
-                0.0
-            } else {
-                h
-            }
-        };
-        let t = Arc::new(TransportLobes::fit(material, frames, &params, visible, &|_, _| {}));
-        self.transport.insert(key, t.clone());
-        Ok(t)
+        Ok(Ok(TransportJob {
+            key,
+            object: i,
+            mesh: mesh.clone(),
+            frames: engine.frames(i).clone(),
+            material: material.clone(),
+            progress: engine.progress().clone(),
+        }))
     }
 
     /// The environment prefiltered up to `kappa_max` (rebuilt when the map or the need changes).
     fn environment(&mut self, engine: &Engine, kappa_max: f32) -> Arc<Prefiltered> {
-        match self.environment_job_for(engine, kappa_max) {
+        match self.environment_need(engine, kappa_max) {
             None => self.env.as_ref().expect("held").2.clone(),
-            Some(job) => {
-                let p = job.run();
-                let out = p.prefiltered.clone();
+            Some(need) => {
+                let p = EnvironmentJob { env: Some(need), transport: Vec::new() }.run();
+                let out = p.env.as_ref().expect("prefiltered").2.clone();
                 self.install(p);
                 out
             }
         }
     }
 
-    /// The prefiltering the next frame of `engine`'s scene would do before drawing (every
-    /// glossy object's lobes fitted, here), as a job to run on another thread and give back
-    /// with [`Hybrid::install`]; `None` when what is held suffices. A viewer runs it on a
-    /// worker so that its frames keep coming.
+    /// The preparation the next frame of `engine`'s scene would do before drawing (every
+    /// glossy object's lobes fitted, here): the environment prefiltered, and for the lobe
+    /// path ([`Hybrid::lobe`]) the glossy objects' transport lobes, as a job to run on
+    /// another thread and give back with [`Hybrid::install`]; `None` when what is held
+    /// suffices. A viewer runs it on a worker so that its frames keep coming.
     pub fn environment_job(&mut self, engine: &Engine) -> Result<Option<EnvironmentJob>> {
         let mut kappa_max = 1.0f32;
+        let mut transport = Vec::new();
         for i in 0..engine.object_count() {
             if !engine.brdf(i).is_lambertian() {
                 let l = self.lobes(engine.brdf(i))?;
                 kappa_max = l.lobes_per_view().map(|w| w.lobe.kappa).fold(kappa_max, f32::max);
+                if self.fields
+                    && let Ok(job) = self.transport_job(engine, i, &l)?
+                {
+                    transport.push(job);
+                }
             }
         }
-        Ok(self.environment_job_for(engine, kappa_max))
+        let env = self.environment_need(engine, kappa_max);
+        Ok((env.is_some() || !transport.is_empty()).then_some(EnvironmentJob { env, transport }))
     }
 
-    fn environment_job_for(&self, engine: &Engine, kappa_max: f32) -> Option<EnvironmentJob> {
+    /// The map to prefilter, its content key and top κ, if what is held does not serve
+    /// `kappa_max`.
+    fn environment_need(&self, engine: &Engine, kappa_max: f32) -> Option<(u64, u32, Arc<LatLongMap>)> {
         let top = kappa_max.clamp(1.0, 4096.0).log2().ceil().exp2() as u32;
         let key = engine.environment_key();
         if let Some((k, t, _)) = &self.env
@@ -220,48 +232,116 @@ impl Hybrid {
             EnvRadiance::Map(m) => m.clone(),
             EnvRadiance::Constant(c) => Arc::new(LatLongMap::from_fn(8, 4, |_| *c)),
         };
-        Some(EnvironmentJob { key, top, map })
+        Some((key, top, map))
     }
 
-    /// Takes a prefiltered environment made by an [`EnvironmentJob`] (kept when it serves the
-    /// environment held now or a newer need).
+    /// Takes what an [`EnvironmentJob`] made: the prefiltered environment (kept when it
+    /// serves the environment held now or a newer need) and transport lobes.
     pub fn install(&mut self, p: PreparedEnvironment) {
-        let keep = match &self.env {
-            Some((k, t, _)) => *k != p.key || *t < p.top,
-            None => true,
-        };
-        if keep {
-            self.env = Some((p.key, p.top, p.prefiltered));
+        if let Some((key, top, prefiltered)) = p.env {
+            let keep = match &self.env {
+                Some((k, t, _)) => *k != key || *t < top,
+                None => true,
+            };
+            if keep {
+                self.env = Some((key, top, prefiltered));
+            }
+        }
+        for (key, t) in p.transport {
+            if key.2 == self.no_self_shadows {
+                self.transport.insert(key, t);
+            }
         }
     }
 }
 
-/// The prefiltering a [`Hybrid`] needs ([`Hybrid::environment_job`]): `Send`, to run anywhere.
+/// The transport lobes' key: mesh, material, fitted without self-shadows.
+type TransportKey = (u64, u64, bool);
+
+/// Fitting one object's transport lobes ([`rsl_lobe::transport`]): `Send`, to run anywhere.
+#[derive(Clone)]
+struct TransportJob {
+    key: TransportKey,
+    object: usize,
+    mesh: Arc<rsl_sphere::mesh::TriMesh>,
+    frames: Arc<rsl_shade::VertexFrames>,
+    material: Arc<MaterialLobes>,
+    progress: crate::progress::Progress,
+}
+
+impl std::fmt::Debug for TransportJob {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TransportJob")
+            .field("object", &self.object)
+            .field("vertices", &self.mesh.vertex_count())
+            .finish()
+    }
+}
+
+impl TransportJob {
+    /// The material's lobes shadowed by the object itself, per vertex and per view in object
+    /// space. Self-visibility is traced against the object's triangles from each vertex
+    /// lifted along its normal (as the truth's rays start), times the face mask (as the RSL
+    /// path's self-visibility); with `V_self = 1` when the key says so.
+    fn run(&self) -> Result<Arc<TransportLobes>> {
+        let mesh = &self.mesh;
+        let occluder =
+            rsl_vis::rays::Occluder::new(mesh).map_err(|e| anyhow::anyhow!("object {}: {e}", self.object))?;
+        let faces = rsl_sphere::faces::IncidentFaces::of(mesh);
+        let (_, radius) = mesh.bounding_sphere().unwrap_or_default();
+        let lift = 1e-4 * radius.max(f32::MIN_POSITIVE);
+        let frames = &self.frames.visibility;
+        let no_self_shadows = self.key.2;
+        let visible = |v: usize, d: Vec3| {
+            if no_self_shadows {
+                return 1.0;
+            }
+            let h = faces.mask(v, d);
+            if h <= 0.0 || occluder.occluded(mesh.positions[v] + frames[v].n * lift, d, f32::INFINITY) {
+                0.0
+            } else {
+                h
+            }
+        };
+        let params = TransportParams::default();
+        let task = format!(
+            "transport lobes of object {} ({} vertices × {} views)",
+            self.object,
+            mesh.vertex_count(),
+            rsl_lobe::transport::geodesic_views(params.frequency).len()
+        );
+        let fit =
+            self.progress.task(&task, |report| TransportLobes::fit(&self.material, frames, &params, visible, report));
+        Ok(Arc::new(fit))
+    }
+}
+
+/// The preparation a [`Hybrid`] needs ([`Hybrid::environment_job`]): `Send`, to run anywhere.
 #[derive(Clone, Debug)]
 pub struct EnvironmentJob {
-    key: u64,
-    top: u32,
-    map: Arc<LatLongMap>,
+    env: Option<(u64, u32, Arc<LatLongMap>)>,
+    transport: Vec<TransportJob>,
 }
 
 impl EnvironmentJob {
-    /// Prefilters the map (seconds for a map with a sun, on 2 cores).
+    /// Prefilters the map and fits the transport lobes (seconds each on 2 cores: a map with
+    /// a sun; about 22 s per 10,000 vertices). An object whose fit fails is left out (its frame
+    /// fits it again, and says why).
     pub fn run(self) -> PreparedEnvironment {
-        let params = PrefilterParams { kappa_max: self.top as f32, ..Default::default() };
-        PreparedEnvironment {
-            key: self.key,
-            top: self.top,
-            prefiltered: Arc::new(Prefiltered::build(&self.map, &params)),
-        }
+        let env = self.env.map(|(key, top, map)| {
+            let params = PrefilterParams { kappa_max: top as f32, ..Default::default() };
+            (key, top, Arc::new(Prefiltered::build(&map, &params)))
+        });
+        let transport = self.transport.iter().filter_map(|j| Some((j.key, j.run().ok()?))).collect();
+        PreparedEnvironment { env, transport }
     }
 }
 
 /// What an [`EnvironmentJob`] made, for [`Hybrid::install`].
 #[derive(Clone, Debug)]
 pub struct PreparedEnvironment {
-    key: u64,
-    top: u32,
-    prefiltered: Arc<Prefiltered>,
+    env: Option<(u64, u32, Arc<Prefiltered>)>,
+    transport: Vec<(TransportKey, Arc<TransportLobes>)>,
 }
 
 /// How one object is drawn by [`Hybrid::render_drawn`].

@@ -166,9 +166,10 @@ pub enum ObjectMethod {
     /// vMF lobes over the prefiltered environment per pixel, times the RSL path's visibility
     /// ratio interpolated from the vertices.
     Hybrid,
-    /// vMF lobes over the prefiltered environment per pixel, each lobe shadowed by the
-    /// self-visibility and occluder fields over a square of its own width (at the vertices,
-    /// as a ratio interpolated across the triangle).
+    /// Transport lobes (the material's lobes shadowed by the object itself, per vertex and
+    /// object-space view), each shadowed by the other objects' occluder fields over a square
+    /// of its own width; drawn per pixel with the material lobes times that shadow as a ratio
+    /// interpolated across the triangle.
     Lobe,
 }
 
