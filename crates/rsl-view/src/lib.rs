@@ -179,7 +179,37 @@ pub struct Viewer {
     pixels_pending: Option<Instant>,
     /// Per object drawn per pixel: every light's cover at its vertices.
     covers: Vec<Option<rsl_shade::Covers>>,
+    /// The gizmo handle a drag in the view holds, if it started on one.
+    gizmo_drag: Option<GizmoPart>,
 }
+
+/// The selected object's gizmo, in image pixels: drawn over the view, dragged to move the
+/// object along a world axis or turn it about +Y ([`Viewer::gizmo`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gizmo {
+    /// The object's place (its transform's translation at the current time).
+    pub centre: (f32, f32),
+    /// The tips of its move arrows along world +X, +Y and +Z.
+    pub tips: [(f32, f32); 3],
+    /// The turn handle: a circle about +Y through the object's place, as a closed polyline.
+    pub ring: Vec<(f32, f32)>,
+    /// The world length of each arrow.
+    pub length: f32,
+}
+
+/// A handle of the [`Gizmo`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GizmoPart {
+    /// The move arrow along world axis 0 (X), 1 (Y) or 2 (Z).
+    Axis(usize),
+    /// The turn ring about +Y.
+    Ring,
+}
+
+/// Screen length of the gizmo's arrows, image pixels.
+const GIZMO_PIXELS: f32 = 70.0;
+/// How near a pointer must come to a handle to take it, image pixels.
+const GIZMO_REACH: f32 = 6.0;
 
 /// How the viewer draws glossy objects once the view rests (while edits come, every object's
 /// vertex radiance is interpolated): what `rsl render --method` draws for the same name.
@@ -192,7 +222,8 @@ pub enum Drawing {
     RslPixel,
     /// vMF lobes per pixel × the RSL visibility ratio (`hybrid`).
     Hybrid,
-    /// vMF lobes per pixel, each shadowed by the fields over a square of its width (`lobe`).
+    /// Transport lobes per pixel, shadowed by the other objects' fields over each lobe
+    /// (`lobe`).
     Lobe,
     /// Each object as its scene `method` says (`auto`).
     Auto,
@@ -385,6 +416,7 @@ impl Viewer {
             lobe_job: None,
             force_pixels: false,
             pixels_pending: None,
+            gizmo_drag: None,
             covers: vec![None; n],
         };
         v.prepare();
@@ -1390,9 +1422,39 @@ impl Viewer {
                 self.selected = i;
             }
         }
+        if response.drag_started() {
+            self.gizmo_drag = response.interact_pointer_pos().and_then(|p| {
+                let (x, y) = to_pixel(p);
+                self.gizmo_hit(x, y)
+            });
+        }
+        if response.drag_stopped() {
+            self.gizmo_drag = None;
+        }
+        if let Some(g) = self.gizmo() {
+            // The gizmo over the view: move arrows in the axes' usual colours, the turn ring.
+            let painter = ui.painter_at(response.rect);
+            let at = |(x, y): (f32, f32)| response.rect.min + egui::vec2(x * s, y * s);
+            let ring: Vec<egui::Pos2> = g.ring.iter().map(|&p| at(p)).collect();
+            let held = |part: GizmoPart| self.gizmo_drag == Some(part);
+            let width = |part: GizmoPart| if held(part) { 3.5 } else { 2.0 };
+            painter.add(egui::Shape::closed_line(
+                ring,
+                egui::Stroke::new(width(GizmoPart::Ring), Color32::from_rgb(230, 200, 60)),
+            ));
+            let colours =
+                [Color32::from_rgb(230, 70, 70), Color32::from_rgb(80, 200, 80), Color32::from_rgb(80, 130, 240)];
+            for (k, tip) in g.tips.iter().enumerate() {
+                let (from, to) = (at(g.centre), at(*tip));
+                painter.arrow(from, to - from, egui::Stroke::new(width(GizmoPart::Axis(k)), colours[k]));
+            }
+        }
         if response.dragged() {
             let d = response.drag_delta();
-            if ui.input(|i| i.modifiers.shift) {
+            if let (Some(part), Some(p)) = (self.gizmo_drag, response.interact_pointer_pos()) {
+                let (x, y) = to_pixel(p);
+                self.drag_gizmo(part, (x - d.x / s, y - d.y / s), (x, y));
+            } else if ui.input(|i| i.modifiers.shift) {
                 // Shift-drag moves the selected object on the ground plane, along the
                 // camera's right and forward directions, by the distance the pointer covers
                 // at the object's depth.
@@ -1437,6 +1499,87 @@ impl Viewer {
         best.map(|b| b.1)
     }
 
+    /// The selected object's gizmo in image pixels (`None` while its place is behind the
+    /// eye): arrows of a fixed screen length from its place along the world axes, and a ring
+    /// about +Y of the same radius.
+    pub fn gizmo(&self) -> Option<Gizmo> {
+        let i = self.selected;
+        self.scene.objects.get(i)?;
+        let c = &self.scene.camera;
+        let centre = self.scene.at(self.time).objects.get(i)?.translation;
+        let forward = (c.target - c.eye).normalize_or_zero();
+        let depth = (centre - c.eye).dot(forward);
+        if depth <= c.near() {
+            return None;
+        }
+        let length = GIZMO_PIXELS * 2.0 * depth * (0.5 * c.fov_y).tan() / c.height as f32;
+        let project = |p: Vec3| image_point(c, p);
+        let tips = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| project(centre + a * length));
+        let ring = (0..48)
+            .map(|k| {
+                let a = std::f32::consts::TAU * k as f32 / 48.0;
+                project(centre + Vec3::new(a.cos(), 0.0, a.sin()) * length)
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(Gizmo { centre: project(centre)?, tips: [tips[0]?, tips[1]?, tips[2]?], ring, length })
+    }
+
+    /// The gizmo handle within reach of image point `(x, y)`: an arrow, else the ring;
+    /// nothing within twice the reach of the centre, which stays free for picking.
+    pub fn gizmo_hit(&self, x: f32, y: f32) -> Option<GizmoPart> {
+        let g = self.gizmo()?;
+        if (x - g.centre.0).hypot(y - g.centre.1) < 2.0 * GIZMO_REACH {
+            return None;
+        }
+        let near = |a: (f32, f32), b: (f32, f32)| segment_distance((x, y), a, b) <= GIZMO_REACH;
+        if let Some(k) = (0..3).find(|&k| near(g.centre, g.tips[k])) {
+            return Some(GizmoPart::Axis(k));
+        }
+        let n = g.ring.len();
+        (0..n).any(|k| near(g.ring[k], g.ring[(k + 1) % n])).then_some(GizmoPart::Ring)
+    }
+
+    /// Drags gizmo handle `part` of the selected object from image point `from` to `to`: an
+    /// arrow moves the object along its axis by the pointer's travel along the arrow on
+    /// screen; the ring turns it about +Y by the angle the pointer sweeps about its place on
+    /// the ring's plane.
+    pub fn drag_gizmo(&mut self, part: GizmoPart, from: (f32, f32), to: (f32, f32)) {
+        let i = self.selected;
+        let Some(g) = self.gizmo() else { return };
+        let Some(o) = self.scene.objects.get(i) else { return };
+        let mut t = o.transform;
+        match part {
+            GizmoPart::Axis(k) => {
+                let a = (g.tips[k].0 - g.centre.0, g.tips[k].1 - g.centre.1);
+                let len2 = a.0 * a.0 + a.1 * a.1;
+                if len2 < 1.0 {
+                    return; // the axis points at the eye: no travel along it on screen
+                }
+                let along = ((to.0 - from.0) * a.0 + (to.1 - from.1) * a.1) / len2;
+                t.translation += [Vec3::X, Vec3::Y, Vec3::Z][k] * (along * g.length);
+            }
+            GizmoPart::Ring => {
+                // Where the pointer meets the ring's plane (horizontal, through the object's
+                // place): the turn is the angle it sweeps there about +Y.
+                let c = &self.scene.camera;
+                let centre = self.scene.at(self.time).objects[i].translation;
+                let on_plane = |(x, y): (f32, f32)| {
+                    let d = image_ray(c, x, y);
+                    let t = (centre.y - c.eye.y) / d.y;
+                    (d.y.abs() > 1e-6 && t > 0.0).then(|| c.eye + d * t - centre)
+                };
+                let (Some(a), Some(b)) = (on_plane(from), on_plane(to)) else { return };
+                // A turn by θ about +Y takes atan2(z, x) to atan2(z, x) − θ.
+                let sweep = b.z.atan2(b.x) - a.z.atan2(a.x);
+                let sweep = (sweep + std::f32::consts::PI).rem_euclid(std::f32::consts::TAU) - std::f32::consts::PI;
+                t.rotation = (yaw_rotation(-sweep.to_degrees()) * t.rotation).normalize();
+            }
+        }
+        if t.translation.is_finite() && t.rotation.is_finite() {
+            self.move_object(i, t);
+        }
+    }
+
     /// Moves the selected object by a pointer drag of `(dx, dy)` image pixels on the ground
     /// plane through it (shift-drag in the view): right with the camera's right, away with
     /// the camera's forward, scaled so that the object follows the pointer sideways.
@@ -1455,6 +1598,38 @@ impl Viewer {
         let r = self.set_translation(i, moved);
         self.report(r);
     }
+}
+
+/// Where world point `p` falls in `c`'s image, in pixels (the inverse of
+/// `rsl_shade::raster::pixel_ray`); `None` behind the near plane.
+fn image_point(c: &rsl_engine::scene::Camera, p: Vec3) -> Option<(f32, f32)> {
+    let q = c.camera_from_world().transform_point3(p);
+    if -q.z <= c.near() {
+        return None;
+    }
+    let t = (0.5 * c.fov_y).tan();
+    let aspect = c.width as f32 / c.height as f32;
+    let (nx, ny) = (q.x / -q.z / (t * aspect), q.y / -q.z / t);
+    Some(((nx + 1.0) * 0.5 * c.width as f32, (1.0 - ny) * 0.5 * c.height as f32))
+}
+
+/// The unit world direction from `c`'s eye through image point `(x, y)` (pixels, not
+/// necessarily whole; `rsl_shade::raster::pixel_ray` at pixel centres).
+fn image_ray(c: &rsl_engine::scene::Camera, x: f32, y: f32) -> Vec3 {
+    let t = (0.5 * c.fov_y).tan();
+    let aspect = c.width as f32 / c.height as f32;
+    let nx = (2.0 * x / c.width as f32 - 1.0) * t * aspect;
+    let ny = (1.0 - 2.0 * y / c.height as f32) * t;
+    (c.camera_from_world().inverse().transform_vector3(Vec3::new(nx, ny, -1.0))).normalize()
+}
+
+/// Distance from point `p` to the segment `ab`, in the plane.
+fn segment_distance(p: (f32, f32), a: (f32, f32), b: (f32, f32)) -> f32 {
+    let (ab, ap) = ((b.0 - a.0, b.1 - a.1), (p.0 - a.0, p.1 - a.1));
+    let len2 = ab.0 * ab.0 + ab.1 * ab.1;
+    let t = if len2 > 0.0 { ((ap.0 * ab.0 + ap.1 * ab.1) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    let (dx, dy) = (ap.0 - ab.0 * t, ap.1 - ab.1 * t);
+    (dx * dx + dy * dy).sqrt()
 }
 
 /// Distance along the ray `o + t·d` to the triangle `abc` (Möller–Trumbore), if it is hit
