@@ -313,6 +313,19 @@ fn inputs_that_would_run_away_are_refused_before_any_work() {
             .arg(&png),
         &["drawing per pixel", "GB", "RSL_MAX_PREPARE_BYTES", "method \"rsl\""],
     );
+    // So are the transport lobes of `--method lobe` (5.2 KB per vertex: 0.21 GB here).
+    fails(
+        rsl()
+            .env("RSL_MAX_PREPARE_BYTES", "100000000")
+            .arg("render")
+            .arg(&dense)
+            .arg("--no-cache")
+            .arg("--method")
+            .arg("lobe")
+            .arg("--out")
+            .arg(&png),
+        &["transport lobes", "GB", "RSL_MAX_PREPARE_BYTES", "method \"hybrid\""],
+    );
     // Radiance that would overflow f32 once summed: an error naming the input at fault.
     let bright = write(
         "bright.toml",
