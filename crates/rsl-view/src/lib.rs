@@ -181,6 +181,9 @@ pub struct Viewer {
     covers: Vec<Option<rsl_shade::Covers>>,
     /// The gizmo handle a drag in the view holds, if it started on one.
     gizmo_drag: Option<GizmoPart>,
+    /// Where the view's image was last laid out: its screen rectangle, and screen points per
+    /// image pixel.
+    view_area: Option<(egui::Rect, f32)>,
 }
 
 /// The selected object's gizmo, in image pixels: drawn over the view, dragged to move the
@@ -417,6 +420,7 @@ impl Viewer {
             force_pixels: false,
             pixels_pending: None,
             gizmo_drag: None,
+            view_area: None,
             covers: vec![None; n],
         };
         v.prepare();
@@ -1422,8 +1426,11 @@ impl Viewer {
                 self.selected = i;
             }
         }
+        self.view_area = Some((response.rect, s));
         if response.drag_started() {
-            self.gizmo_drag = response.interact_pointer_pos().and_then(|p| {
+            // Where the button went down (the drag starts once the pointer has moved).
+            let origin = ui.input(|i| i.pointer.press_origin()).or(response.interact_pointer_pos());
+            self.gizmo_drag = origin.and_then(|p| {
                 let (x, y) = to_pixel(p);
                 self.gizmo_hit(x, y)
             });
@@ -1522,6 +1529,11 @@ impl Viewer {
             })
             .collect::<Option<Vec<_>>>()?;
         Some(Gizmo { centre: project(centre)?, tips: [tips[0]?, tips[1]?, tips[2]?], ring, length })
+    }
+
+    /// The screen point of image point `(x, y)` (pixels) where the view was last laid out.
+    pub fn screen_point(&self, x: f32, y: f32) -> Option<egui::Pos2> {
+        self.view_area.map(|(r, s)| r.min + egui::vec2(x * s, y * s))
     }
 
     /// The gizmo handle within reach of image point `(x, y)`: an arrow, else the ring;
