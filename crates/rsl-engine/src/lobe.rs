@@ -106,6 +106,11 @@ impl Hybrid {
         Self { no_self_shadows: true, transport: HashMap::new(), ..self }
     }
 
+    /// How many objects' transport lobes are held (those the last frame drew).
+    pub fn transport_held(&self) -> usize {
+        self.transport.len()
+    }
+
     /// This hybrid with each lobe shadowed by the fields ([`Hybrid::lobe`]) when `fields`.
     pub fn with_fields(self, fields: bool) -> Self {
         Self { fields, ..self }
@@ -424,6 +429,13 @@ impl Hybrid {
         }
         if transport.iter().any(Option::is_some) {
             timings.add("transport", start.elapsed().as_secs_f64() * 1e3, None);
+            // Only what this scene draws is kept: a viewer's material edits would otherwise
+            // pile up a fit per edit (megabytes each).
+            let used: Vec<TransportKey> = (0..n)
+                .filter(|&i| transport[i].is_some())
+                .map(|i| (engine.keys(i).mesh, brdf_key(engine.brdf(i)), self.no_self_shadows))
+                .collect();
+            self.transport.retain(|k, _| used.contains(k));
         }
 
         // Every object's RSL radiance at its vertices, with the covers of those drawn per pixel.

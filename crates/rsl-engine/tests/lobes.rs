@@ -131,8 +131,9 @@ fn the_transport_lobes_shadow_a_torus_by_itself() {
         Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
     let truth = vertices(&mut Truth::new(&neutral, 1024, 5).expect("truth"), &neutral, &s);
     let noise = truth.self_error.and_then(|e| e.vertices).expect("the truth's noise");
-    let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
-    let lobe = vertices(&mut Hybrid::lobe(), &engine, &s);
+    let mut engine = Engine::new(&s, EngineOptions::default()).expect("engine");
+    let mut method = Hybrid::lobe();
+    let lobe = vertices(&mut method, &engine, &s);
     let hybrid = vertices(&mut Hybrid::new(), &engine, &s);
     let unshadowed = vertices(&mut Hybrid::lobe().without_self_shadows(), &engine, &s);
     let (e_lobe, e_hybrid, e_none) = (l2(&lobe, &truth, 0), l2(&hybrid, &truth, 0), l2(&unshadowed, &truth, 0));
@@ -142,4 +143,13 @@ fn the_transport_lobes_shadow_a_torus_by_itself() {
     );
     // Measured: 4.7 % (the truth's noise 1.2 %), the RSL ratio 4.9 %, no self-shadows 26.9 %.
     assert!(e_lobe < 0.3 * e_none, "transport lobes {e_lobe} against unshadowed {e_none}");
+
+    // A material edit fits the torus again and drops the old fit: edits do not pile up.
+    let mut edited = s.clone();
+    edited.objects[0].material =
+        rsl_engine::scene::Material::Ggx { alpha: 0.25, specular: [0.8; 3], diffuse: [0.2; 3] };
+    engine.sync(&edited).expect("sync");
+    assert_eq!(method.transport_held(), 1);
+    vertices(&mut method, &engine, &edited);
+    assert_eq!(method.transport_held(), 1, "the edited material's fit replaced the old one");
 }
