@@ -301,31 +301,23 @@ fn inputs_that_would_run_away_are_refused_before_any_work() {
              material = {{ model = \"ggx\", alpha = 0.2 }}\n"
         ),
     );
-    fails(
-        rsl()
-            .env("RSL_MAX_PREPARE_BYTES", "100000000")
-            .arg("render")
-            .arg(&dense)
-            .arg("--no-cache")
-            .arg("--method")
-            .arg("pixel")
-            .arg("--out")
-            .arg(&png),
-        &["drawing per pixel", "GB", "RSL_MAX_PREPARE_BYTES", "method \"rsl\""],
-    );
     // So are the transport lobes of `--method lobe` (5.2 KB per vertex: 0.21 GB here).
-    fails(
-        rsl()
-            .env("RSL_MAX_PREPARE_BYTES", "100000000")
-            .arg("render")
-            .arg(&dense)
-            .arg("--no-cache")
-            .arg("--method")
-            .arg("lobe")
-            .arg("--out")
-            .arg(&png),
-        &["transport lobes", "GB", "RSL_MAX_PREPARE_BYTES", "method \"hybrid\""],
-    );
+    for (method, what, instead) in
+        [("pixel", "drawing per pixel", "method \"rsl\""), ("lobe", "transport lobes", "method \"hybrid\"")]
+    {
+        fails(
+            rsl()
+                .env("RSL_MAX_PREPARE_BYTES", "100000000")
+                .arg("render")
+                .arg(&dense)
+                .arg("--no-cache")
+                .arg("--method")
+                .arg(method)
+                .arg("--out")
+                .arg(&png),
+            &[what, "GB", "RSL_MAX_PREPARE_BYTES", instead],
+        );
+    }
     // Radiance that would overflow f32 once summed: an error naming the input at fault.
     let bright = write(
         "bright.toml",

@@ -475,7 +475,12 @@ impl Hybrid {
             let bare_setup =
                 engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: false })?;
             // The other objects' fields alone: the transport lobes hold the object's own shadows.
-            let others = engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: true })?;
+            let others = match drawn.contains(&Drawn::LobeFields) {
+                true => {
+                    Some(engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: true })?)
+                }
+                false => None,
+            };
             let which: Vec<bool> = (0..n).map(|i| lobes[i].is_some() && drawn[i] == Drawn::Lobes).collect();
             let (bare, bare_stats) = rsl_shade::shade_objects(&bare_setup, &which);
             stats = stats.plus(bare_stats);
@@ -489,6 +494,7 @@ impl Hybrid {
                     // by the other objects' fields over a square of its width: the radiance,
                     // and its ratio to the unshadowed material lobes for the pixels.
                     let t = transport[i].as_ref().expect("fitted for every LobeFields object");
+                    let others = others.as_ref().expect("made when an object is drawn so");
                     let pose = Pose::new(&full.state.objects[i]);
                     let to_world = |d: Vec3| (pose.linear_to_world * d).normalize_or(d);
                     let per_vertex: Vec<(Vec3, Vec3, FrameStats)> = (0..pos.len())

@@ -7,7 +7,7 @@ use rsl_shade::Terms;
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::{root, scene};
+use common::{relative_l2, root, scene};
 
 fn memory_only() -> EngineOptions {
     EngineOptions::default()
@@ -18,12 +18,6 @@ fn cache_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("rsl-engine-test-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| f64::from((*x - *y).length_squared())).sum();
-    let den: f64 = b.iter().map(|y| f64::from(y.length_squared())).sum();
-    (num / den).sqrt()
 }
 
 #[test]

@@ -9,7 +9,7 @@ use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, Layers};
 
 mod common;
-use common::{cap_radiance, cap_scene_at, scene};
+use common::{cap_radiance, cap_scene_at, furnace_ball, relative_l2};
 
 fn render(method: &mut dyn Method, engine: &Engine, s: &Scene) -> Frame {
     let request = Request { time: 0.0, image: false, vertices: true, exposure: None };
@@ -19,12 +19,6 @@ fn render(method: &mut dyn Method, engine: &Engine, s: &Scene) -> Frame {
         assert!(r.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "object {i}: non-finite or negative");
     }
     f
-}
-
-fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| f64::from((*x - *y).length_squared())).sum();
-    let den: f64 = b.iter().map(|y| f64::from(y.length_squared())).sum();
-    (num / den).sqrt()
 }
 
 /// At a millionth of a unit the BVH's traversal (which ignores boxes nearer than 1e-4 of
@@ -74,25 +68,6 @@ fn a_scene_a_millionth_and_a_million_times_the_size_casts_the_same_cap() {
         // The RSL paths' bound on the cap (`tests/methods.rs`) is a few percent at most.
         assert!(checked > 300 && worst < 0.05, "scale {s:e}: {checked} points, worst {worst}");
     }
-}
-
-fn furnace_ball(material: &str, quality: &str, rsl_count: u32, resolution: u32) -> Scene {
-    scene(&format!(
-        r#"
-        [quality]
-        {quality}
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = {rsl_count}
-        [camera]
-        eye = [0.0, 0.0, 5.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = 1.0, resolution = {resolution} }}
-        material = {material}
-        "#
-    ))
 }
 
 /// A glossy ball in a white furnace, against the truth by the cosine of the view: near the

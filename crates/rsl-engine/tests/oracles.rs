@@ -9,7 +9,7 @@ use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Oracles;
 
 mod common;
-use common::{cap_radiance, cap_scene, facing, scene};
+use common::{cap_radiance, cap_scene, facing, furnace_ball};
 
 fn render(engine: &mut Engine, scene: &Scene, oracles: Oracles) -> Frame {
     Oracle::prepare(engine, oracles).expect("light set");
@@ -20,23 +20,7 @@ fn render(engine: &mut Engine, scene: &Scene, oracles: Oracles) -> Frame {
 }
 
 fn ball(material: &str, env_grid: u32, rsl_count: u32) -> Scene {
-    scene(&format!(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = {env_grid}
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = {rsl_count}
-        [camera]
-        eye = [0.0, 0.0, 5.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = 1.0, resolution = 12 }}
-        material = {material}
-        "#
-    ))
+    furnace_ball(material, &format!("preset = \"draft\"\n        env_grid = {env_grid}"), rsl_count, 12)
 }
 
 #[test]

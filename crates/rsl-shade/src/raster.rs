@@ -83,12 +83,25 @@ impl Projection {
 
 /// The world direction through the centre of pixel `(x, y)`.
 pub fn pixel_ray(camera: &Camera, x: u32, y: u32) -> Vec3 {
+    image_ray(camera, x as f32 + 0.5, y as f32 + 0.5)
+}
+
+/// The unit world direction from the eye through image point `(x, y)`, in pixels (not
+/// necessarily whole: pixel `(i, j)`'s centre is `(i + ½, j + ½)`).
+pub fn image_ray(camera: &Camera, x: f32, y: f32) -> Vec3 {
     let t = (0.5 * camera.fov_y).tan();
     let aspect = camera.width as f32 / camera.height as f32;
-    let nx = (2.0 * (x as f32 + 0.5) / camera.width as f32 - 1.0) * t * aspect;
-    let ny = (1.0 - 2.0 * (y as f32 + 0.5) / camera.height as f32) * t;
+    let nx = (2.0 * x / camera.width as f32 - 1.0) * t * aspect;
+    let ny = (1.0 - 2.0 * y / camera.height as f32) * t;
     let world_from_camera = camera.camera_from_world().inverse();
     (world_from_camera * Vec3::new(nx, ny, -1.0).extend(0.0)).xyz().normalize()
+}
+
+/// Where world point `p` falls in the camera's image, in pixels (the inverse of
+/// [`image_ray`]); `None` in front of the near plane.
+pub fn image_point(camera: &Camera, p: Vec3) -> Option<[f32; 2]> {
+    let q = camera.camera_from_world().transform_point3(p);
+    (-q.z > camera.near()).then(|| Projection::new(camera).pixel(q))
 }
 
 /// Clips a polygon to `z ≤ −near` (Sutherland–Hodgman, one plane).

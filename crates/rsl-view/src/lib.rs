@@ -1519,8 +1519,8 @@ impl Viewer {
         if depth <= c.near() {
             return None;
         }
-        let length = GIZMO_PIXELS * 2.0 * depth * (0.5 * c.fov_y).tan() / c.height as f32;
-        let project = |p: Vec3| image_point(c, p);
+        let length = GIZMO_PIXELS * world_per_pixel(c, depth);
+        let project = |p: Vec3| rsl_shade::raster::image_point(c, p).map(|[x, y]| (x, y));
         let tips = [Vec3::X, Vec3::Y, Vec3::Z].map(|a| project(centre + a * length));
         let ring = (0..48)
             .map(|k| {
@@ -1576,7 +1576,7 @@ impl Viewer {
                 let c = &self.scene.camera;
                 let centre = self.scene.at(self.time).objects[i].translation;
                 let on_plane = |(x, y): (f32, f32)| {
-                    let d = image_ray(c, x, y);
+                    let d = rsl_shade::raster::image_ray(c, x, y);
                     let t = (centre.y - c.eye.y) / d.y;
                     (d.y.abs() > 1e-6 && t > 0.0).then(|| c.eye + d * t - centre)
                 };
@@ -1603,36 +1603,16 @@ impl Viewer {
         let right = forward.cross(c.up).normalize_or_zero();
         let ahead = Vec3::new(forward.x, 0.0, forward.z).normalize_or_zero();
         let p = o.transform.translation;
-        // World units per image pixel at the object's depth.
         let depth = (p - c.eye).dot(forward).max(1e-3);
-        let per_pixel = 2.0 * depth * (0.5 * c.fov_y).tan() / c.height as f32;
-        let moved = p + (right * dx - ahead * dy) * per_pixel;
+        let moved = p + (right * dx - ahead * dy) * world_per_pixel(c, depth);
         let r = self.set_translation(i, moved);
         self.report(r);
     }
 }
 
-/// Where world point `p` falls in `c`'s image, in pixels (the inverse of
-/// `rsl_shade::raster::pixel_ray`); `None` behind the near plane.
-fn image_point(c: &rsl_engine::scene::Camera, p: Vec3) -> Option<(f32, f32)> {
-    let q = c.camera_from_world().transform_point3(p);
-    if -q.z <= c.near() {
-        return None;
-    }
-    let t = (0.5 * c.fov_y).tan();
-    let aspect = c.width as f32 / c.height as f32;
-    let (nx, ny) = (q.x / -q.z / (t * aspect), q.y / -q.z / t);
-    Some(((nx + 1.0) * 0.5 * c.width as f32, (1.0 - ny) * 0.5 * c.height as f32))
-}
-
-/// The unit world direction from `c`'s eye through image point `(x, y)` (pixels, not
-/// necessarily whole; `rsl_shade::raster::pixel_ray` at pixel centres).
-fn image_ray(c: &rsl_engine::scene::Camera, x: f32, y: f32) -> Vec3 {
-    let t = (0.5 * c.fov_y).tan();
-    let aspect = c.width as f32 / c.height as f32;
-    let nx = (2.0 * x / c.width as f32 - 1.0) * t * aspect;
-    let ny = (1.0 - 2.0 * y / c.height as f32) * t;
-    (c.camera_from_world().inverse().transform_vector3(Vec3::new(nx, ny, -1.0))).normalize()
+/// World units per image pixel of `c` at `depth` along its view direction.
+fn world_per_pixel(c: &rsl_engine::scene::Camera, depth: f32) -> f32 {
+    2.0 * depth * (0.5 * c.fov_y).tan() / c.height as f32
 }
 
 /// Distance from point `p` to the segment `ab`, in the plane.

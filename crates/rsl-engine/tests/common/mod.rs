@@ -24,6 +24,34 @@ pub fn facing(f: &Frame, i: usize, v: usize, eye: Vec3) -> bool {
     f.normals[i][v].dot((eye - f.positions[i][v]).normalize()) > 0.05
 }
 
+/// Relative L2 of `a` against `b`, in f64.
+pub fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| f64::from((*x - *y).length_squared())).sum();
+    let den: f64 = b.iter().map(|y| f64::from(y.length_squared())).sum();
+    (num / den).sqrt()
+}
+
+/// A ball of radius 1 and `resolution` with `material` in a constant white environment of
+/// `rsl_count` lights, `quality` the lines of its `[quality]` table, seen from +Z.
+pub fn furnace_ball(material: &str, quality: &str, rsl_count: u32, resolution: u32) -> Scene {
+    scene(&format!(
+        r#"
+        [quality]
+        {quality}
+        [environment]
+        constant = [1.0, 1.0, 1.0]
+        rsl_count = {rsl_count}
+        [camera]
+        eye = [0.0, 0.0, 5.0]
+        target = [0.0, 0.0, 0.0]
+        [[objects]]
+        name = "ball"
+        primitive = {{ kind = "sphere", radius = 1.0, resolution = {resolution} }}
+        material = {material}
+        "#
+    ))
+}
+
 /// A plane under a ball, both Lambert, in a constant white environment: a plane point at
 /// horizontal distance ρ from below the ball's centre (height h, radius R) sees the ball as
 /// a cap of half-angle β = asin(R/d), d² = ρ² + h², at angle θ from its normal
