@@ -228,6 +228,16 @@ fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
     let cpu =
         rsl_engine::method::rasterise(&engine, &scene, &cpu_frame.state, &cpu_frame.positions, &cpu_frame.radiance);
     let g = &frame.image;
+    assert_images_agree(g, &cpu);
+    // The GPU's tonemapping equals the CPU's encoding of the same linear image to one 8-bit
+    // level (pow and division may round differently on the GPU).
+    let cpu_rgb = rsl_shade::tonemap::encode_all(&g.pixels, frame.exposure);
+    let worst_level = frame.rgb.iter().zip(&cpu_rgb).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+    assert!(worst_level <= 1, "tonemapped pixels differ by {worst_level} levels");
+}
+
+/// The GPU's image against the CPU rasteriser's: coverage and pixels (see the comments).
+fn assert_images_agree(g: &rsl_shade::Image, cpu: &rsl_shade::Image) {
     assert_eq!((g.width, g.height), (cpu.width, cpu.height));
     let n = g.pixels.len();
     // Coverage differs only along silhouettes, where the two rasterisers' edge rules (the
@@ -257,11 +267,44 @@ fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
     );
     assert!(coverage_differs * 1000 <= n, "coverage differs at {coverage_differs} of {n} pixels (bound 0.1%)");
     assert!(off * 1000 <= n, "{off} of {n} pixels differ by more than 1e-3 relative (bound 0.1%)");
-    // The GPU's tonemapping equals the CPU's encoding of the same linear image to one 8-bit
-    // level (pow and division may round differently on the GPU).
-    let cpu_rgb = rsl_shade::tonemap::encode_all(&g.pixels, frame.exposure);
-    let worst_level = frame.rgb.iter().zip(&cpu_rgb).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
-    assert!(worst_level <= 1, "tonemapped pixels differ by {worst_level} levels");
+}
+
+#[test]
+fn vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser() {
+    // What the viewer does on a software adapter: shade on the CPU, draw with wgpu.
+    let Some(mut gpu) = renderer("vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser") else {
+        return;
+    };
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let frame = engine.shade(&scene, 0.9).unwrap();
+    let meshes: Vec<rsl_shade::RasterMesh<'_>> = scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| rsl_shade::RasterMesh {
+            positions: &frame.positions[i],
+            indices: &o.mesh.indices,
+            radiance: &frame.radiance[i],
+        })
+        .collect();
+    let draw = gpu.draw_mut();
+    draw.set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
+    let env_from_world = glam::Mat3::from_quat(frame.state.world_from_env.inverse());
+    draw.draw_meshes(&meshes, &scene.camera, env_from_world).unwrap();
+    let (pixels, covered) = draw.read_linear().unwrap();
+    let g = rsl_shade::Image { width: scene.camera.width, height: scene.camera.height, pixels, covered };
+    let cpu = rsl_engine::method::rasterise(&engine, &scene, &frame.state, &frame.positions, &frame.radiance);
+    assert!(cpu.covered.iter().any(|&c| c), "the objects are in view");
+    assert_images_agree(&g, &cpu);
+    // A mesh whose radiance does not match its positions, or an index past them, is refused.
+    let short = rsl_shade::RasterMesh { radiance: &frame.radiance[0][1..], ..meshes[0] };
+    let e = draw.draw_meshes(&[short], &scene.camera, env_from_world).unwrap_err();
+    assert!(e.to_string().contains("radiance"), "{e}");
+    let past = [0, 1, frame.positions[0].len() as u32];
+    let bad = rsl_shade::RasterMesh { indices: &past, ..meshes[0] };
+    let e = draw.draw_meshes(&[bad], &scene.camera, env_from_world).unwrap_err();
+    assert!(e.to_string().contains("index"), "{e}");
 }
 
 #[test]

@@ -102,6 +102,9 @@ pub struct GpuDraw {
     target: Option<Target>,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     lobes: Option<LobePass>,
+    /// Vertices shaded elsewhere ([`GpuDraw::draw_meshes`]): positions, then radiance, one
+    /// vec4 each; and their indices.
+    meshes: (wgpu::Buffer, wgpu::Buffer),
 }
 
 /// The lobe path's pipeline and buffers ([`GpuDraw::draw_lobes`]), made on first use.
@@ -122,6 +125,9 @@ enum Objects<'a> {
     Shaded(&'a GpuShading),
     /// The lobe path per pixel, from the buffers [`GpuDraw::draw_lobes`] filled.
     Lobes(u32),
+    /// Vertices shaded elsewhere, from the buffers [`GpuDraw::draw_meshes`] filled: the
+    /// vertex count and the index count.
+    Meshes(u32, u32),
 }
 
 impl GpuDraw {
@@ -193,6 +199,10 @@ impl GpuDraw {
             target: None,
             timestamps,
             lobes: None,
+            meshes: (
+                buffer("shaded meshes", 32, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
+                buffer("shaded mesh indices", 4, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
+            ),
             ctx,
         })
     }
@@ -380,6 +390,55 @@ impl GpuDraw {
         self.pass(Objects::Shaded(shading), camera, env_from_world)
     }
 
+    /// Draws meshes whose vertices were shaded elsewhere (the CPU path: world positions and
+    /// radiance per vertex) seen by `camera`, with the environment behind, into the linear
+    /// image, as [`GpuDraw::draw`] draws the shading pass's vertices; waits for it. A mesh
+    /// whose radiance does not match its positions, or whose indices point past them, is an
+    /// error.
+    pub fn draw_meshes(
+        &mut self,
+        meshes: &[rsl_shade::RasterMesh<'_>],
+        camera: &Camera,
+        env_from_world: Mat3,
+    ) -> Result<PassTime, GpuError> {
+        self.ctx.check_alive()?;
+        let vertices: usize = meshes.iter().map(|m| m.positions.len()).sum();
+        let index_count: usize = meshes.iter().map(|m| m.indices.len()).sum();
+        let limit = self.ctx.device.limits().max_buffer_size;
+        let bytes = (vertices as u64) * 32;
+        if bytes > limit || u32::try_from(vertices).is_err() || u32::try_from(index_count).is_err() {
+            return Err(GpuError::TooLarge { what: format!("{vertices} shaded vertices"), bytes, limit });
+        }
+        let mut data: Vec<[f32; 4]> = Vec::with_capacity(2 * vertices);
+        let mut indices: Vec<u32> = Vec::with_capacity(index_count);
+        for (i, m) in meshes.iter().enumerate() {
+            let n = m.positions.len();
+            if m.radiance.len() != n {
+                return Err(GpuError::Scene(format!(
+                    "mesh {i} has {n} positions and {} radiance values",
+                    m.radiance.len()
+                )));
+            }
+            if m.indices.len() % 3 != 0 {
+                return Err(GpuError::Scene(format!("mesh {i} has {} indices, not whole triangles", m.indices.len())));
+            }
+            let base = data.len() as u32;
+            for &k in m.indices {
+                if k as usize >= n {
+                    return Err(GpuError::Scene(format!("mesh {i} has index {k} for {n} vertices")));
+                }
+                indices.push(base + k);
+            }
+            data.extend(m.positions.iter().map(|p| p.extend(1.0).to_array()));
+        }
+        // Radiance after every position: the two vertex buffers are the halves.
+        data.extend(meshes.iter().flat_map(|m| m.radiance.iter().map(|r| r.extend(1.0).to_array())));
+        let ctx = self.ctx.clone();
+        upload(&ctx, &mut self.meshes.0, bytemuck::cast_slice(&data), "shaded meshes");
+        upload(&ctx, &mut self.meshes.1, bytemuck::cast_slice(&indices), "shaded mesh indices");
+        self.pass(Objects::Meshes(vertices as u32, indices.len() as u32), camera, env_from_world)
+    }
+
     /// One draw pass: the background, then `objects`.
     fn pass(&mut self, objects: Objects<'_>, camera: &Camera, env_from_world: Mat3) -> Result<PassTime, GpuError> {
         self.ctx.check_alive()?;
@@ -411,7 +470,7 @@ impl GpuDraw {
             ],
         });
         let (obj_pipeline, obj_bind) = match (&objects, &self.lobes) {
-            (Objects::Shaded(_), _) => (
+            (Objects::Shaded(_) | Objects::Meshes(..), _) => (
                 self.objects.clone(),
                 d.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("draw objects"),
@@ -436,6 +495,7 @@ impl GpuDraw {
             (Objects::Lobes(_), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
         };
         let lobe_buffers = self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone()));
+        let mesh_buffers = self.meshes.clone();
         let background = self.background.clone();
         let timestamps = self.timestamps.as_ref().map(|(s, r)| (s.clone(), r.clone()));
         let target = self.target(width, height)?;
@@ -481,6 +541,17 @@ impl GpuDraw {
                         pass.set_vertex_buffer(0, shading.shaded_buffer().slice(0..n));
                         pass.set_vertex_buffer(1, shading.shaded_buffer().slice(n..2 * n));
                         pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
+                        pass.draw_indexed(0..count, 0, 0..1);
+                    }
+                }
+                Objects::Meshes(vertices, count) => {
+                    if count > 0 {
+                        let n = u64::from(vertices) * 16;
+                        pass.set_pipeline(&obj_pipeline);
+                        pass.set_bind_group(0, &obj_bind, &[]);
+                        pass.set_vertex_buffer(0, mesh_buffers.0.slice(0..n));
+                        pass.set_vertex_buffer(1, mesh_buffers.0.slice(n..2 * n));
+                        pass.set_index_buffer(mesh_buffers.1.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
                         pass.draw_indexed(0..count, 0, 0..1);
                     }
                 }

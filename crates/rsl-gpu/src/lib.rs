@@ -71,6 +71,26 @@ pub enum GpuError {
     },
 }
 
+/// What rsl's passes need of a device on `adapter`: the shading pass binds eight storage
+/// buffers, and visibility fields are large, so the adapter's own buffer limits; timestamps
+/// where the adapter has them (`--timings`). A window that opens its own device (the
+/// viewer's) asks for this one, so that rsl-gpu can use it ([`GpuContext::from_device`]).
+pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
+    let available = adapter.limits();
+    let required_limits = wgpu::Limits {
+        max_storage_buffers_per_shader_stage: 8,
+        max_storage_buffer_binding_size: available.max_storage_buffer_binding_size,
+        max_buffer_size: available.max_buffer_size,
+        ..wgpu::Limits::downlevel_defaults().using_resolution(available)
+    };
+    wgpu::DeviceDescriptor {
+        label: Some("rsl"),
+        required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+        required_limits,
+        ..Default::default()
+    }
+}
+
 /// A device and queue on the best available adapter.
 pub struct GpuContext {
     /// The adapter.
@@ -103,22 +123,8 @@ impl GpuContext {
         }))
         .map_err(|e| GpuError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
-        // The shading pass binds eight storage buffers, and visibility fields are large: ask
-        // for what the adapter offers there. Timestamps when available (--timings).
-        let available = adapter.limits();
-        let required_limits = wgpu::Limits {
-            max_storage_buffers_per_shader_stage: 8,
-            max_storage_buffer_binding_size: available.max_storage_buffer_binding_size,
-            max_buffer_size: available.max_buffer_size,
-            ..wgpu::Limits::downlevel_defaults().using_resolution(available)
-        };
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("rsl"),
-            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
-            required_limits,
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
+        let (device, queue) = pollster::block_on(adapter.request_device(&device_descriptor(&adapter)))
+            .map_err(|e| GpuError::Device { adapter: info.name.clone(), message: e.to_string() })?;
         Ok(Self::from_device(adapter, device, queue))
     }
 

@@ -2,8 +2,10 @@
 //! iteration sets the bunny's roughness to the next value and redraws (engine sync — one
 //! BRDF table, a 32×32 preview while the slider moves —, the bunny reshaded, the image
 //! rasterised and tonemapped); and the frame when the slider comes to rest (the real table
-//! built, the bunny reshaded). No GPU: this is the CPU path the viewer uses on a software
-//! adapter; the texture upload by egui is not included.
+//! built, the bunny reshaded). Twice: drawn by the CPU rasteriser (the texture upload by egui
+//! not included), and drawn with wgpu on a headless egui render state's device as in a
+//! window (rsl-gpu's draw pass and tonemapping into the texture egui samples; skipped with
+//! a message where there is no adapter). The vertices are shaded on the CPU both times.
 //!
 //! `cargo bench -p rsl-view --bench material_drag` (run from anywhere; it uses the disk
 //! cache, `$RSL_CACHE_DIR` or the default folder, and prints the stage breakdown).
@@ -14,14 +16,31 @@ use rsl_view::{Viewer, ViewerOptions};
 use std::path::PathBuf;
 
 fn material_drag(c: &mut Criterion) {
+    drag(c, None);
+    match rsl_view::headless_render_state() {
+        Ok(state) => drag(c, Some(&state)),
+        Err(e) => eprintln!("material drag with wgpu: skipped: {e:#}"),
+    }
+}
+
+fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) {
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/default.toml");
     let options = ViewerOptions { cache_dir: rsl_engine::cache::default_dir(), quality: None };
     let mut viewer = Viewer::open(&scene, options).expect("the default scene opens");
     viewer.wait_prepared().expect("the default scene prepares");
+    let drawn = match wgpu {
+        Some(state) => {
+            viewer.attach_wgpu(state).expect("rsl-gpu's draw pass on the render state's device");
+            eprintln!("drawn with wgpu on {}", viewer.wgpu_adapter().unwrap_or("?"));
+            " with wgpu"
+        }
+        None => "",
+    };
     viewer.refresh().unwrap();
+    assert_eq!(viewer.shown_on_gpu(), wgpu.is_some());
     let bunny = viewer.scene().objects.iter().position(|o| o.name == "bunny").unwrap();
     let mut k = 0u32;
-    c.bench_function("material drag frame (default scene, bunny)", |b| {
+    c.bench_function(&format!("material drag frame{drawn} (default scene, bunny)"), |b| {
         b.iter(|| {
             k += 1;
             // A new value every frame (a table already built would be found in memory).
@@ -31,8 +50,8 @@ fn material_drag(c: &mut Criterion) {
             viewer.refresh().unwrap()
         })
     });
-    report(&viewer, "drag");
-    c.bench_function("material rest frame (default scene, bunny)", |b| {
+    report(&viewer, &format!("drag{drawn}"));
+    c.bench_function(&format!("material rest frame{drawn} (default scene, bunny)"), |b| {
         b.iter(|| {
             k += 1;
             let alpha = 0.1 + 0.4 * ((f64::from(k) * 0.618_033_988_749_895).fract() as f32);
@@ -42,7 +61,7 @@ fn material_drag(c: &mut Criterion) {
             viewer.refresh().unwrap()
         })
     });
-    report(&viewer, "rest");
+    report(&viewer, &format!("rest{drawn}"));
 }
 
 /// Prints the median stage costs of the viewer's recent frames.

@@ -6,6 +6,11 @@
 //! and move objects, rotate the environment, change the RSL count, the quality preset and
 //! materials, play the scene's motion, and read what each stage cost.
 //!
+//! In a window (and in [`screenshot`]) the view is drawn with wgpu on the window's own
+//! device, shared with rsl-gpu ([`Viewer::attach_wgpu`]): the CPU path shades the vertices,
+//! rsl-gpu's draw pass rasterises and tonemaps them into a texture egui samples in place.
+//! Without such a device the CPU rasteriser draws the view and egui uploads its image.
+//!
 //! - **Never blocks**: the engine is prepared on a worker thread ([`Viewer::is_preparing`]);
 //!   the UI keeps drawing the last frame, with a progress bar.
 //! - **Only what changed is reshaded** ([`Counters`]): a material edit reshades that object
@@ -27,6 +32,9 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Instant;
+
+mod wgpu_view;
+pub use wgpu_view::{device_descriptor, headless_render_state, supports_rsl, with_rsl_device};
 
 /// How the viewer prepares its engine.
 #[derive(Clone, Debug, Default)]
@@ -62,12 +70,15 @@ pub struct FrameCost {
     pub sync_ms: f64,
     /// Shading the vertices that changed.
     pub shade_ms: f64,
-    /// Rasterising the image on the CPU.
+    /// Rasterising the image (on the CPU, or with wgpu: [`FrameCost::on_gpu`]).
     pub raster_ms: f64,
-    /// Tonemapping and uploading the texture.
+    /// Tonemapping and uploading the texture (on the CPU), or tonemapping into the texture
+    /// egui shows (with wgpu).
     pub upload_ms: f64,
     /// From the first edit of the frame to the texture uploaded.
     pub total_ms: f64,
+    /// Whether the image was drawn with wgpu (rsl-gpu's draw pass on the window's device).
+    pub on_gpu: bool,
 }
 
 /// The worker thread preparing an engine.
@@ -184,6 +195,10 @@ pub struct Viewer {
     /// Where the view's image was last laid out: its screen rectangle, and screen points per
     /// image pixel.
     view_area: Option<(egui::Rect, f32)>,
+    /// The view's drawing with wgpu on the window's device, when attached.
+    wgpu: Option<wgpu_view::WgpuView>,
+    /// Whether the view's last image is the one drawn with wgpu (not read back unless asked).
+    on_gpu: bool,
 }
 
 /// The selected object's gizmo, in image pixels: drawn over the view, dragged to move the
@@ -422,6 +437,8 @@ impl Viewer {
             gizmo_drag: None,
             view_area: None,
             covers: vec![None; n],
+            wgpu: None,
+            on_gpu: false,
         };
         v.prepare();
         v
@@ -519,12 +536,51 @@ impl Viewer {
         self.error.as_deref()
     }
 
-    /// The last image shown, as RGBA pixels (`None` before the first frame).
+    /// The last image shown, as RGBA pixels (`None` before the first frame; when the view is
+    /// drawn with wgpu, `None` until [`Viewer::read_back`]).
     pub fn image(&self) -> Option<&ColorImage> {
         self.rgba.as_ref()
     }
 
-    /// The RSL image last drawn, linear radiance (`None` before the first frame).
+    /// Draws the view with wgpu on `state`'s device (a window's, or the headless
+    /// renderer's), shared with rsl-gpu: from the next frame on, the CPU shades the vertices
+    /// and rsl-gpu's draw pass rasterises and tonemaps them into a texture egui samples.
+    /// Images drawn per pixel by the CPU methods are still uploaded. An error (a device
+    /// rsl-gpu cannot use) leaves the view drawn on the CPU.
+    pub fn attach_wgpu(&mut self, state: &eframe::egui_wgpu::RenderState) -> Result<()> {
+        let view = wgpu_view::WgpuView::new(state)?;
+        self.wgpu = Some(view);
+        self.linear = None;
+        self.background = None;
+        self.mark_all();
+        Ok(())
+    }
+
+    /// The adapter the view is drawn with, in words, when it is drawn with wgpu.
+    pub fn wgpu_adapter(&self) -> Option<&str> {
+        self.wgpu.as_ref().map(|w| w.adapter())
+    }
+
+    /// Whether the image shown was drawn with wgpu (and lives on the GPU).
+    pub fn shown_on_gpu(&self) -> bool {
+        self.on_gpu
+    }
+
+    /// Reads the view drawn with wgpu back into [`Viewer::image`] and
+    /// [`Viewer::linear_image`] (nothing to do when the CPU drew it, or it was read already).
+    pub fn read_back(&mut self) -> Result<()> {
+        let Some(w) = self.wgpu.as_ref().filter(|_| self.on_gpu) else { return Ok(()) };
+        if self.linear.is_none() {
+            self.linear = Some(w.read_linear(&self.scene.camera)?);
+        }
+        if self.rgba.is_none() {
+            self.rgba = Some(w.read_display()?);
+        }
+        Ok(())
+    }
+
+    /// The RSL image last drawn, linear radiance (`None` before the first frame; when the
+    /// view is drawn with wgpu, see [`Viewer::read_back`]).
     pub fn linear_image(&self) -> Option<&rsl_shade::Image> {
         self.linear.as_ref()
     }
@@ -694,7 +750,8 @@ impl Viewer {
     }
 
     /// Writes the image shown as a PNG (the 3D view alone, at the camera's resolution).
-    pub fn save_image(&self, path: &Path) -> Result<()> {
+    pub fn save_image(&mut self, path: &Path) -> Result<()> {
+        self.read_back()?;
         let img = self.rgba.as_ref().context("no image has been drawn yet")?;
         let rgb: Vec<u8> = img.pixels.iter().flat_map(|c| [c.r(), c.g(), c.b()]).collect();
         rsl_engine::output::write_png(path, img.size[0] as u32, img.size[1] as u32, rgb)
@@ -813,6 +870,11 @@ impl Viewer {
             return;
         }
         t.seen = img.passes;
+        if self.on_gpu && self.linear.is_none() {
+            // The view lives on the GPU: read it back once for the readout.
+            let r = self.read_back();
+            self.report(r);
+        }
         if let Some(rsl) = &self.linear {
             let mask: Vec<bool> = rsl.covered.iter().zip(&img.covered).map(|(a, b)| *a && *b).collect();
             if let Ok(m) = rsl_truth::metrics::compare(&rsl.pixels, &img.mean, Some(&mask)) {
@@ -824,12 +886,11 @@ impl Viewer {
                 });
             }
         }
-        if self.show_truth
-            && let Some(rsl) = &self.linear
-        {
+        if self.show_truth {
             let exposure = self.exposure.unwrap_or(1.0);
             let pixels = img.mean.par_iter().map(|&c| colour(c, exposure)).collect();
-            self.truth_rgba = Some(ColorImage::new([rsl.width as usize, rsl.height as usize], pixels));
+            let c = &self.scene.camera;
+            self.truth_rgba = Some(ColorImage::new([c.width as usize, c.height as usize], pixels));
             self.texture_stale = true;
         }
     }
@@ -1051,16 +1112,6 @@ impl Viewer {
         }
         self.counters.shaded_frames += 1;
         self.dirty.iter_mut().for_each(|d| *d = false);
-        let t1 = Instant::now();
-        // The environment behind the objects is looked up (and tonemapped) again only when
-        // the camera or the environment's orientation changed.
-        let key = (self.scene.camera, state.world_from_env, engine.environment_key());
-        let fresh = self.background.as_ref().is_none_or(|b| b.key != key);
-        if fresh {
-            let pixels = rsl_shade::background_image(&self.scene.camera, |d| engine.background(&state, d));
-            self.background = Some(Background { key, pixels, encoded: Vec::new(), exposure: f32::NAN });
-        }
-        let bg = self.background.as_mut().expect("set above");
         let meshes: Vec<rsl_shade::RasterMesh<'_>> = self
             .scene
             .objects
@@ -1072,6 +1123,40 @@ impl Viewer {
                 radiance: &self.radiance[i],
             })
             .collect();
+        if let Some(w) = self.wgpu.as_mut() {
+            match w.draw(engine, &state, &self.scene.camera, &meshes, &mut self.exposure) {
+                Ok(drawn) => {
+                    self.counters.rasterised += 1;
+                    self.linear = drawn.linear;
+                    self.rgba = None;
+                    self.on_gpu = true;
+                    self.record(start, shade_ms, drawn.draw_ms, drawn.tonemap_ms, true);
+                    if self.drawing != Drawing::Vertices {
+                        self.pixels_pending = Some(Instant::now());
+                    }
+                    return Ok(true);
+                }
+                Err(e) => {
+                    // The window's device failed (lost, or out of memory): the CPU draws
+                    // from now on, starting with this frame.
+                    self.error = Some(format!("drawing with wgpu: {e:#}; the view is drawn on the CPU from now on"));
+                    self.wgpu = None;
+                    self.on_gpu = false;
+                    self.linear = None;
+                }
+            }
+        }
+        let partial = partial && self.linear.is_some();
+        let t1 = Instant::now();
+        // The environment behind the objects is looked up (and tonemapped) again only when
+        // the camera or the environment's orientation changed.
+        let key = (self.scene.camera, state.world_from_env, engine.environment_key());
+        let fresh = self.background.as_ref().is_none_or(|b| b.key != key);
+        if fresh {
+            let pixels = rsl_shade::background_image(&self.scene.camera, |d| engine.background(&state, d));
+            self.background = Some(Background { key, pixels, encoded: Vec::new(), exposure: f32::NAN });
+        }
+        let bg = self.background.as_mut().expect("set above");
         let previous = if partial && !fresh { self.linear.take() } else { None };
         let image = match previous.clone() {
             Some(mut image) => {
@@ -1127,7 +1212,13 @@ impl Viewer {
         self.rgba = Some(ColorImage::new([image.width as usize, image.height as usize], pixels));
         self.linear = Some(image);
         self.texture_stale = true;
+        self.on_gpu = false;
         let upload_ms = upload.elapsed().as_secs_f64() * 1e3;
+        self.record(start, shade_ms, raster_ms, upload_ms, false);
+    }
+
+    /// Records a new image's cost (the edit began at `start`) and restarts the truth.
+    fn record(&mut self, start: Instant, shade_ms: f64, raster_ms: f64, upload_ms: f64, on_gpu: bool) {
         if self.truth_on {
             // The scene changed: the truth starts over.
             self.restart_truth();
@@ -1138,6 +1229,7 @@ impl Viewer {
             raster_ms,
             upload_ms,
             total_ms: start.elapsed().as_secs_f64() * 1e3,
+            on_gpu,
         };
         if self.history.len() == HISTORY {
             self.history.pop_front();
@@ -1267,7 +1359,8 @@ impl Viewer {
             let button = ui.button("screenshot");
             ui.text_edit_singleline(&mut self.image_path).labelled_by(button.id);
             if button.clicked() {
-                let r = self.save_image(Path::new(&self.image_path));
+                let path = PathBuf::from(&self.image_path);
+                let r = self.save_image(&path);
                 self.notice = r.as_ref().ok().map(|_| format!("wrote {}", self.image_path));
                 self.report(r);
             }
@@ -1352,8 +1445,17 @@ impl Viewer {
         let c = self.counters;
         match self.history.back() {
             Some(f) => ui.label(format!(
-                "last reshade {:.1} ms: sync {:.1}, shade {:.1}, raster {:.1}, upload {:.1} · shaded frames {} of {}, objects {}",
-                f.total_ms, f.sync_ms, f.shade_ms, f.raster_ms, f.upload_ms, c.shaded_frames, c.frames, c.objects_shaded
+                "last reshade {:.1} ms: sync {:.1}, shade {:.1}, {} {:.1}, {} {:.1} · shaded frames {} of {}, objects {}",
+                f.total_ms,
+                f.sync_ms,
+                f.shade_ms,
+                if f.on_gpu { "draw (wgpu)" } else { "raster" },
+                f.raster_ms,
+                if f.on_gpu { "tonemap" } else { "upload" },
+                f.upload_ms,
+                c.shaded_frames,
+                c.frames,
+                c.objects_shaded
             )),
             None => ui.label("no frame yet"),
         };
@@ -1395,7 +1497,8 @@ impl Viewer {
         let r = self.refresh().map(|_| ());
         self.report(r);
         self.poll_truth(ui.ctx());
-        let shown = if self.show_truth && self.truth_rgba.is_some() { &self.truth_rgba } else { &self.rgba };
+        let truth_shown = self.show_truth && self.truth_rgba.is_some();
+        let shown = if truth_shown { &self.truth_rgba } else { &self.rgba };
         if self.texture_stale
             && let Some(img) = shown
         {
@@ -1405,15 +1508,16 @@ impl Viewer {
             }
             self.texture_stale = false;
         }
-        let Some(tex) = &self.texture else {
+        // The image drawn with wgpu is shown in place; the CPU's images are uploaded.
+        let native = self.wgpu.as_ref().filter(|_| self.on_gpu && !truth_shown).and_then(|w| w.texture());
+        let Some((id, size)) = native.or_else(|| self.texture.as_ref().map(|t| (t.id(), t.size()))) else {
             ui.centered_and_justified(|ui| ui.label("preparing the scene…"));
             return;
         };
         let avail = ui.available_size();
-        let [w, h] = tex.size().map(|s| s as f32);
+        let [w, h] = size.map(|s| s as f32);
         let s = (avail.x / w).min(avail.y / h).max(0.05);
-        let response =
-            ui.add(egui::Image::new((tex.id(), egui::vec2(w * s, h * s))).sense(egui::Sense::click_and_drag()));
+        let response = ui.add(egui::Image::new((id, egui::vec2(w * s, h * s))).sense(egui::Sense::click_and_drag()));
         let to_pixel = |p: egui::Pos2| {
             let r = response.rect;
             ((p.x - r.left()) / s, (p.y - r.top()) / s)
@@ -1685,13 +1789,32 @@ impl eframe::App for ViewerApp {
     }
 }
 
-/// Opens a window on `viewer` (blocks until it is closed).
+/// Opens a window on `viewer` (blocks until it is closed). The window's wgpu device is
+/// opened with what rsl-gpu needs where the adapter has it, and the view is drawn on it
+/// ([`Viewer::attach_wgpu`]); elsewhere the CPU draws the view.
 pub fn run(viewer: Viewer, title: &str) -> Result<()> {
+    let wgpu_setup = with_rsl_device(eframe::egui_wgpu::WgpuSetup::CreateNew(
+        eframe::egui_wgpu::WgpuSetupCreateNew::without_display_handle(),
+    ));
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default().with_inner_size([1200.0, 760.0]).with_title(title),
+        renderer: eframe::Renderer::Wgpu,
+        wgpu_options: eframe::egui_wgpu::WgpuConfiguration { wgpu_setup, ..Default::default() },
         ..Default::default()
     };
-    eframe::run_native(title, options, Box::new(|_cc| Ok(Box::new(ViewerApp(viewer)))))
+    let mut viewer = viewer;
+    eframe::run_native(
+        title,
+        options,
+        Box::new(|cc| {
+            if let Some(state) = &cc.wgpu_render_state
+                && let Err(e) = viewer.attach_wgpu(state)
+            {
+                eprintln!("rsl view: the view is drawn on the CPU: {e:#}");
+            }
+            Ok(Box::new(ViewerApp(viewer)))
+        }),
+    )
         .map_err(|e| anyhow!("cannot open the viewer's window: {e} (without a display, `--screenshot FILE.png` renders the viewer headless)"))
 }
 
@@ -1704,9 +1827,13 @@ pub const SCREENSHOT_SIZE: [f32; 2] = [1200.0, 760.0];
 pub fn screenshot(viewer: Viewer, frames: usize) -> Result<image_rgba::Rgba> {
     let mut viewer = viewer;
     viewer.wait_prepared()?;
+    let state = headless_render_state()?;
+    if let Err(e) = viewer.attach_wgpu(&state) {
+        eprintln!("rsl view: the view is drawn on the CPU: {e:#}");
+    }
     let mut harness = egui_kittest::Harness::builder()
         .with_size(egui::vec2(SCREENSHOT_SIZE[0], SCREENSHOT_SIZE[1]))
-        .wgpu()
+        .renderer(egui_kittest::wgpu::WgpuTestRenderer::from_render_state(state))
         .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
     for _ in 0..frames.max(1) {
         harness.step();
