@@ -130,15 +130,7 @@ impl GpuRenderer {
         auto_exposure: impl Fn(&Image) -> f32,
     ) -> Result<GpuImage> {
         let shade = self.dispatch(engine, scene, t, Terms::default())?;
-        let env = (engine.environment_key(), engine.intensity().to_bits());
-        if self.backdrop != Some(env) {
-            self.backdrop = None;
-            self.draw.set_backdrop(&backdrop(engine)).context("uploading the environment map")?;
-            self.backdrop = Some(env);
-        }
-        let state = scene.at(t);
-        let env_from_world = Mat3::from_quat(state.world_from_env.inverse());
-        let draw = self.draw.draw(&self.shading, &scene.camera, env_from_world)?;
+        let draw = self.draw_shaded(engine, scene, t)?;
         let start = Instant::now();
         let (pixels, covered) = self.draw.read_linear()?;
         let readback_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -146,6 +138,28 @@ impl GpuRenderer {
         let exposure = exposure.unwrap_or_else(|| auto_exposure(&image));
         let (rgb, tonemap) = self.draw.tonemap(exposure)?;
         Ok(GpuImage { image, rgb, exposure, timings: GpuTimings { shade, draw, readback_ms, tonemap } })
+    }
+
+    /// Uploads `engine`'s environment for the draw pass's backdrop, if it is not the one
+    /// held.
+    pub fn set_backdrop(&mut self, engine: &Engine) -> Result<()> {
+        let env = (engine.environment_key(), engine.intensity().to_bits());
+        if self.backdrop != Some(env) {
+            self.backdrop = None;
+            self.draw.set_backdrop(&backdrop(engine)).context("uploading the environment map")?;
+            self.backdrop = Some(env);
+        }
+        Ok(())
+    }
+
+    /// Draws the vertices the last shading pass left on the GPU ([`GpuRenderer::dispatch`]
+    /// of `scene` at `t`), with the environment behind, into the draw pass's linear image;
+    /// nothing is read back.
+    pub fn draw_shaded(&mut self, engine: &Engine, scene: &Scene, t: f32) -> Result<PassTime> {
+        self.set_backdrop(engine)?;
+        let state = scene.at(t);
+        let env_from_world = Mat3::from_quat(state.world_from_env.inverse());
+        Ok(self.draw.draw(&self.shading, &scene.camera, env_from_world)?)
     }
 
     /// The adapter, in words.

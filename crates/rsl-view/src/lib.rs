@@ -556,6 +556,24 @@ impl Viewer {
         Ok(())
     }
 
+    /// Whether rsl-gpu's shading pass shades the vertices (by default on a hardware adapter
+    /// once [`Viewer::attach_wgpu`] has attached one), or the CPU path does.
+    pub fn shading_on_gpu(&self) -> bool {
+        self.wgpu.as_ref().is_some_and(|w| w.shades)
+    }
+
+    /// Shades on the GPU (every vertex of every changed frame, by rsl-gpu's shading pass on
+    /// the attached device) or on the CPU (only what changed); an error before
+    /// [`Viewer::attach_wgpu`].
+    pub fn set_shading_on_gpu(&mut self, on: bool) -> Result<()> {
+        let w = self.wgpu.as_mut().context("the view is not drawn with wgpu")?;
+        if w.shades != on {
+            w.shades = on;
+            self.mark_all();
+        }
+        Ok(())
+    }
+
     /// The adapter the view is drawn with, in words, when it is drawn with wgpu.
     pub fn wgpu_adapter(&self) -> Option<&str> {
         self.wgpu.as_ref().map(|w| w.adapter())
@@ -1089,16 +1107,34 @@ impl Viewer {
             }
         }
         let Some(engine) = &self.engine else { return Ok(false) };
+        // rsl-gpu's shading pass (a hardware adapter) shades every vertex.
+        if self.wgpu.as_ref().is_some_and(|w| w.shades) {
+            self.dirty.iter_mut().for_each(|d| *d = true);
+        }
         let all = self.dirty.iter().all(|&d| d);
         // Only radiance changed (material edits): the image is redrawn where those objects
         // are, over the last one.
         let changed = self.dirty.clone();
         let partial = !std::mem::take(&mut self.moved) && self.linear.is_some();
         let t0 = Instant::now();
-        let frame = if all {
-            engine.shade(&self.scene, self.time)?
-        } else {
-            engine.shade_objects(&self.scene, self.time, &self.dirty)?
+        let gpu_frame = match self.wgpu.as_mut().filter(|w| w.shades) {
+            Some(w) => match w.shade(engine, &self.scene, self.time) {
+                Ok(frame) => Some(frame),
+                Err(e) => {
+                    self.error =
+                        Some(format!("shading with wgpu: {e:#}; the view is shaded and drawn on the CPU from now on"));
+                    self.wgpu = None;
+                    self.on_gpu = false;
+                    None
+                }
+            },
+            None => None,
+        };
+        let shaded_on_gpu = gpu_frame.is_some();
+        let frame = match gpu_frame {
+            Some(frame) => frame,
+            None if all => engine.shade(&self.scene, self.time)?,
+            None => engine.shade_objects(&self.scene, self.time, &self.dirty)?,
         };
         let shade_ms = t0.elapsed().as_secs_f64() * 1e3;
         let state = frame.state.clone();
@@ -1124,7 +1160,12 @@ impl Viewer {
             })
             .collect();
         if let Some(w) = self.wgpu.as_mut() {
-            match w.draw(engine, &state, &self.scene.camera, &meshes, &mut self.exposure) {
+            let drawn = if shaded_on_gpu {
+                w.draw_shaded(engine, &self.scene, self.time, &mut self.exposure)
+            } else {
+                w.draw(engine, &state, &self.scene.camera, &meshes, &mut self.exposure)
+            };
+            match drawn {
                 Ok(drawn) => {
                     self.counters.rasterised += 1;
                     self.linear = drawn.linear;
@@ -1312,6 +1353,17 @@ impl Viewer {
                  edits in between are drawn from the vertices",
             );
         self.set_drawing(drawing);
+        if let Some(adapter) = self.wgpu_adapter().map(str::to_owned) {
+            let mut on = self.shading_on_gpu();
+            ui.checkbox(&mut on, "shade on the GPU").on_hover_text(format!(
+                "The view is drawn with wgpu on {adapter}. Checked, rsl-gpu shades every vertex of each \
+                 changed frame; unchecked, the CPU shades what changed (the default on a software adapter)"
+            ));
+            if on != self.shading_on_gpu() {
+                let r = self.set_shading_on_gpu(on);
+                self.report(r);
+            }
+        }
         let mut truth = self.truth_on;
         ui.checkbox(&mut truth, "progressive truth (error readout)");
         if truth != self.truth_on {

@@ -1,18 +1,18 @@
 //! The 3D view drawn with wgpu on the window's own device: eframe's (or the headless
-//! renderer's) device and queue, shared with rsl-gpu's draw pass. The vertices are shaded
-//! by the engine's CPU path; rsl-gpu rasterises them with the environment behind and
-//! tonemaps into a texture that egui samples where it lays out the view
-//! (`register_native_texture`), with no readback. The linear image is read back only when
-//! something asks for it: the first frame's exposure, the error readout against the
-//! truth, a screenshot, a test.
+//! renderer's) device and queue, shared with rsl-gpu. On a software adapter (llvmpipe) the
+//! vertices are shaded by the engine's CPU path (only what changed); on a hardware GPU by
+//! rsl-gpu's shading pass (every vertex, every frame that changed anything). rsl-gpu's draw
+//! pass rasterises them with the environment behind and tonemaps into a texture that egui
+//! samples where it lays out the view (`register_native_texture`), with no readback of the
+//! image. The linear image is read back only when something asks for it: the first frame's
+//! exposure, the error readout against the truth, a screenshot, a test.
 
 use anyhow::{Context, Result, anyhow};
 use eframe::egui_wgpu::{self, wgpu};
 use glam::Mat3;
-use rsl_engine::Engine;
-use rsl_engine::scene::{Camera, SceneState};
+use rsl_engine::scene::{Camera, Scene, SceneState};
+use rsl_engine::{Engine, GpuRenderer, ShadedFrame};
 use rsl_gpu::GpuContext;
-use rsl_gpu::draw::GpuDraw;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -72,13 +72,14 @@ pub fn headless_render_state() -> Result<egui_wgpu::RenderState> {
 
 /// The view's drawing on a shared device.
 pub(crate) struct WgpuView {
-    draw: GpuDraw,
+    /// rsl-gpu's shading and draw passes on the shared device.
+    gpu: GpuRenderer,
     renderer: Arc<egui::mutex::RwLock<egui_wgpu::Renderer>>,
     /// The tonemapped image egui samples, and its id in egui's renderer.
     display: Option<(wgpu::Texture, egui::TextureId)>,
-    /// The environment uploaded for the backdrop: (environment key, intensity bits).
-    backdrop: Option<(u64, u32)>,
     adapter: String,
+    /// Whether rsl-gpu shades the vertices (a hardware adapter), or the CPU path does.
+    pub shades: bool,
 }
 
 /// What one wgpu drawing cost, ms, and the linear image when it was read back.
@@ -97,8 +98,10 @@ impl WgpuView {
         }
         let ctx = GpuContext::from_device(state.adapter.clone(), state.device.clone(), state.queue.clone());
         let adapter = ctx.describe();
-        let draw = GpuDraw::new(Arc::new(ctx)).context("building the draw pass on the window's device")?;
-        Ok(Self { draw, renderer: state.renderer.clone(), display: None, backdrop: None, adapter })
+        let gpu =
+            GpuRenderer::with_context(Arc::new(ctx)).context("building rsl-gpu's passes on the window's device")?;
+        let shades = !gpu.is_software();
+        Ok(Self { gpu, renderer: state.renderer.clone(), display: None, adapter, shades })
     }
 
     /// The adapter, in words.
@@ -123,14 +126,29 @@ impl WgpuView {
         exposure: &mut Option<f32>,
     ) -> Result<Drawn> {
         let t0 = Instant::now();
-        let key = (engine.environment_key(), engine.intensity().to_bits());
-        if self.backdrop != Some(key) {
-            self.backdrop = None;
-            self.draw.set_backdrop(&rsl_engine::gpu::backdrop(engine)).context("uploading the environment")?;
-            self.backdrop = Some(key);
-        }
+        self.gpu.set_backdrop(engine)?;
         let env_from_world = Mat3::from_quat(state.world_from_env.inverse());
-        self.draw.draw_meshes(meshes, camera, env_from_world).context("drawing the view with wgpu")?;
+        self.gpu.draw_mut().draw_meshes(meshes, camera, env_from_world).context("drawing the view with wgpu")?;
+        self.finish(camera, exposure, t0)
+    }
+
+    /// Shades every vertex of `scene` at time `t` with rsl-gpu's shading pass and reads the
+    /// vertices back (the viewer keeps each object's radiance; a few megabytes).
+    pub fn shade(&mut self, engine: &Engine, scene: &Scene, t: f32) -> Result<ShadedFrame> {
+        self.gpu.dispatch(engine, scene, t, rsl_shade::Terms::default())?;
+        self.gpu.read_frame(engine, scene, t)
+    }
+
+    /// Draws what [`WgpuView::shade`] left on the GPU, as [`WgpuView::draw`] does.
+    pub fn draw_shaded(&mut self, engine: &Engine, scene: &Scene, t: f32, exposure: &mut Option<f32>) -> Result<Drawn> {
+        let t0 = Instant::now();
+        self.gpu.draw_shaded(engine, scene, t).context("drawing the view with wgpu")?;
+        self.finish(&scene.camera, exposure, t0)
+    }
+
+    /// The exposure (from the image read back, the first time), and the image tonemapped
+    /// into the texture egui shows.
+    fn finish(&mut self, camera: &Camera, exposure: &mut Option<f32>, t0: Instant) -> Result<Drawn> {
         let linear = match exposure {
             Some(_) => None,
             None => {
@@ -144,9 +162,9 @@ impl WgpuView {
         let size = (camera.width, camera.height);
         let fits = self.display.as_ref().is_some_and(|(t, _)| (t.width(), t.height()) == size);
         if !fits {
-            let texture = self.draw.display_texture()?;
+            let texture = self.gpu.draw().display_texture()?;
             let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
-            let device = &self.draw.context().device;
+            let device = &self.gpu.draw().context().device;
             let mut renderer = self.renderer.write();
             let id = match &self.display {
                 Some((_, id)) => {
@@ -158,20 +176,20 @@ impl WgpuView {
             self.display = Some((texture, id));
         }
         let (texture, _) = self.display.as_ref().expect("set above");
-        self.draw.tonemap_into(exposure.unwrap_or(1.0), texture).context("tonemapping the view")?;
+        self.gpu.draw_mut().tonemap_into(exposure.unwrap_or(1.0), texture).context("tonemapping the view")?;
         Ok(Drawn { draw_ms, tonemap_ms: t1.elapsed().as_secs_f64() * 1e3, linear })
     }
 
     /// The last drawn image, linear (read back).
     pub fn read_linear(&self, camera: &Camera) -> Result<rsl_shade::Image> {
-        let (pixels, covered) = self.draw.read_linear().context("reading the view back")?;
+        let (pixels, covered) = self.gpu.draw().read_linear().context("reading the view back")?;
         Ok(rsl_shade::Image { width: camera.width, height: camera.height, pixels, covered })
     }
 
     /// The texture egui shows, read back.
     pub fn read_display(&self) -> Result<egui::ColorImage> {
         let (texture, _) = self.display.as_ref().context("nothing drawn with wgpu yet")?;
-        let rgb = self.draw.read_display(texture).context("reading the view back")?;
+        let rgb = self.gpu.draw().read_display(texture).context("reading the view back")?;
         let pixels = rgb.chunks_exact(3).map(|p| egui::Color32::from_rgb(p[0], p[1], p[2])).collect();
         Ok(egui::ColorImage::new([texture.width() as usize, texture.height() as usize], pixels))
     }

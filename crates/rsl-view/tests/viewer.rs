@@ -801,3 +801,45 @@ fn with_wgpu_a_material_edit_changes_the_objects_pixels_alone_and_a_move_moves_t
     eprintln!("sphere moved: {shadow} pixels changed away from the sphere");
     assert!(shadow > 200, "the sphere's shadow did not move on the floor ({shadow} pixels changed)");
 }
+
+#[test]
+fn shading_on_the_gpu_in_the_viewer_agrees_with_the_cpu_and_follows_edits() {
+    // On a hardware adapter rsl-gpu shades the view; llvmpipe defaults to the CPU, so the
+    // test turns it on.
+    let test = "shading_on_the_gpu_in_the_viewer_agrees_with_the_cpu_and_follows_edits";
+    let Some(mut h) = wgpu_harness(test) else { return };
+    let cpu_radiance = h.state().radiance().to_vec();
+    assert!(!h.state().shading_on_gpu(), "a software adapter shades on the CPU by default");
+    h.state_mut().set_shading_on_gpu(true).unwrap();
+    let counters = h.state().counters();
+    h.step();
+    let v = h.state();
+    assert!(v.shading_on_gpu() && v.shown_on_gpu(), "{:?}", v.error());
+    assert_eq!(v.counters().objects_shaded - counters.objects_shaded, v.scene().objects.len() as u64);
+    // The GPU's radiance against the CPU's: rsl-engine's GPU tests bound it at 1e-3 relative
+    // per vertex; here the whole-scene relative L2.
+    let rel = |a: &[Vec<Vec3>], b: &[Vec<Vec3>]| {
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for (x, y) in a.iter().flatten().zip(b.iter().flatten()) {
+            num += f64::from((*x - *y).length_squared());
+            den += f64::from(x.length_squared());
+        }
+        (num / den).sqrt()
+    };
+    let e = rel(&cpu_radiance, v.radiance());
+    eprintln!("{test}: GPU-shaded radiance {e:.2e} (relative L2) from the CPU's");
+    assert!(e < 1e-4, "the GPU-shaded radiance is {e:.2e} from the CPU's");
+    // A material edit reaches the GPU's tables: the bunny's radiance follows the CPU's.
+    let bunny = index(h.state(), "bunny");
+    let m = Material::Ggx { alpha: 0.5, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+    h.state_mut().set_material(bunny, m).unwrap();
+    h.step();
+    let gpu = h.state().radiance().to_vec();
+    h.state_mut().set_shading_on_gpu(false).unwrap();
+    h.step();
+    let cpu = h.state().radiance().to_vec();
+    let e = rel(&cpu[bunny..=bunny], &gpu[bunny..=bunny]);
+    let moved = rel(&cpu_radiance[bunny..=bunny], &cpu[bunny..=bunny]);
+    eprintln!("{test}: after the edit, the bunny {e:.2e} from the CPU's (the edit moved it {moved:.2})");
+    assert!(moved > 0.05 && e < 1e-4, "after the edit: {e:.2e} from the CPU's, moved {moved:.2}");
+}
