@@ -1,9 +1,11 @@
 // The objects: triangles with the shading pass's per-vertex radiance, interpolated
 // perspective-correctly and depth-tested (reversed depth), drawn from both sides as the CPU
-// rasteriser does. Uses common/draw.wgsl.
+// rasteriser does. Uses common/draw.wgsl. The position is invariant: a redraw of changed
+// objects over the last image (depth test "equal", rsl_gpu::draw::GpuDraw::redraw_meshes)
+// needs the very depths of the first drawing.
 
 struct VertexOut {
-    @builtin(position) clip: vec4<f32>,
+    @builtin(position) @invariant clip: vec4<f32>,
     @location(0) radiance: vec3<f32>,
 }
 

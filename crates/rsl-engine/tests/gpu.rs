@@ -236,6 +236,20 @@ fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
     assert!(worst_level <= 1, "tonemapped pixels differ by {worst_level} levels");
 }
 
+/// The meshes of `scene` with `frame`'s positions and radiance, to draw.
+fn meshes_of<'a>(scene: &'a Scene, frame: &'a ShadedFrame) -> Vec<rsl_shade::RasterMesh<'a>> {
+    scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| rsl_shade::RasterMesh {
+            positions: &frame.positions[i],
+            indices: &o.mesh.indices,
+            radiance: &frame.radiance[i],
+        })
+        .collect()
+}
+
 /// The GPU's image against the CPU rasteriser's: coverage and pixels (see the comments).
 fn assert_images_agree(g: &rsl_shade::Image, cpu: &rsl_shade::Image) {
     assert_eq!((g.width, g.height), (cpu.width, cpu.height));
@@ -278,16 +292,7 @@ fn vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser() {
     let scene = default_scene();
     let engine = engine(&scene);
     let frame = engine.shade(&scene, 0.9).unwrap();
-    let meshes: Vec<rsl_shade::RasterMesh<'_>> = scene
-        .objects
-        .iter()
-        .enumerate()
-        .map(|(i, o)| rsl_shade::RasterMesh {
-            positions: &frame.positions[i],
-            indices: &o.mesh.indices,
-            radiance: &frame.radiance[i],
-        })
-        .collect();
+    let meshes = meshes_of(&scene, &frame);
     let draw = gpu.draw_mut();
     draw.set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
     let env_from_world = glam::Mat3::from_quat(frame.state.world_from_env.inverse());
@@ -305,6 +310,88 @@ fn vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser() {
     let bad = rsl_shade::RasterMesh { indices: &past, ..meshes[0] };
     let e = draw.draw_meshes(&[bad], &scene.camera, env_from_world).unwrap_err();
     assert!(e.to_string().contains("index"), "{e}");
+}
+
+#[test]
+fn the_environment_behind_is_copied_only_while_camera_and_environment_stay() {
+    let Some(mut gpu) = renderer("the_environment_behind_is_copied_only_while_camera_and_environment_stay") else {
+        return;
+    };
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let frame = engine.shade(&scene, 0.9).unwrap();
+    let meshes = meshes_of(&scene, &frame);
+    let draw = gpu.draw_mut();
+    draw.set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
+    let turned = |deg: f32| glam::Mat3::from_quat(glam::Quat::from_rotation_y(deg.to_radians()));
+    let mut images = Vec::new();
+    for (deg, drawn, copied) in [(0.0, 1, 0), (0.0, 1, 1), (30.0, 2, 1), (30.0, 2, 2)] {
+        draw.draw_meshes(&meshes, &scene.camera, turned(deg)).unwrap();
+        assert_eq!(draw.backdrop_draws(), (drawn, copied), "after a pass at {deg}°");
+        images.push(draw.read_linear().unwrap());
+    }
+    // A copied environment is the one looked up; a turned one is looked up again.
+    assert_eq!(images[0], images[1], "the copied environment differs from the looked-up one");
+    assert_eq!(images[2], images[3]);
+    let moved = images[0].0.iter().zip(&images[2].0).filter(|(a, b)| a != b).count();
+    assert!(moved > images[0].0.len() / 4, "turning the environment changed {moved} pixels");
+    // Turned back: the same image as first drawn (looked up again, not the stale copy).
+    draw.draw_meshes(&meshes, &scene.camera, turned(0.0)).unwrap();
+    assert_eq!(draw.backdrop_draws(), (3, 2));
+    assert_eq!(draw.read_linear().unwrap(), images[0]);
+    // A new environment upload is looked up again too.
+    draw.set_backdrop(&rsl_gpu::draw::Backdrop::Constant(glam::Vec3::splat(0.25))).unwrap();
+    draw.draw_meshes(&meshes, &scene.camera, turned(0.0)).unwrap();
+    assert_eq!(draw.backdrop_draws(), (4, 2));
+    let (pixels, covered) = draw.read_linear().unwrap();
+    let behind = pixels.iter().zip(&covered).find(|(_, c)| !**c).map(|(p, _)| *p).unwrap();
+    assert_eq!(behind, glam::Vec3::splat(0.25));
+}
+
+#[test]
+fn redrawing_the_changed_meshes_over_the_last_image_equals_drawing_them_all() {
+    let Some(mut gpu) = renderer("redrawing_the_changed_meshes_over_the_last_image_equals_drawing_them_all") else {
+        return;
+    };
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let frame = engine.shade(&scene, 0.9).unwrap();
+    let env_from_world = glam::Mat3::from_quat(frame.state.world_from_env.inverse());
+    // The bunny's radiance changes (as a material edit changes it); nothing moves.
+    let bunny = scene.objects.iter().position(|o| o.name == "bunny").unwrap();
+    let edited: Vec<Vec3> = frame.radiance[bunny].iter().map(|r| Vec3::new(r.z + 0.5, r.x * 2.0, 0.1)).collect();
+    let meshes = |edit: bool| -> Vec<rsl_shade::RasterMesh<'_>> {
+        let mut m = meshes_of(&scene, &frame);
+        if edit {
+            m[bunny].radiance = &edited;
+        }
+        m
+    };
+    let changed: Vec<bool> = (0..scene.objects.len()).map(|i| i == bunny).collect();
+    let draw = gpu.draw_mut();
+    draw.set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
+    draw.draw_meshes(&meshes(true), &scene.camera, env_from_world).unwrap();
+    let whole = draw.read_linear().unwrap();
+    draw.draw_meshes(&meshes(false), &scene.camera, env_from_world).unwrap();
+    let before = draw.read_linear().unwrap();
+    let draws = draw.backdrop_draws();
+    draw.redraw_meshes(&meshes(true), &changed, &scene.camera, env_from_world).unwrap();
+    assert_eq!(draw.backdrop_draws(), draws, "a redraw neither looks up nor copies the environment");
+    let redrawn = draw.read_linear().unwrap();
+    let differ = redrawn.0.iter().zip(&whole.0).filter(|(a, b)| a != b).count();
+    let moved = redrawn.0.iter().zip(&before.0).filter(|(a, b)| a != b).count();
+    eprintln!("redraw: {moved} pixels changed, {differ} differ from the whole drawing");
+    assert!(moved > 1000, "the bunny's pixels did not change ({moved})");
+    assert_eq!(differ, 0, "the redraw differs from the whole drawing at {differ} pixels");
+    assert_eq!(redrawn.1, whole.1, "coverage");
+    // A redraw after the camera moved draws everything.
+    let mut camera = scene.camera;
+    camera.eye += Vec3::new(0.3, 0.0, 0.0);
+    let all = meshes(true);
+    draw.redraw_meshes(&all, &changed, &camera, env_from_world).unwrap();
+    let moved_camera = draw.read_linear().unwrap();
+    draw.draw_meshes(&all, &camera, env_from_world).unwrap();
+    assert_eq!(moved_camera, draw.read_linear().unwrap(), "a redraw of a moved camera is not a whole drawing");
 }
 
 #[test]

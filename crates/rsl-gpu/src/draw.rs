@@ -89,6 +89,8 @@ pub struct GpuDraw {
     ctx: Arc<GpuContext>,
     background: wgpu::RenderPipeline,
     objects: wgpu::RenderPipeline,
+    /// The objects again, where their depth equals what is stored (no depth writes).
+    objects_again: wgpu::RenderPipeline,
     tonemap: wgpu::ComputePipeline,
     tone_layout: wgpu::BindGroupLayout,
     tonemap_texture: wgpu::ComputePipeline,
@@ -105,6 +107,17 @@ pub struct GpuDraw {
     /// Vertices shaded elsewhere ([`GpuDraw::draw_meshes`]): positions, then radiance, one
     /// vec4 each; and their indices.
     meshes: (wgpu::Buffer, wgpu::Buffer),
+    /// The environment behind the objects as last drawn, for the parameters and environment
+    /// upload ([`GpuDraw::set_backdrop`] count) it was drawn with: a frame that changes
+    /// neither copies it instead of looking the environment up at every pixel again.
+    behind: Option<(DrawParams, u64, wgpu::Texture)>,
+    /// Environment uploads so far.
+    backdrops: u64,
+    /// Draw passes that drew the environment, and that copied it.
+    backdrop_draws: (u64, u64),
+    /// The parameters of the last whole drawing of meshes, whose depths are kept for
+    /// [`GpuDraw::redraw_meshes`]; `None` after any other pass.
+    redrawable: Option<(DrawParams, u64)>,
 }
 
 /// The lobe path's pipeline and buffers ([`GpuDraw::draw_lobes`]), made on first use.
@@ -128,6 +141,9 @@ enum Objects<'a> {
     /// Vertices shaded elsewhere, from the buffers [`GpuDraw::draw_meshes`] filled: the
     /// vertex count and the index count.
     Meshes(u32, u32),
+    /// The same, drawn over the last image where their depth is the stored one
+    /// ([`GpuDraw::redraw_meshes`]).
+    MeshesAgain(u32, u32),
 }
 
 impl GpuDraw {
@@ -155,6 +171,8 @@ impl GpuDraw {
             },
         ];
         let objects = render_pipeline(&ctx, &shaders::DRAW_OBJECTS, &buffers, true)?;
+        let objects_again =
+            render_pipeline_with(&ctx, &shaders::DRAW_OBJECTS, &buffers, false, wgpu::CompareFunction::Equal)?;
         // Both tonemap passes read the parameters and the linear image; they differ in
         // where the encoded pixels go (a storage buffer read back, or a storage texture).
         let (tone_layout, tonemap) = tone_pipeline(
@@ -186,6 +204,7 @@ impl GpuDraw {
         Ok(Self {
             background,
             objects,
+            objects_again,
             tonemap,
             tone_layout,
             tonemap_texture,
@@ -203,6 +222,10 @@ impl GpuDraw {
                 buffer("shaded meshes", 32, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
                 buffer("shaded mesh indices", 4, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
             ),
+            behind: None,
+            backdrops: 0,
+            backdrop_draws: (0, 0),
+            redrawable: None,
             ctx,
         })
     }
@@ -304,9 +327,16 @@ impl GpuDraw {
         })
     }
 
+    /// Draw passes so far that looked the environment up behind the objects, and that
+    /// copied it from the pass before (same camera, orientation and environment).
+    pub fn backdrop_draws(&self) -> (u64, u64) {
+        self.backdrop_draws
+    }
+
     /// Sets the environment behind the objects (a map is uploaded once, here).
     pub fn set_backdrop(&mut self, backdrop: &Backdrop<'_>) -> Result<(), GpuError> {
         self.ctx.check_alive()?;
+        self.backdrops += 1;
         match backdrop {
             Backdrop::Map { width, height, texels, intensity } => {
                 if texels.len() != (*width as usize) * (*height as usize) || *width == 0 || *height == 0 {
@@ -370,7 +400,8 @@ impl GpuDraw {
                 COLOR,
                 wgpu::TextureUsages::RENDER_ATTACHMENT
                     | wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_SRC,
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
             );
             let depth = texture("depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT);
             let encoded = d.create_buffer(&wgpu::BufferDescriptor {
@@ -401,9 +432,41 @@ impl GpuDraw {
         camera: &Camera,
         env_from_world: Mat3,
     ) -> Result<PassTime, GpuError> {
+        let (vertices, indices) = self.upload_meshes(meshes.iter())?;
+        self.pass(Objects::Meshes(vertices, indices), camera, env_from_world)
+    }
+
+    /// Draws again, over the last image, the meshes whose `changed` flag is set, where their
+    /// depth equals the last drawing's: what changed is their radiance alone (a material
+    /// edit), not their place, the camera or the environment. Nothing else is drawn: no
+    /// environment lookup, no other object. Where the last pass was not a
+    /// [`GpuDraw::draw_meshes`] of the same view (camera, image size, environment), this
+    /// draws everything as [`GpuDraw::draw_meshes`] does. `meshes` are all the meshes, as
+    /// drawn then (only the changed ones are uploaded).
+    pub fn redraw_meshes(
+        &mut self,
+        meshes: &[rsl_shade::RasterMesh<'_>],
+        changed: &[bool],
+        camera: &Camera,
+        env_from_world: Mat3,
+    ) -> Result<PassTime, GpuError> {
+        let params = self.params(camera, env_from_world);
+        if self.redrawable != Some((params, self.backdrops)) || changed.len() != meshes.len() {
+            return self.draw_meshes(meshes, camera, env_from_world);
+        }
+        let (vertices, indices) =
+            self.upload_meshes(meshes.iter().zip(changed).filter(|(_, c)| **c).map(|(m, _)| m))?;
+        self.pass(Objects::MeshesAgain(vertices, indices), camera, env_from_world)
+    }
+
+    /// Packs and uploads meshes for a drawing: the vertex and index counts.
+    fn upload_meshes<'a>(
+        &mut self,
+        meshes: impl Iterator<Item = &'a rsl_shade::RasterMesh<'a>> + Clone,
+    ) -> Result<(u32, u32), GpuError> {
         self.ctx.check_alive()?;
-        let vertices: usize = meshes.iter().map(|m| m.positions.len()).sum();
-        let index_count: usize = meshes.iter().map(|m| m.indices.len()).sum();
+        let vertices: usize = meshes.clone().map(|m| m.positions.len()).sum();
+        let index_count: usize = meshes.clone().map(|m| m.indices.len()).sum();
         let limit = self.ctx.device.limits().max_buffer_size;
         let bytes = (vertices as u64) * 32;
         if bytes > limit || u32::try_from(vertices).is_err() || u32::try_from(index_count).is_err() {
@@ -411,7 +474,7 @@ impl GpuDraw {
         }
         let mut data: Vec<[f32; 4]> = Vec::with_capacity(2 * vertices);
         let mut indices: Vec<u32> = Vec::with_capacity(index_count);
-        for (i, m) in meshes.iter().enumerate() {
+        for (i, m) in meshes.clone().enumerate() {
             let n = m.positions.len();
             if m.radiance.len() != n {
                 return Err(GpuError::Scene(format!(
@@ -432,16 +495,16 @@ impl GpuDraw {
             data.extend(m.positions.iter().map(|p| p.extend(1.0).to_array()));
         }
         // Radiance after every position: the two vertex buffers are the halves.
-        data.extend(meshes.iter().flat_map(|m| m.radiance.iter().map(|r| r.extend(1.0).to_array())));
+        data.extend(meshes.flat_map(|m| m.radiance.iter().map(|r| r.extend(1.0).to_array())));
         let ctx = self.ctx.clone();
         upload(&ctx, &mut self.meshes.0, bytemuck::cast_slice(&data), "shaded meshes");
         upload(&ctx, &mut self.meshes.1, bytemuck::cast_slice(&indices), "shaded mesh indices");
-        self.pass(Objects::Meshes(vertices as u32, indices.len() as u32), camera, env_from_world)
+        Ok((vertices as u32, indices.len() as u32))
     }
 
     /// One draw pass: the background, then `objects`.
-    fn pass(&mut self, objects: Objects<'_>, camera: &Camera, env_from_world: Mat3) -> Result<PassTime, GpuError> {
-        self.ctx.check_alive()?;
+    /// The draw parameters of `camera` and `env_from_world` with the environment held.
+    fn params(&self, camera: &Camera, env_from_world: Mat3) -> DrawParams {
         let (width, height) = (camera.width, camera.height);
         let t = (0.5 * camera.fov_y).tan();
         let aspect = width as f32 / height as f32;
@@ -449,7 +512,7 @@ impl GpuDraw {
         // WebGPU: NDC depth in [0, 1], y up.
         let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(camera.fov_y, aspect, camera.near());
         let world_from_camera = Mat3::from_mat4(view.inverse());
-        let params = DrawParams {
+        DrawParams {
             clip_from_world: (proj * view).to_cols_array_2d(),
             world_from_camera: columns(world_from_camera),
             env_from_world: columns(env_from_world),
@@ -458,8 +521,18 @@ impl GpuDraw {
             map_width: self.map_size.0,
             map_height: self.map_size.1,
             ..Default::default()
-        };
+        }
+    }
+
+    fn pass(&mut self, objects: Objects<'_>, camera: &Camera, env_from_world: Mat3) -> Result<PassTime, GpuError> {
+        self.ctx.check_alive()?;
+        let (width, height) = (camera.width, camera.height);
+        let params = self.params(camera, env_from_world);
         self.ctx.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        // A redraw keeps the last image and its depths; every other pass starts afresh and
+        // keeps its depths only when it drew meshes.
+        let again = matches!(objects, Objects::MeshesAgain(..));
+        self.redrawable = None;
         let d = self.ctx.device.clone();
         let bg_bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("draw background"),
@@ -470,14 +543,15 @@ impl GpuDraw {
             ],
         });
         let (obj_pipeline, obj_bind) = match (&objects, &self.lobes) {
-            (Objects::Shaded(_) | Objects::Meshes(..), _) => (
-                self.objects.clone(),
-                d.create_bind_group(&wgpu::BindGroupDescriptor {
+            (Objects::Shaded(_) | Objects::Meshes(..) | Objects::MeshesAgain(..), _) => {
+                let pipeline = if again { self.objects_again.clone() } else { self.objects.clone() };
+                let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("draw objects"),
-                    layout: &self.objects.get_bind_group_layout(0),
+                    layout: &pipeline.get_bind_group_layout(0),
                     entries: &[wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() }],
-                }),
-            ),
+                });
+                (pipeline, bind)
+            }
             (Objects::Lobes(_), Some(l)) => (
                 l.pipeline.clone(),
                 d.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -494,20 +568,41 @@ impl GpuDraw {
             ),
             (Objects::Lobes(_), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
         };
+        let keeps = matches!(objects, Objects::Meshes(..) | Objects::MeshesAgain(..));
         let lobe_buffers = self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone()));
         let mesh_buffers = self.meshes.clone();
         let background = self.background.clone();
         let timestamps = self.timestamps.as_ref().map(|(s, r)| (s.clone(), r.clone()));
-        let target = self.target(width, height)?;
-        let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
-        let depth = target.depth.create_view(&wgpu::TextureViewDescriptor::default());
+        // The environment behind: looked up again only when the camera, its orientation or
+        // the environment changed; else the last one is copied.
+        let same = again
+            || self.behind.as_ref().is_some_and(|(p, n, t)| {
+                *p == params && *n == self.backdrops && (t.width(), t.height()) == (width, height)
+            });
         let scope = d.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("draw") });
-        {
+        let depth = self.target(width, height)?.depth.create_view(&wgpu::TextureViewDescriptor::default());
+        if again {
+            // The last image stays: nothing is drawn behind.
+        } else if same {
+            self.backdrop_draws.1 += 1;
+        } else {
+            self.backdrop_draws.0 += 1;
+            let texture = d.create_texture(&wgpu::TextureDescriptor {
+                label: Some("environment behind"),
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: COLOR,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("draw"),
+                label: Some("draw the environment behind"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color,
+                    view: &view,
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
@@ -520,6 +615,43 @@ impl GpuDraw {
                     depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Discard }),
                     stencil_ops: None,
                 }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&background);
+            pass.set_bind_group(0, &bg_bind, &[]);
+            pass.draw(0..3, 0..1);
+            drop(pass);
+            self.behind = Some((params, self.backdrops, texture));
+        }
+        let behind = self.behind.as_ref().map(|b| b.2.clone());
+        let target = self.target(width, height)?;
+        let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
+        if let (false, Some(behind)) = (again, behind) {
+            enc.copy_texture_to_texture(
+                behind.as_image_copy(),
+                target.color.as_image_copy(),
+                wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            );
+        }
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("draw"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: if again { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) },
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
                 timestamp_writes: timestamps.as_ref().map(|(set, _)| wgpu::RenderPassTimestampWrites {
                     query_set: set,
                     beginning_of_pass_write_index: Some(0),
@@ -528,9 +660,6 @@ impl GpuDraw {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(&background);
-            pass.set_bind_group(0, &bg_bind, &[]);
-            pass.draw(0..3, 0..1);
             match objects {
                 Objects::Shaded(shading) => {
                     let (indices, count) = shading.index_buffer();
@@ -544,7 +673,7 @@ impl GpuDraw {
                         pass.draw_indexed(0..count, 0, 0..1);
                     }
                 }
-                Objects::Meshes(vertices, count) => {
+                Objects::Meshes(vertices, count) | Objects::MeshesAgain(vertices, count) => {
                     if count > 0 {
                         let n = u64::from(vertices) * 16;
                         pass.set_pipeline(&obj_pipeline);
@@ -576,6 +705,9 @@ impl GpuDraw {
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Operation { operation: "draw pass", message: e.to_string() });
+        }
+        if keeps {
+            self.redrawable = Some((params, self.backdrops));
         }
         self.ctx.check_alive()?;
         let gpu_ms = match &timestamps {
@@ -792,6 +924,18 @@ fn render_pipeline(
     buffers: &[wgpu::VertexBufferLayout<'_>],
     depth_test: bool,
 ) -> Result<wgpu::RenderPipeline, GpuError> {
+    let compare = if depth_test { wgpu::CompareFunction::Greater } else { wgpu::CompareFunction::Always };
+    render_pipeline_with(ctx, shader, buffers, depth_test, compare)
+}
+
+/// A render pipeline writing depth or not, with depth comparison `compare`.
+fn render_pipeline_with(
+    ctx: &GpuContext,
+    shader: &shaders::Shader,
+    buffers: &[wgpu::VertexBufferLayout<'_>],
+    depth_write: bool,
+    compare: wgpu::CompareFunction,
+) -> Result<wgpu::RenderPipeline, GpuError> {
     let [vertex, fragment] = shader.entry_points else {
         return Err(GpuError::Shader { name: shader.name, message: "needs a vertex and a fragment entry".into() });
     };
@@ -813,12 +957,8 @@ fn render_pipeline(
         primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
         depth_stencil: Some(wgpu::DepthStencilState {
             format: DEPTH,
-            depth_write_enabled: Some(depth_test),
-            depth_compare: Some(if depth_test {
-                wgpu::CompareFunction::Greater
-            } else {
-                wgpu::CompareFunction::Always
-            }),
+            depth_write_enabled: Some(depth_write),
+            depth_compare: Some(compare),
             stencil: Default::default(),
             bias: Default::default(),
         }),

@@ -1115,7 +1115,8 @@ impl Viewer {
         // Only radiance changed (material edits): the image is redrawn where those objects
         // are, over the last one.
         let changed = self.dirty.clone();
-        let partial = !std::mem::take(&mut self.moved) && self.linear.is_some();
+        let still = !std::mem::take(&mut self.moved);
+        let partial = still && self.linear.is_some();
         let t0 = Instant::now();
         let gpu_frame = match self.wgpu.as_mut().filter(|w| w.shades) {
             Some(w) => match w.shade(engine, &self.scene, self.time) {
@@ -1163,7 +1164,10 @@ impl Viewer {
             let drawn = if shaded_on_gpu {
                 w.draw_shaded(engine, &self.scene, self.time, &mut self.exposure)
             } else {
-                w.draw(engine, &state, &self.scene.camera, &meshes, &mut self.exposure)
+                // Only radiance changed since the image shown, drawn with wgpu too: the changed
+                // objects are drawn again over it.
+                let redraw = (still && self.on_gpu).then_some(&changed[..]);
+                w.draw(engine, &state, &self.scene.camera, &meshes, redraw, &mut self.exposure)
             };
             match drawn {
                 Ok(drawn) => {

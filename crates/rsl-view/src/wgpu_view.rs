@@ -116,19 +116,26 @@ impl WgpuView {
 
     /// Draws `meshes` (shaded on the CPU) over the environment and tonemaps them at
     /// `exposure` into the texture egui shows; without an exposure yet, reads the linear
-    /// image back and sets it from that.
+    /// image back and sets it from that. With `changed` (only those meshes' radiance changed
+    /// since the last drawing), only they are drawn again, over the last image.
     pub fn draw(
         &mut self,
         engine: &Engine,
         state: &SceneState,
         camera: &Camera,
         meshes: &[rsl_shade::RasterMesh<'_>],
+        changed: Option<&[bool]>,
         exposure: &mut Option<f32>,
     ) -> Result<Drawn> {
         let t0 = Instant::now();
         self.gpu.set_backdrop(engine)?;
         let env_from_world = Mat3::from_quat(state.world_from_env.inverse());
-        self.gpu.draw_mut().draw_meshes(meshes, camera, env_from_world).context("drawing the view with wgpu")?;
+        let draw = self.gpu.draw_mut();
+        match changed {
+            Some(changed) => draw.redraw_meshes(meshes, changed, camera, env_from_world),
+            None => draw.draw_meshes(meshes, camera, env_from_world),
+        }
+        .context("drawing the view with wgpu")?;
         self.finish(camera, exposure, t0)
     }
 
