@@ -843,3 +843,28 @@ fn shading_on_the_gpu_in_the_viewer_agrees_with_the_cpu_and_follows_edits() {
     eprintln!("{test}: after the edit, the bunny {e:.2e} from the CPU's (the edit moved it {moved:.2})");
     assert!(moved > 0.05 && e < 1e-4, "after the edit: {e:.2e} from the CPU's, moved {moved:.2}");
 }
+
+#[test]
+fn a_lost_device_leaves_the_view_drawn_on_the_cpu_with_the_error_shown() {
+    let test = "a_lost_device_leaves_the_view_drawn_on_the_cpu_with_the_error_shown";
+    if rsl_gpu::testing::context_or_skip(test).is_none() {
+        return;
+    }
+    let state = rsl_view::headless_render_state().expect("a render state on the adapter just found");
+    let options = ViewerOptions { cache_dir: Some(cache()), quality: Some(Preset::Draft) };
+    let mut viewer = Viewer::open(&scene_path(), options).expect("the default scene opens");
+    viewer.attach_wgpu(&state).expect("rsl-gpu's draw pass builds on the renderer's device");
+    viewer.wait_prepared().expect("the default scene prepares");
+    assert!(viewer.refresh().unwrap() && viewer.shown_on_gpu());
+    // What a driver reset or a removed GPU looks like to wgpu.
+    state.device.destroy();
+    let bunny = index(&viewer, "bunny");
+    let m = Material::Ggx { alpha: 0.4, specular: [0.9, 0.9, 0.9], diffuse: [0.05, 0.05, 0.05] };
+    viewer.set_material(bunny, m).unwrap();
+    assert!(viewer.refresh().unwrap(), "the frame is drawn");
+    assert!(!viewer.shown_on_gpu() && viewer.wgpu_adapter().is_none(), "the view is still drawn with wgpu");
+    let e = viewer.error().expect("the loss is reported");
+    assert!(e.contains("wgpu") && e.contains("CPU"), "{e}");
+    let image = viewer.image().expect("the CPU's image");
+    assert!(image.pixels.iter().any(|c| *c != image.pixels[0]), "an empty image");
+}
