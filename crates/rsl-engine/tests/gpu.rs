@@ -236,6 +236,17 @@ fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
     assert!(worst_level <= 1, "tonemapped pixels differ by {worst_level} levels");
 }
 
+/// A renderer, the default scene, its engine and its vertices shaded on the CPU at t = 0.9,
+/// with the draw pass's environment set: what the viewer hands rsl-gpu to draw.
+fn cpu_shaded(test: &str) -> Option<(GpuRenderer, Scene, Engine, ShadedFrame)> {
+    let mut gpu = renderer(test)?;
+    let scene = default_scene();
+    let engine = engine(&scene);
+    let frame = engine.shade(&scene, 0.9).unwrap();
+    gpu.draw_mut().set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
+    Some((gpu, scene, engine, frame))
+}
+
 /// The meshes of `scene` with `frame`'s positions and radiance, to draw.
 fn meshes_of<'a>(scene: &'a Scene, frame: &'a ShadedFrame) -> Vec<rsl_shade::RasterMesh<'a>> {
     scene
@@ -286,15 +297,13 @@ fn assert_images_agree(g: &rsl_shade::Image, cpu: &rsl_shade::Image) {
 #[test]
 fn vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser() {
     // What the viewer does on a software adapter: shade on the CPU, draw with wgpu.
-    let Some(mut gpu) = renderer("vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser") else {
+    let Some((mut gpu, scene, engine, frame)) =
+        cpu_shaded("vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser")
+    else {
         return;
     };
-    let scene = default_scene();
-    let engine = engine(&scene);
-    let frame = engine.shade(&scene, 0.9).unwrap();
     let meshes = meshes_of(&scene, &frame);
     let draw = gpu.draw_mut();
-    draw.set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
     let env_from_world = glam::Mat3::from_quat(frame.state.world_from_env.inverse());
     draw.draw_meshes(&meshes, &scene.camera, env_from_world).unwrap();
     let (pixels, covered) = draw.read_linear().unwrap();
@@ -314,15 +323,13 @@ fn vertices_shaded_on_the_cpu_and_drawn_on_the_gpu_match_the_cpu_rasteriser() {
 
 #[test]
 fn the_environment_behind_is_copied_only_while_camera_and_environment_stay() {
-    let Some(mut gpu) = renderer("the_environment_behind_is_copied_only_while_camera_and_environment_stay") else {
+    let Some((mut gpu, scene, _engine, frame)) =
+        cpu_shaded("the_environment_behind_is_copied_only_while_camera_and_environment_stay")
+    else {
         return;
     };
-    let scene = default_scene();
-    let engine = engine(&scene);
-    let frame = engine.shade(&scene, 0.9).unwrap();
     let meshes = meshes_of(&scene, &frame);
     let draw = gpu.draw_mut();
-    draw.set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
     let turned = |deg: f32| glam::Mat3::from_quat(glam::Quat::from_rotation_y(deg.to_radians()));
     let mut images = Vec::new();
     for (deg, drawn, copied) in [(0.0, 1, 0), (0.0, 1, 1), (30.0, 2, 1), (30.0, 2, 2)] {
@@ -350,12 +357,11 @@ fn the_environment_behind_is_copied_only_while_camera_and_environment_stay() {
 
 #[test]
 fn redrawing_the_changed_meshes_over_the_last_image_equals_drawing_them_all() {
-    let Some(mut gpu) = renderer("redrawing_the_changed_meshes_over_the_last_image_equals_drawing_them_all") else {
+    let Some((mut gpu, scene, _engine, frame)) =
+        cpu_shaded("redrawing_the_changed_meshes_over_the_last_image_equals_drawing_them_all")
+    else {
         return;
     };
-    let scene = default_scene();
-    let engine = engine(&scene);
-    let frame = engine.shade(&scene, 0.9).unwrap();
     let env_from_world = glam::Mat3::from_quat(frame.state.world_from_env.inverse());
     // The bunny's radiance changes (as a material edit changes it); nothing moves.
     let bunny = scene.objects.iter().position(|o| o.name == "bunny").unwrap();
@@ -369,7 +375,6 @@ fn redrawing_the_changed_meshes_over_the_last_image_equals_drawing_them_all() {
     };
     let changed: Vec<bool> = (0..scene.objects.len()).map(|i| i == bunny).collect();
     let draw = gpu.draw_mut();
-    draw.set_backdrop(&rsl_engine::gpu::backdrop(&engine)).unwrap();
     draw.draw_meshes(&meshes(true), &scene.camera, env_from_world).unwrap();
     let whole = draw.read_linear().unwrap();
     draw.draw_meshes(&meshes(false), &scene.camera, env_from_world).unwrap();
