@@ -1,7 +1,7 @@
 // The objects per pixel through the lobe path, mirroring rsl_lobe::MaterialLobes::radiance
 // and rsl_lobe::Prefiltered::lookup (rsl_engine::lobe::Hybrid draws the same on the CPU):
-// each pixel's own interpolated normal and view give its material lobes (interpolated
-// between the two nearest tabulated polar views, turned to the view's azimuth), one
+// each pixel's own interpolated normal and view give its material lobes (those of the two
+// nearest tabulated polar views, turned to its reflection and azimuth, weighted), one
 // prefiltered lookup per lobe, times the RSL visibility ratio interpolated from the
 // vertices. Vertices of objects drawn without lobes carry their radiance instead.
 // Uses common/math.wgsl, common/frame.wgsl, common/draw.wgsl.
@@ -21,8 +21,9 @@ struct LobeParams {
 // (rsl_lobe::packed::PackedLevel).
 @group(0) @binding(2) var<storage, read> levels: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read> env_texels: array<vec4<f32>>;
-// Per material (rsl_gpu::lobes::pack_material): [θ_max, views, 0, 0], the diffuse lobe
-// (mean, κ) and weight, one flag per view, then per view two lobes of (mean, κ), weight.
+// Per material (rsl_gpu::lobes::pack_material): [θ_max, views, lobes per view, 0], the
+// diffuse lobe (mean, κ) and weight, per view [has lobes, θ, 0, 0], then per view its lobes
+// of (mean, κ), weight.
 @group(0) @binding(4) var<storage, read> materials: array<vec4<f32>>;
 
 // No material: the vertex carries its radiance in `ratio`.
@@ -159,10 +160,11 @@ fn lobe_radiance(base: u32, f: Frame, view: vec3<f32>) -> vec3<f32> {
     let head = materials[base];
     let theta_max = head.x;
     let views = u32(head.y);
+    let per_view = u32(head.z);
     var sum = vec3<f32>(0.0);
     let diffuse = material_lobe(base + 1u);
     let to_env = draw.env_from_world;
-    // Specular: between the two nearest tabulated views (rsl_brdf::table::polar_view_between).
+    // Specular: the two nearest tabulated views (rsl_brdf::table::polar_view_between).
     let theta = min(acos_precise(view.z), theta_max);
     let t = (1.0 - sqrt(max(1.0 - theta / theta_max, 0.0))) * f32(views - 1u);
     let k = min(u32(floor(t)), views - 2u);
@@ -174,35 +176,40 @@ fn lobe_radiance(base: u32, f: Frame, view: vec3<f32>) -> vec3<f32> {
         c = view.x / rxy;
         s = view.y / rxy;
     }
+    // The lobes of views k and k + 1, each set turned within the plane of incidence so that
+    // its reflection is the view's (about y by θ_j − θ), then to the view's azimuth, weighted
+    // 1 − frac and frac (rsl_lobe::MaterialLobes::specular_lobes).
     let has_a = materials[base + 3u + k].x > 0.0;
     let has_b = materials[base + 3u + k + 1u].x > 0.0;
+    var shares = vec2<f32>(1.0 - frac, frac);
+    if !has_b {
+        shares = vec2<f32>(1.0, 0.0);
+    } else if !has_a {
+        shares = vec2<f32>(0.0, 1.0);
+    }
     let lobes = base + 3u + views;
-    for (var m = 0u; m < 2u; m++) {
-        let la = material_lobe(lobes + 2u * (2u * k + m));
-        let lb = material_lobe(lobes + 2u * (2u * (k + 1u) + m));
-        var l = la;
-        if has_a && has_b {
-            let mixed = la.mean * (1.0 - frac) + lb.mean * frac;
-            let tm = try_normalize(mixed);
-            l = Lobe(
-                select(la.mean, tm.xyz, tm.w > 0.0),
-                la.kappa * (1.0 - frac) + lb.kappa * frac,
-                la.weight * (1.0 - frac) + lb.weight * frac,
-            );
-        } else if has_b {
-            l = lb;
-        } else if !has_a {
+    for (var side = 0u; side < 2u; side++) {
+        let j = k + side;
+        if !(materials[base + 3u + j].x > 0.0) {
             continue;
         }
-        if all(l.weight == vec3<f32>(0.0)) {
-            continue;
+        let phi = materials[base + 3u + j].y - theta;
+        let cp = cos(phi);
+        let sp = sin(phi);
+        for (var m = 0u; m < per_view; m++) {
+            let l = material_lobe(lobes + 2u * (per_view * j + m));
+            let weight = l.weight * shares[side];
+            if all(weight == vec3<f32>(0.0)) {
+                continue;
+            }
+            let shifted = vec3<f32>(cp * l.mean.x + sp * l.mean.z, l.mean.y, cp * l.mean.z - sp * l.mean.x);
+            // Vmf::new: renormalised (zero: +z), κ ≥ 0.
+            let turned = vec3<f32>(c * shifted.x - s * shifted.y, s * shifted.x + c * shifted.y, shifted.z);
+            let tn = try_normalize(turned);
+            let mean = select(vec3<f32>(0.0, 0.0, 1.0), tn.xyz, tn.w > 0.0);
+            let world = f.t * mean.x + f.b * mean.y + f.n * mean.z;
+            sum += weight * prefiltered(to_env * world, max(l.kappa, 0.0));
         }
-        // Vmf::new: renormalised (zero: +z), κ ≥ 0.
-        let turned = vec3<f32>(c * l.mean.x - s * l.mean.y, s * l.mean.x + c * l.mean.y, l.mean.z);
-        let tn = try_normalize(turned);
-        let mean = select(vec3<f32>(0.0, 0.0, 1.0), tn.xyz, tn.w > 0.0);
-        let world = f.t * mean.x + f.b * mean.y + f.n * mean.z;
-        sum += l.weight * prefiltered(to_env * world, max(l.kappa, 0.0));
     }
     if any(diffuse.weight != vec3<f32>(0.0)) {
         let world = f.t * diffuse.mean.x + f.b * diffuse.mean.y + f.n * diffuse.mean.z;

@@ -61,16 +61,16 @@ pub fn pack_environment(env: &PackedEnvironment) -> (Vec<[u32; 4]>, Vec<[f32; 4]
     (levels, texels)
 }
 
-/// Appends `m`'s entries to `out`: `[θ_max, views, 0, 0]`, the diffuse lobe, one flag per
-/// view, then per view its two lobes; a lobe is `[mean, κ]`, `[weight, 0]`.
+/// Appends `m`'s entries to `out`: `[θ_max, views, lobes per view, 0]`, the diffuse lobe, per
+/// view `[has lobes, θ, 0, 0]`, then per view its lobes; a lobe is `[mean, κ]`, `[weight, 0]`.
 pub fn pack_material(m: &PackedMaterial, out: &mut Vec<[f32; 4]>) {
     let lobe = |l: &PackedLobe, out: &mut Vec<[f32; 4]>| {
         out.push(l.mean.extend(l.kappa).to_array());
         out.push(l.weight.extend(0.0).to_array());
     };
-    out.push([m.theta_max, m.views() as f32, 0.0, 0.0]);
+    out.push([m.theta_max, m.views() as f32, rsl_lobe::SPECULAR_LOBES as f32, 0.0]);
     lobe(&m.diffuse, out);
-    out.extend(m.has_specular.iter().map(|&h| [if h { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0]));
+    out.extend(m.has_specular.iter().zip(&m.thetas).map(|(&h, &t)| [if h { 1.0 } else { 0.0 }, t, 0.0, 0.0]));
     for l in &m.specular {
         lobe(l, out);
     }

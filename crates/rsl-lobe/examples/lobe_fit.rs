@@ -1,8 +1,9 @@
-//! How well one vMF lobe (plus a cosine lobe for the diffuse term) reproduces `ρ cos θ`:
+//! How well the fitted vMF lobes (plus a cosine lobe for the diffuse term) reproduce `ρ cos θ`:
 //! relative L2 over the sphere of the luminance, per model, roughness and view, and the
 //! fitting time per material.
 //!
-//! `cargo run --release -p rsl-lobe --example lobe_fit`
+//! `cargo run --release -p rsl-lobe --example lobe_fit`; `LOBE_FIT_ANGLES=0,22.4,41.6` sets the
+//! view angles (degrees) and `LOBE_FIT_ONLY=ggx` keeps the materials whose name holds it.
 
 use glam::Vec3;
 use rsl_brdf::Brdf;
@@ -51,8 +52,14 @@ fn main() {
     for n in [20.0f32, 200.0, 2000.0] {
         models.push((format!("phong n={n}"), Brdf::Phong { exponent: n, specular: spec, diffuse: d }));
     }
-    let angles = [0.0f32, 30.0, 60.0, 75.0, 85.0];
-    println!("| material | fit ms | {} |", angles.map(|a| format!("θ = {a}°")).join(" | "));
+    let angles: Vec<f32> = match std::env::var("LOBE_FIT_ANGLES") {
+        Ok(a) => a.split(',').map(|x| x.parse().expect("angle")).collect(),
+        Err(_) => vec![0.0f32, 30.0, 45.0, 60.0, 75.0, 85.0],
+    };
+    if let Ok(m) = std::env::var("LOBE_FIT_ONLY") {
+        models.retain(|(n, _)| n.contains(&m));
+    }
+    println!("| material | fit ms | {} |", angles.iter().map(|a| format!("θ = {a}°")).collect::<Vec<_>>().join(" | "));
     println!("|---|---|{}", "---|".repeat(angles.len()));
     for (name, brdf) in &models {
         let t = std::time::Instant::now();

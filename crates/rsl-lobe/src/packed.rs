@@ -7,7 +7,7 @@
 //!   lookup needs no seam logic.
 //! - [`PackedMaterial`]: a material's lobes per tabulated view.
 
-use crate::material::MaterialLobes;
+use crate::material::{MaterialLobes, SPECULAR_LOBES};
 use crate::prefilter::Prefiltered;
 use glam::Vec3;
 
@@ -74,16 +74,18 @@ pub struct PackedLobe {
     pub weight: Vec3,
 }
 
-/// A material's lobes: per tabulated polar view, two specular lobes (zero weight where a view
-/// has none), then the diffuse lobe about the normal.
+/// A material's lobes: per tabulated polar view, [`SPECULAR_LOBES`] specular lobes (zero
+/// weight where a view has none), then the diffuse lobe about the normal.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PackedMaterial {
     /// Largest polar view angle fitted (radians).
     pub theta_max: f32,
-    /// Per view `k`, lobes `2k` and `2k + 1`.
+    /// Per view `k`, lobes `3k`, `3k + 1` and `3k + 2` ([`SPECULAR_LOBES`] per view).
     pub specular: Vec<PackedLobe>,
     /// Whether view `k` has lobes (a view without them takes its neighbour's, unblended).
     pub has_specular: Vec<bool>,
+    /// The polar angle of view `k` (radians).
+    pub thetas: Vec<f32>,
     /// The diffuse lobe (zero weight: none).
     pub diffuse: PackedLobe,
 }
@@ -92,11 +94,12 @@ impl PackedMaterial {
     /// Packs `lobes`.
     pub fn new(lobes: &MaterialLobes) -> Self {
         let (theta_max, views, diffuse) = lobes.parts();
-        let mut specular = Vec::with_capacity(2 * views.len());
+        let thetas = lobes.thetas().to_vec();
+        let mut specular = Vec::with_capacity(SPECULAR_LOBES * views.len());
         let mut has_specular = Vec::with_capacity(views.len());
         for v in views {
             has_specular.push(v.is_some());
-            for m in 0..2 {
+            for m in 0..SPECULAR_LOBES {
                 specular.push(v.map_or(PackedLobe::default(), |v| PackedLobe {
                     mean: v[m].lobe.mean,
                     kappa: v[m].lobe.kappa,
@@ -109,7 +112,7 @@ impl PackedMaterial {
             kappa: d.lobe.kappa,
             weight: d.weight,
         });
-        Self { theta_max, specular, has_specular, diffuse }
+        Self { theta_max, specular, has_specular, thetas, diffuse }
     }
 
     /// Number of tabulated views.

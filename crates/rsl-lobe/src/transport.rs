@@ -34,10 +34,11 @@
 //! around the current one (barycentric weights on their geodesic triangle), lobe by lobe:
 //! the weight and the mean (a normalised blend) linearly, `κ` weighted by each view's weight
 //! too (the mean direction, not the radiance, as Green interpolates); one prefiltered lookup
-//! per lobe follows. Lobe `k` is the same lobe in every view: the sharper of the material's
-//! two first (the material orders them by weight, which flips from view to view).
+//! per lobe follows. Each view's lobes are those of the material's tabulated view nearest it,
+//! turned to it ([`MaterialLobes::nearest_specular_lobes`]): lobe `k` is the same lobe at
+//! every view near one tabulated view, and at views near the next a lobe of similar share.
 
-use crate::material::{MaterialLobes, WeightedLobe};
+use crate::material::{MaterialLobes, SPECULAR_LOBES, WeightedLobe};
 use crate::vmf::Vmf;
 use glam::{DVec3, Mat3, Quat, Vec2, Vec3};
 use rayon::prelude::*;
@@ -281,7 +282,7 @@ fn shadowed(lobe: &WeightedLobe, k: usize, visible: &impl Fn(Vec3) -> f32) -> We
 pub struct TransportLobes {
     views: Vec<Vec3>,
     locator: ViewLocator,
-    /// Specular lobes per view (0 without a specular part, else 2).
+    /// Specular lobes per view (0 without a specular part, else [`SPECULAR_LOBES`]).
     per_view: usize,
     /// `[vertex][view][lobe]`, flattened.
     specular: Vec<WeightedLobe>,
@@ -293,7 +294,7 @@ impl TransportLobes {
     /// Bytes one vertex takes at `params` (for a budget check before fitting).
     pub fn bytes_per_vertex(material: &MaterialLobes, params: &TransportParams) -> usize {
         let views = 10 * params.frequency.max(1) as usize * params.frequency.max(1) as usize + 2;
-        let per_view = if material.brdf().is_lambertian() { 0 } else { 2 };
+        let per_view = if material.brdf().is_lambertian() { 0 } else { SPECULAR_LOBES };
         (views * per_view + 1) * std::mem::size_of::<WeightedLobe>()
     }
 
@@ -310,7 +311,7 @@ impl TransportLobes {
     ) -> Self {
         let (views, triangles) = geodesic(params.frequency);
         let locator = ViewLocator::new(&views, triangles);
-        let per_view = if material.brdf().is_lambertian() { 0 } else { 2 };
+        let per_view = if material.brdf().is_lambertian() { 0 } else { SPECULAR_LOBES };
         let k = (params.samples as f64).sqrt().ceil().max(1.0) as usize;
         let kd = (params.diffuse_samples as f64).sqrt().ceil().max(1.0) as usize;
         let done = std::sync::atomic::AtomicUsize::new(0);
@@ -330,17 +331,10 @@ impl TransportLobes {
                     // near the horizon interpolate toward it instead of fading (no view below
                     // the horizon is drawn: the vertex faces away).
                     let shown = if local.z > 0.0 { local } else { horizon_view(local) };
-                    let mut pair = material
-                        .specular_pair(shown)
-                        .unwrap_or([WeightedLobe { weight: Vec3::ZERO, lobe: Vmf::new(Vec3::Z, 1.0) }; 2]);
-                    // Lobe by lobe across views: the sharper lobe first where there are two,
-                    // the one lobe first where there is one (the material orders by share,
-                    // which flips between views).
-                    let key = |l: &WeightedLobe| if l.weight == Vec3::ZERO { f32::NEG_INFINITY } else { l.lobe.kappa };
-                    if key(&pair[1]) > key(&pair[0]) {
-                        pair.swap(0, 1);
-                    }
-                    for lobe in pair {
+                    let lobes = material
+                        .nearest_specular_lobes(shown)
+                        .unwrap_or([WeightedLobe { weight: Vec3::ZERO, lobe: Vmf::new(Vec3::Z, 1.0) }; SPECULAR_LOBES]);
+                    for lobe in lobes {
                         let fitted = shadowed(&lobe, k, &vis);
                         spec.push(WeightedLobe { weight: fitted.weight, lobe: frame_lobe(frame, fitted.lobe) });
                     }

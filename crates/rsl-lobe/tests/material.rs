@@ -58,13 +58,15 @@ fn a_phong_lobe_is_fitted_by_the_vmf_it_nearly_is() {
     for deg in [0.0f32, 20.0, 40.0] {
         let r = deg.to_radians();
         let view = Vec3::new(r.sin(), 0.0, r.cos());
+        // One lobe per tabulated view: the views around this one lend one each.
         let fitted = lobes.lobes(view);
-        assert_eq!(fitted.len(), 1);
+        assert!((1..=2).contains(&fitted.len()), "{deg}°: {} lobes", fitted.len());
         let mirror = Vec3::new(-view.x, -view.y, view.z);
-        let lobe = fitted[0].lobe;
-        assert!(lobe.mean.angle_between(mirror) < 0.02, "{deg}°: mean {} against mirror {mirror}", lobe.mean);
-        // The lobe is cos^n·cos θ: slightly narrower than cos^n alone.
-        assert!((lobe.kappa / n - 1.0).abs() < 0.1, "{deg}°: κ = {} for n = {n}", lobe.kappa);
+        for lobe in fitted.iter().map(|l| l.lobe) {
+            assert!(lobe.mean.angle_between(mirror) < 0.02, "{deg}°: mean {} against mirror {mirror}", lobe.mean);
+            // The lobe is cos^n·cos θ: slightly narrower than cos^n alone.
+            assert!((lobe.kappa / n - 1.0).abs() < 0.1, "{deg}°: κ = {} for n = {n}", lobe.kappa);
+        }
     }
 }
 
@@ -89,4 +91,69 @@ fn views_turn_with_their_azimuth_and_vanish_below_the_horizon() {
         )
         .is_err()
     );
+}
+
+/// Relative L2 of the fitted lobes against `ρ cos θ` (luminance) for view `wo`, by a
+/// midpoint rule in (1 − cos, φ) about the reflection, log-spaced in 1 − cos so that the
+/// sharpest lobes are resolved.
+fn fit_error(brdf: &Brdf, lobes: &MaterialLobes, wo: Vec3) -> f64 {
+    let luminance = |c: Vec3| f64::from(c.dot(Vec3::new(0.2126, 0.7152, 0.0722)));
+    let fitted = lobes.lobes(wo);
+    let frame = Frame::from_normal(Vec3::new(-wo.x, -wo.y, wo.z));
+    let (nt, np) = (1200, 192);
+    let (t_min, t_max) = (1e-8f64, 2.0f64);
+    let ratio = (t_max / t_min).ln();
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for a in 0..nt {
+        let t0 = t_min * (ratio * a as f64 / nt as f64).exp();
+        let t1 = t_min * (ratio * (a + 1) as f64 / nt as f64).exp();
+        let c = 1.0 - 0.5 * (t0 + t1);
+        let s = (1.0 - c * c).max(0.0).sqrt();
+        for b in 0..np {
+            let phi = std::f64::consts::TAU * (b as f64 + 0.5) / np as f64;
+            let d = frame.to_world(Vec3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, c as f32));
+            let f = if d.z > 0.0 { luminance(brdf.eval_cos(d, wo)) } else { 0.0 };
+            let g: f64 = fitted.iter().map(|l| luminance(l.weight) * l.lobe.density(d)).sum();
+            let w = (t1 - t0) * std::f64::consts::TAU / np as f64;
+            num += (f - g).powi(2) * w;
+            den += f * f * w;
+        }
+    }
+    (num / den).sqrt()
+}
+
+#[test]
+fn views_between_the_tabulated_ones_fit_as_well_as_their_neighbours() {
+    // Each tabulated view's lobes are its own best fit; a view between two takes both sets,
+    // turned to its reflection. Blended lobe by lobe instead, GGX α = 0.02 was 29–52 % off at
+    // 46–61° between views fitted to 14–19 %.
+    let spec = Vec3::new(0.9, 0.8, 0.7);
+    for brdf in [
+        Brdf::Ggx { alpha: 0.02, specular: spec, diffuse: Vec3::ZERO },
+        Brdf::Ggx { alpha: 0.05, specular: spec, diffuse: Vec3::splat(0.05) },
+        Brdf::Beckmann { alpha: 0.1, specular: spec, diffuse: Vec3::splat(0.1) },
+    ] {
+        let lobes = MaterialLobes::fit(&brdf, &FitParams::default()).unwrap();
+        let view = |t: f32| Vec3::new(t.sin(), 0.0, t.cos());
+        let thetas: Vec<f32> = lobes.thetas().iter().copied().filter(|t| t.to_degrees() < 66.0).collect();
+        let errors: Vec<f64> = thetas.iter().map(|&t| fit_error(&brdf, &lobes, view(t))).collect();
+        for k in 0..thetas.len() - 1 {
+            let mid = 0.5 * (thetas[k] + thetas[k + 1]);
+            let e = fit_error(&brdf, &lobes, view(mid));
+            let bound = 1.1 * errors[k].max(errors[k + 1]) + 0.005;
+            eprintln!(
+                "{} {:.1}°: {:.2} % (views around: {:.2} %, {:.2} %)",
+                brdf.name(),
+                mid.to_degrees(),
+                100.0 * e,
+                100.0 * errors[k],
+                100.0 * errors[k + 1]
+            );
+            assert!(e <= bound, "{} at {:.1}°: {e} against {bound}", brdf.name(), mid.to_degrees());
+        }
+        // Up to 50°, where a sphere's image has most of its pixels, within 15 %.
+        for (t, e) in thetas.iter().zip(&errors).filter(|(t, _)| t.to_degrees() <= 50.0) {
+            assert!(*e < 0.15, "{} at {:.1}°: {e}", brdf.name(), t.to_degrees());
+        }
+    }
 }

@@ -15,15 +15,6 @@ fn frames() -> Vec<Frame> {
         .collect()
 }
 
-/// The material's pair in the transport's order: the sharper lobe first, unless it is empty.
-fn transport_order(mut pair: [WeightedLobe; 2]) -> [WeightedLobe; 2] {
-    let key = |l: &WeightedLobe| if l.weight == Vec3::ZERO { f32::NEG_INFINITY } else { l.lobe.kappa };
-    if key(&pair[1]) > key(&pair[0]) {
-        pair.swap(0, 1);
-    }
-    pair
-}
-
 fn close(a: &WeightedLobe, b: &WeightedLobe) -> bool {
     (a.weight - b.weight).abs().max_element() <= 1e-5 * b.weight.max_element().max(1e-6)
         && a.lobe.mean.dot(b.lobe.mean) > 1.0 - 1e-6
@@ -53,11 +44,11 @@ fn with_nothing_in_the_way_the_transport_lobes_are_the_material_lobes() {
                     local = Vec3::new(xy.x, xy.y, 0.0).lerp(Vec3::Z, 1e-3).normalize();
                     below += 1;
                 }
-                let Some(pair) = material.specular_pair(local) else {
+                let Some(lobes) = material.nearest_specular_lobes(local) else {
                     assert!(got.is_empty(), "{}: a Lambertian material has no specular lobes", brdf.name());
                     continue;
                 };
-                for (g, m) in got.iter().zip(transport_order(pair)) {
+                for (g, m) in got.iter().zip(lobes) {
                     let m = WeightedLobe { lobe: Vmf::new(frame.to_world(m.lobe.mean), m.lobe.kappa), ..m };
                     assert!(
                         m.weight == Vec3::ZERO || close(g, &m),
@@ -122,8 +113,8 @@ fn a_half_space_in_the_way_leaves_each_lobe_its_visible_share() {
         if view.z < 0.2 {
             continue;
         }
-        let Some(pair) = material.specular_pair(view) else { continue };
-        for (got, m) in t.at_view(0, j).iter().zip(transport_order(pair)) {
+        let Some(lobes) = material.nearest_specular_lobes(view) else { continue };
+        for (got, m) in t.at_view(0, j).iter().zip(lobes) {
             if m.weight == Vec3::ZERO {
                 continue;
             }
