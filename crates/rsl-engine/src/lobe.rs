@@ -493,6 +493,8 @@ impl Hybrid {
 
         // The lobes' objects: unshadowed lobe radiance × the RSL visibility ratio.
         let mut ratios: Vec<Option<Vec<Vec3>>> = vec![None; n];
+        // For the ratio at each pixel: per vertex, the untraced lights' radiance unshadowed.
+        let mut untraced_bare: Vec<Option<Vec<Vec3>>> = vec![None; n];
         if let Some(env) = &env {
             let bare_setup =
                 engine.setup(scene, &full.state, eye, Terms { self_visibility: false, occluders: false })?;
@@ -575,6 +577,21 @@ impl Hybrid {
                     })
                     .collect();
                 ratios[i] = Some(ratio);
+                if with_covers[i] {
+                    let traced: Vec<f32> =
+                        (0..setup.light_count()).map(|l| if setup.is_traced(l) { 1.0 } else { 0.0 }).collect();
+                    untraced_bare[i] = Some(
+                        (0..pos.len())
+                            .into_par_iter()
+                            .map(|v| {
+                                let mut st = FrameStats::default();
+                                let frame = setup.shading_frame(i, v);
+                                let t = setup.point(i, pos[v], &frame, &traced, &mut st);
+                                (bare[i][v] - t).max(Vec3::ZERO)
+                            })
+                            .collect(),
+                    );
+                }
             }
         }
         timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
@@ -654,11 +671,18 @@ impl Hybrid {
                         || vec![0.0f32; lights],
                         |p, buf| match (&covers[p.object], &lobes[p.object], &env, &ratios[p.object]) {
                             (Some(c), Some(l), Some(env), _) => {
-                                // The ratio at the pixel: its RSL sum over the same unshadowed.
+                                // The ratio at the pixel: the RSL sum there over the same
+                                // unshadowed, the traced lights traced and looked up at the
+                                // pixel, the others' sums interpolated from the vertices.
                                 let mut st = FrameStats::default();
-                                let shadowed = rsl_shade::point_radiance(&setup, c, &meshes[p.object], p, buf, &mut st);
-                                buf.iter_mut().for_each(|b| *b = 1.0);
-                                let bare = setup.point(p.object, p.position, &p.frame, buf, &mut st);
+                                let (traced, traced_bare) =
+                                    rsl_shade::traced_at_point(&setup, &meshes[p.object], p, buf, &mut st);
+                                let indices = meshes[p.object].indices;
+                                let rest_bare = untraced_bare[p.object]
+                                    .as_deref()
+                                    .expect("made for every object with its ratio per pixel");
+                                let shadowed = p.fragment.interpolate(indices, &c.untraced) + traced;
+                                let bare = p.fragment.interpolate(indices, rest_bare) + traced_bare;
                                 let ratio = Vec3::select(
                                     bare.cmpgt(Vec3::ZERO),
                                     shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)),

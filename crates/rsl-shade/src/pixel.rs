@@ -269,6 +269,29 @@ pub fn point_radiance(
     setup.point(point.object, point.position, &point.frame, buf, stats)
 }
 
+/// The traced lights alone at `point` of an object with `covers` drawn as `mesh`: their
+/// radiance with their shadows traced from the point ([`PIXEL_RAYS`] rays each), and
+/// without shadows. With the other lights' radiance interpolated from the vertices
+/// (`covers.untraced`), the first is what [`point_radiance`] draws for a Lambertian object.
+pub fn traced_at_point(
+    setup: &FrameSetup<'_>,
+    mesh: &PixelMesh<'_>,
+    point: &PixelPoint<'_>,
+    buf: &mut [f32],
+    stats: &mut FrameStats,
+) -> (Vec3, Vec3) {
+    if !setup.traces_any() {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    buf.iter_mut().for_each(|c| *c = 0.0);
+    trace_at(setup, mesh, point, buf, stats);
+    let shadowed = setup.point(point.object, point.position, &point.frame, buf, stats);
+    for (l, c) in buf.iter_mut().enumerate() {
+        *c = if setup.is_traced(l) { 1.0 } else { 0.0 };
+    }
+    (shadowed, setup.point(point.object, point.position, &point.frame, buf, stats))
+}
+
 /// The traced lights' covers at `point`, into `buf`.
 fn trace_at(
     setup: &FrameSetup<'_>,
