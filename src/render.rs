@@ -224,8 +224,9 @@ pub enum MethodArg {
     /// The Monte Carlo ground truth (multiple importance sampling, shadow rays).
     Truth,
     /// vMF lobes over the prefiltered environment × the RSL path's visibility ratio (the image
-    /// per pixel: on the GPU with `--device gpu`, or `auto` with a hardware GPU; the vertices on
-    /// the CPU; less accurate than `pixel` on every bundled scene).
+    /// per pixel, the ratio at each pixel from the traced lights; on the GPU with `--device
+    /// gpu`, or `auto` with a hardware GPU, the ratio interpolated from the vertices; the
+    /// vertices on the CPU; less accurate than `pixel` on the bundled accuracy scenes).
     Hybrid,
     /// vMF lobes over the prefiltered environment, each shadowed by the self-visibility and
     /// occluder fields over a square of its own width (the image per pixel, on the GPU as

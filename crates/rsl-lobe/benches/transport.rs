@@ -1,4 +1,4 @@
-//! Fitting transport lobes (92 views, two specular lobes and a diffuse one) for a torus of
+//! Fitting transport lobes (92 views, three specular lobes and a diffuse one) for a torus of
 //! about 10,000 vertices, its self-visibility traced against its own triangles (the
 //! engine's `method = "lobe"` precompute).
 

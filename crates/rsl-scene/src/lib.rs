@@ -164,7 +164,8 @@ pub enum ObjectMethod {
     /// The RSL sum per pixel, with the visibility interpolated from the vertices.
     RslPixel,
     /// vMF lobes over the prefiltered environment per pixel, times the RSL path's visibility
-    /// ratio interpolated from the vertices.
+    /// ratio (at each pixel on the CPU: the traced lights traced there, the others'
+    /// interpolated from the vertices; on the GPU interpolated from the vertices).
     Hybrid,
     /// Transport lobes (the material's lobes shadowed by the object itself, per vertex and
     /// object-space view), each shadowed by the other objects' occluder fields over a square
