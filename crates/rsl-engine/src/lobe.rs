@@ -466,12 +466,11 @@ impl Hybrid {
             .collect();
         // The GPU draws the image when it has one and no object is drawn by the RSL sum per
         // pixel (CPU-only); else the CPU forms the hybrid's ratio at each pixel, from the RSL
-        // sum there (every light's cover interpolated, a traced light's traced from the pixel)
-        // over the same sum unshadowed.
+        // sum there over the same unshadowed: the traced lights traced from the pixel, the
+        // others' sums interpolated from the vertices.
         let gpu_draws = self.gpu.is_some() && request.image && per_pixel && !drawn.contains(&Drawn::Pixel);
         let pixel_ratio = per_pixel && request.image && !gpu_draws && !self.vertex_ratios;
-        let with_covers: Vec<bool> =
-            drawn.iter().map(|d| *d == Drawn::Pixel || (pixel_ratio && *d == Drawn::Lobes)).collect();
+        let with_covers: Vec<bool> = drawn.iter().map(|d| *d == Drawn::Pixel).collect();
         // Every light's cover at every vertex drawn per pixel: bounded before it is made.
         let covered: u64 = (0..n).filter(|&i| with_covers[i]).map(|i| engine.mesh(i).vertex_count() as u64).sum();
         crate::engine::check_size(
@@ -481,7 +480,13 @@ impl Hybrid {
         )?;
         let (mut radiance, covers, mut stats) = rsl_shade::shade_covers(&setup, &with_covers);
         let rest: Vec<bool> = with_covers.iter().map(|c| !c).collect();
-        let (rest_radiance, rest_stats) = rsl_shade::shade_objects(&setup, &rest);
+        let (rest_radiance, rest_untraced, rest_stats) = rsl_shade::shade_objects_untraced(&setup, &rest);
+        // For the ratio at each pixel: per vertex, the untraced lights' radiance, shadowed.
+        let untraced_shadowed: Vec<Option<Vec<Vec3>>> = rest_untraced
+            .into_iter()
+            .enumerate()
+            .map(|(i, u)| (pixel_ratio && drawn[i] == Drawn::Lobes).then_some(u))
+            .collect();
         stats = stats.plus(rest_stats);
         for (i, r) in rest_radiance.into_iter().enumerate() {
             if rest[i] {
@@ -577,7 +582,7 @@ impl Hybrid {
                     })
                     .collect();
                 ratios[i] = Some(ratio);
-                if with_covers[i] {
+                if untraced_shadowed[i].is_some() {
                     let traced: Vec<f32> =
                         (0..setup.light_count()).map(|l| if setup.is_traced(l) { 1.0 } else { 0.0 }).collect();
                     untraced_bare[i] = Some(
@@ -670,28 +675,6 @@ impl Hybrid {
                         &meshes,
                         || vec![0.0f32; lights],
                         |p, buf| match (&covers[p.object], &lobes[p.object], &env, &ratios[p.object]) {
-                            (Some(c), Some(l), Some(env), _) => {
-                                // The ratio at the pixel: the RSL sum there over the same
-                                // unshadowed, the traced lights traced and looked up at the
-                                // pixel, the others' sums interpolated from the vertices.
-                                let mut st = FrameStats::default();
-                                let (traced, traced_bare) =
-                                    rsl_shade::traced_at_point(&setup, &meshes[p.object], p, buf, &mut st);
-                                let indices = meshes[p.object].indices;
-                                let rest_bare = untraced_bare[p.object]
-                                    .as_deref()
-                                    .expect("made for every object with its ratio per pixel");
-                                let shadowed = p.fragment.interpolate(indices, &c.untraced) + traced;
-                                let bare = p.fragment.interpolate(indices, rest_bare) + traced_bare;
-                                let ratio = Vec3::select(
-                                    bare.cmpgt(Vec3::ZERO),
-                                    shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)),
-                                    Vec3::ZERO,
-                                )
-                                .clamp(Vec3::ZERO, Vec3::ONE);
-                                let view = (eye - p.position).normalize_or_zero();
-                                l.radiance(env, &p.frame, view, |d| env_from_world * d) * intensity * ratio
-                            }
                             (Some(c), ..) => rsl_shade::point_radiance(
                                 &setup,
                                 c,
@@ -701,8 +684,28 @@ impl Hybrid {
                                 &mut FrameStats::default(),
                             ),
                             (None, Some(l), Some(env), Some(ratio)) => {
+                                let indices = meshes[p.object].indices;
+                                let ratio = match (&untraced_shadowed[p.object], &untraced_bare[p.object]) {
+                                    // The ratio at the pixel: the RSL sum there over the same
+                                    // unshadowed, the traced lights traced and looked up at
+                                    // the pixel, the others' sums interpolated from the
+                                    // vertices.
+                                    (Some(rest), Some(rest_bare)) => {
+                                        let mut st = FrameStats::default();
+                                        let (traced, traced_bare) =
+                                            rsl_shade::traced_at_point(&setup, &meshes[p.object], p, buf, &mut st);
+                                        let shadowed = p.fragment.interpolate(indices, rest) + traced;
+                                        let bare = p.fragment.interpolate(indices, rest_bare) + traced_bare;
+                                        Vec3::select(
+                                            bare.cmpgt(Vec3::ZERO),
+                                            shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)),
+                                            Vec3::ZERO,
+                                        )
+                                        .clamp(Vec3::ZERO, Vec3::ONE)
+                                    }
+                                    _ => p.fragment.interpolate(indices, ratio),
+                                };
                                 let view = (eye - p.position).normalize_or_zero();
-                                let ratio = p.fragment.interpolate(meshes[p.object].indices, ratio);
                                 l.radiance(env, &p.frame, view, |d| env_from_world * d) * intensity * ratio
                             }
                             _ => Vec3::ZERO,

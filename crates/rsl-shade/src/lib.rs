@@ -18,5 +18,5 @@ pub use raster::{
 };
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, Traced, TracedCovers, VertexFrames, shade,
-    shade_objects, shade_reference,
+    shade_objects, shade_objects_untraced, shade_reference,
 };

@@ -789,7 +789,14 @@ impl<'a> FrameSetup<'a> {
 
     /// Radiance of vertex `v` of object `i` toward the eye, and its lookups (the fast path's
     /// inner loop).
-    fn vertex(&self, i: usize, v: usize, nears: &mut Vec<(Near, Lazy<'a>)>, stats: &mut FrameStats) -> Vec3 {
+    fn vertex(
+        &self,
+        i: usize,
+        v: usize,
+        nears: &mut Vec<(Near, Lazy<'a>)>,
+        stats: &mut FrameStats,
+        untraced: &mut Vec3,
+    ) -> Vec3 {
         let p = &self.placed[i];
         let o = &p.object;
         stats.vertices += 1;
@@ -824,7 +831,11 @@ impl<'a> FrameSetup<'a> {
                 let q = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
                 self.fields_cover(nears, (i, v, l), q, (&self_vis, &mask), stats)
             };
-            sum += light.radiance * brdf * cover;
+            let term = light.radiance * brdf * cover;
+            sum += term;
+            if !self.is_traced(l) {
+                *untraced += term;
+            }
         }
         sum
     }
@@ -1050,25 +1061,45 @@ pub fn shade(setup: &FrameSetup<'_>) -> (Vec<Vec<Vec3>>, FrameStats) {
 /// empty. An object's radiance depends on the others only through their shadows, so a
 /// front end that changed one object's material reshades that object alone.
 pub fn shade_objects(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, FrameStats) {
+    let (radiance, _, stats) = shade_objects_untraced(setup, which);
+    (radiance, stats)
+}
+
+/// One block of vertices shaded: object, per vertex the radiance and its untraced lights'
+/// part, costs.
+type UntracedBlock = (usize, Vec<(Vec3, Vec3)>, FrameStats);
+
+/// [`shade_objects`], and per vertex the radiance of the lights that are not traced (the
+/// rest of the sum: the traced lights' shadows are what varies fastest across a triangle).
+pub fn shade_objects_untraced(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, Vec<Vec<Vec3>>, FrameStats) {
     let mut blocks = setup.blocks(BLOCK);
     blocks.retain(|&(i, _)| which.get(i).copied().unwrap_or(false));
-    let done: Vec<(usize, usize, Vec<Vec3>, FrameStats)> = blocks
+    let done: Vec<UntracedBlock> = blocks
         .par_iter()
         .map_init(Vec::new, |nears, &(i, b)| {
             let n = setup.placed[i].object.mesh.vertex_count();
             let mut stats = FrameStats::default();
-            let out = (b * BLOCK..((b + 1) * BLOCK).min(n)).map(|v| setup.vertex(i, v, nears, &mut stats)).collect();
-            (i, b, out, stats)
+            let out = (b * BLOCK..((b + 1) * BLOCK).min(n))
+                .map(|v| {
+                    let mut untraced = Vec3::ZERO;
+                    (setup.vertex(i, v, nears, &mut stats, &mut untraced), untraced)
+                })
+                .collect();
+            (i, out, stats)
         })
         .collect();
-    let mut result: Vec<Vec<Vec3>> =
-        setup.placed.iter().map(|p| Vec::with_capacity(p.object.mesh.vertex_count())).collect();
+    let with_capacity = || -> Vec<Vec<Vec3>> {
+        setup.placed.iter().map(|p| Vec::with_capacity(p.object.mesh.vertex_count())).collect()
+    };
+    let (mut radiance, mut untraced) = (with_capacity(), with_capacity());
     let mut stats = FrameStats::default();
-    for (i, _, out, s) in done {
-        result[i].extend(out);
+    // Blocks come back in order (rayon's collect keeps it).
+    for (i, out, s) in done {
+        radiance[i].extend(out.iter().map(|o| o.0));
+        untraced[i].extend(out.iter().map(|o| o.1));
         stats = stats.plus(s);
     }
-    (result, stats)
+    (radiance, untraced, stats)
 }
 
 /// The reference: the formula as written, one vertex, RSL and occluder at a time, through
