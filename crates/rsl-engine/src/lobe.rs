@@ -381,6 +381,13 @@ pub enum Drawn {
     LobeFields,
 }
 
+/// `shadowed / bare` per channel in `[0, 1]` (0 where nothing reaches unshadowed): the
+/// visibility ratio the lobes are multiplied by.
+fn visibility_ratio(shadowed: Vec3, bare: Vec3) -> Vec3 {
+    Vec3::select(bare.cmpgt(Vec3::ZERO), shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)), Vec3::ZERO)
+        .clamp(Vec3::ZERO, Vec3::ONE)
+}
+
 /// The half-diagonal of the square a vMF lobe of concentration `kappa` is shadowed over
 /// ([`Drawn::LobeFields`]): the square of the lobe's solid angle `2π/κ` (the inverse of its
 /// peak density `κ/2π`, for `κ ≫ 1`), `4r² = 2π/κ`, at most a hemisphere (`4r² = 2π`).
@@ -498,7 +505,8 @@ impl Hybrid {
 
         // The lobes' objects: unshadowed lobe radiance × the RSL visibility ratio.
         let mut ratios: Vec<Option<Vec<Vec3>>> = vec![None; n];
-        // For the ratio at each pixel: per vertex, the untraced lights' radiance unshadowed.
+        // For the ratio at each pixel: per vertex, the untraced lights' radiance unshadowed (as
+        // the unshadowed shading gives it).
         let mut untraced_bare: Vec<Option<Vec<Vec3>>> = vec![None; n];
         if let Some(env) = &env {
             let bare_setup =
@@ -511,7 +519,7 @@ impl Hybrid {
                 false => None,
             };
             let which: Vec<bool> = (0..n).map(|i| lobes[i].is_some() && drawn[i] == Drawn::Lobes).collect();
-            let (bare, bare_stats) = rsl_shade::shade_objects(&bare_setup, &which);
+            let (bare, mut bare_untraced, bare_stats) = rsl_shade::shade_objects_untraced(&bare_setup, &which);
             stats = stats.plus(bare_stats);
             let env_from_world = full.state.world_from_env.inverse();
             let intensity = engine.intensity();
@@ -548,13 +556,7 @@ impl Hybrid {
                                 shadowed += w.weight * env.lookup(env_from_world * *d, w.lobe.kappa) * *c;
                             }
                             let bare = l.radiance(env, &frame, to_eye, |d| env_from_world * d);
-                            let ratio = Vec3::select(
-                                bare.cmpgt(Vec3::ZERO),
-                                shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)),
-                                Vec3::ZERO,
-                            )
-                            .clamp(Vec3::ZERO, Vec3::ONE);
-                            (shadowed * intensity, ratio, st)
+                            (shadowed * intensity, visibility_ratio(shadowed, bare), st)
                         })
                         .collect();
                     let shaded = per_vertex.iter().map(|p| p.0).collect();
@@ -565,14 +567,8 @@ impl Hybrid {
                     ratios[i] = Some(ratio);
                     continue;
                 }
-                let ratio: Vec<Vec3> = full.radiance[i]
-                    .iter()
-                    .zip(&bare[i])
-                    .map(|(s, u)| {
-                        Vec3::select(u.cmpgt(Vec3::ZERO), *s / u.max(Vec3::splat(f32::MIN_POSITIVE)), Vec3::ZERO)
-                            .clamp(Vec3::ZERO, Vec3::ONE)
-                    })
-                    .collect();
+                let ratio: Vec<Vec3> =
+                    full.radiance[i].iter().zip(&bare[i]).map(|(s, u)| visibility_ratio(*s, *u)).collect();
                 radiance[i] = (0..pos.len())
                     .into_par_iter()
                     .map(|v| {
@@ -583,19 +579,7 @@ impl Hybrid {
                     .collect();
                 ratios[i] = Some(ratio);
                 if untraced_shadowed[i].is_some() {
-                    let traced: Vec<f32> =
-                        (0..setup.light_count()).map(|l| if setup.is_traced(l) { 1.0 } else { 0.0 }).collect();
-                    untraced_bare[i] = Some(
-                        (0..pos.len())
-                            .into_par_iter()
-                            .map(|v| {
-                                let mut st = FrameStats::default();
-                                let frame = setup.shading_frame(i, v);
-                                let t = setup.point(i, pos[v], &frame, &traced, &mut st);
-                                (bare[i][v] - t).max(Vec3::ZERO)
-                            })
-                            .collect(),
-                    );
+                    untraced_bare[i] = Some(std::mem::take(&mut bare_untraced[i]));
                 }
             }
         }
@@ -694,14 +678,10 @@ impl Hybrid {
                                         let mut st = FrameStats::default();
                                         let (traced, traced_bare) =
                                             rsl_shade::traced_at_point(&setup, &meshes[p.object], p, buf, &mut st);
-                                        let shadowed = p.fragment.interpolate(indices, rest) + traced;
-                                        let bare = p.fragment.interpolate(indices, rest_bare) + traced_bare;
-                                        Vec3::select(
-                                            bare.cmpgt(Vec3::ZERO),
-                                            shadowed / bare.max(Vec3::splat(f32::MIN_POSITIVE)),
-                                            Vec3::ZERO,
+                                        visibility_ratio(
+                                            p.fragment.interpolate(indices, rest) + traced,
+                                            p.fragment.interpolate(indices, rest_bare) + traced_bare,
                                         )
-                                        .clamp(Vec3::ZERO, Vec3::ONE)
                                     }
                                     _ => p.fragment.interpolate(indices, ratio),
                                 };

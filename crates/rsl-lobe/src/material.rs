@@ -23,7 +23,7 @@
 //! ([`MaterialLobes::radiance`]).
 
 use crate::prefilter::Prefiltered;
-use crate::vmf::Vmf;
+use crate::vmf::{Vmf, product_integral};
 use glam::{DQuat, DVec3, Quat, Vec2, Vec3};
 use rayon::prelude::*;
 use rsl_brdf::Brdf;
@@ -325,14 +325,6 @@ impl ViewProblem {
             lobe: Vmf::new(self.means[i / LADDER].as_vec3(), self.ladder[i % LADDER] as f32),
         })
     }
-}
-
-/// `∫ γ_a γ_b dω` of two lobes given as (unit mean, κ), in f64.
-fn product_integral((ma, ka): (DVec3, f64), (mb, kb): (DVec3, f64)) -> f64 {
-    let m = (ma * ka + mb * kb).length();
-    let shell =
-        if m < 1e-8 { 4.0 * std::f64::consts::PI } else { 2.0 * std::f64::consts::PI * -(-2.0 * m).exp_m1() / m };
-    crate::vmf::peak_density(ka) * crate::vmf::peak_density(kb) * (m - ka - kb).exp() * shell
 }
 
 impl MaterialLobes {

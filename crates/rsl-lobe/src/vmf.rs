@@ -55,12 +55,16 @@ impl Vmf {
     /// `∫ γ_a(s) γ_b(s) ds`, in closed form: `c_a c_b · 4π sinh(|κ_a μ_a + κ_b μ_b|) / |…|`,
     /// evaluated as exponentials of non-positive arguments.
     pub fn product_integral(&self, other: &Vmf) -> f64 {
-        let (ka, kb) = (f64::from(self.kappa), f64::from(other.kappa));
-        let m = (self.mean.as_dvec3() * ka + other.mean.as_dvec3() * kb).length();
-        // c(κ) = peak(κ)·e^{−κ}; 4π sinh(m)/m = 2π e^{m}(1 − e^{−2m})/m.
-        let shell = if m < 1e-8 { 4.0 * PI } else { 2.0 * PI * -(-2.0 * m).exp_m1() / m };
-        peak_density(ka) * peak_density(kb) * (m - ka - kb).exp() * shell
+        product_integral((self.mean.as_dvec3(), f64::from(self.kappa)), (other.mean.as_dvec3(), f64::from(other.kappa)))
     }
+}
+
+/// [`Vmf::product_integral`] of two lobes given in f64 as (unit mean, κ).
+pub fn product_integral((ma, ka): (DVec3, f64), (mb, kb): (DVec3, f64)) -> f64 {
+    let m = (ma * ka + mb * kb).length();
+    // c(κ) = peak(κ)·e^{−κ}; 4π sinh(m)/m = 2π e^{m}(1 − e^{−2m})/m.
+    let shell = if m < 1e-8 { 4.0 * PI } else { 2.0 * PI * -(-2.0 * m).exp_m1() / m };
+    peak_density(ka) * peak_density(kb) * (m - ka - kb).exp() * shell
 }
 
 /// The density of a lobe of concentration `kappa` at `cos = μ·s`.

@@ -825,7 +825,8 @@ impl<'a> FrameSetup<'a> {
             if brdf == Vec3::ZERO {
                 continue;
             }
-            let cover = if self.is_traced(l) {
+            let traced = self.is_traced(l);
+            let cover = if traced {
                 self.traced_cover(i, v, l, &mut stats.traced_rays)
             } else {
                 let q = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
@@ -833,7 +834,7 @@ impl<'a> FrameSetup<'a> {
             };
             let term = light.radiance * brdf * cover;
             sum += term;
-            if !self.is_traced(l) {
+            if !traced {
                 *untraced += term;
             }
         }
