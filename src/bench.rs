@@ -15,7 +15,9 @@ pub struct BenchArgs {
     /// there are kept: a finished configuration is not measured again.
     #[arg(long)]
     pub out: PathBuf,
-    /// A sweep `KEY=V1,V2,…` over `rsl`, `quality` (draft, standard, paper, high), `method` (cpu, gpu, hybrid, lobe, pixel, auto)
+    /// A sweep `KEY=V1,V2,…` over `rsl`, `quality` (draft, standard, paper, high), `method`
+    /// (any method `rsl render --method` takes; `cpu` and `gpu` are `rsl` on that device),
+    /// `device` (cpu, gpu; default cpu)
     /// or a quality knob (table_resolution, view_samples, env_grid, ovdf_directions,
     /// ovdf_shells, ovdf_vectors, cpca_clusters, cpca_vectors, traced_lights, shadow_rays);
     /// repeat for more. Default:

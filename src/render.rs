@@ -1,53 +1,13 @@
 //! `rsl precompute`, `rsl render` and `rsl demo`: loops over rsl-engine's [`Method`]s.
 
 use anyhow::{Context, Result, bail};
-use rsl_engine::method::{CpuRsl, CpuRslPixels, Frame, GpuRsl, Method, Oracle, Request, Truth, exposure_for};
-use rsl_engine::{Engine, EngineOptions, GpuRenderer, Layers, output, ply};
+use rsl_engine::method::{Frame, Method, Oracle, Request, exposure_for};
+use rsl_engine::registry::ImageKind;
+use rsl_engine::{Device, Engine, EngineOptions, MethodId, MethodOptions, output, ply};
 use rsl_scene::{Material, Preset, Scene};
 use rsl_shade::{Oracles, tonemap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Where shading runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Device {
-    /// The CPU fast path (rayon) and the CPU rasteriser.
-    Cpu,
-    /// wgpu compute shading and a draw pass (any adapter, including software ones).
-    Gpu,
-    /// A hardware GPU when there is one, else the CPU (with one notice).
-    Auto,
-}
-
-/// The GPU renderer `device` asks for, or `None` for the CPU path. `auto` takes a hardware
-/// adapter only: a software one (Mesa's llvmpipe) is slower than the CPU path.
-pub fn select_device(device: Device) -> Result<Option<GpuRenderer>> {
-    match device {
-        Device::Cpu => Ok(None),
-        Device::Gpu => {
-            let g = GpuRenderer::new().context("--device gpu")?;
-            eprintln!("shading on the GPU: {}", g.describe());
-            Ok(Some(g))
-        }
-        Device::Auto => match GpuRenderer::new() {
-            Ok(g) if !g.is_software() => {
-                eprintln!("shading on the GPU: {}", g.describe());
-                Ok(Some(g))
-            }
-            Ok(g) => {
-                eprintln!(
-                    "notice: only a software GPU adapter ({}) was found; shading on the CPU (--device gpu uses it anyway)",
-                    g.describe()
-                );
-                Ok(None)
-            }
-            Err(e) => {
-                eprintln!("notice: no usable GPU ({e}); shading on the CPU");
-                Ok(None)
-            }
-        },
-    }
-}
 
 /// Options shared by every command that prepares a scene.
 #[derive(Clone, Debug, clap::Args)]
@@ -99,17 +59,22 @@ pub struct RenderArgs {
     /// Frames per second of an animation.
     #[arg(long, default_value_t = 24.0)]
     pub fps: f32,
-    /// Where shading and drawing run.
-    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    /// Where shading and drawing run: `auto` (a hardware GPU when there is one and the
+    /// method runs there, else the CPU), `cpu` or `gpu` (software adapters included).
+    #[arg(long, default_value_t = Device::Auto)]
     pub device: Device,
     /// Print the time of every pass of every frame (GPU timestamps where the adapter has
     /// them, wall time otherwise).
     #[arg(long)]
     pub timings: bool,
-    /// How radiance is computed: `rsl` (the renderer) or `truth` (Monte Carlo reference:
-    /// per pixel through the camera, and per vertex for --vertex-out).
-    #[arg(long, value_enum, default_value_t = MethodArg::Rsl)]
-    pub method: MethodArg,
+    /// How radiance is computed: any registered method (`rsl render --help` lists them;
+    /// `truth` is the Monte Carlo reference, per pixel through the camera and per vertex for
+    /// --vertex-out).
+    #[arg(long, default_value_t = MethodId::RSL)]
+    pub method: MethodId,
+    /// Print which method draws each object, and why, before rendering.
+    #[arg(long)]
+    pub explain: bool,
     /// Samples per pixel and per vertex of `--method truth` (each sample traces up to two
     /// shadow rays: one toward the environment, one along the BRDF).
     #[arg(long, default_value_t = 64)]
@@ -210,30 +175,6 @@ fn write_vertices(path: &Path, scene: &Scene, f: &Frame) -> Result<()> {
     ply::write(path, &objects)
 }
 
-/// How a frame is computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum MethodArg {
-    /// Rotatable square lights and the multiple product approximation.
-    Rsl,
-    /// The RSL path with glossy objects shaded per pixel: the BRDF's square integrals for
-    /// each pixel's own normal and view, the visibility interpolated from the vertices (CPU).
-    Pixel,
-    /// Each object as its scene `method` says (`auto`, the default there: glossy objects per
-    /// pixel as `pixel` does; `rsl`, `rsl_pixel`, `hybrid`; CPU).
-    Auto,
-    /// The Monte Carlo ground truth (multiple importance sampling, shadow rays).
-    Truth,
-    /// vMF lobes over the prefiltered environment × the RSL path's visibility ratio (the image
-    /// per pixel, the ratio at each pixel from the traced lights; on the GPU with `--device
-    /// gpu`, or `auto` with a hardware GPU, the ratio interpolated from the vertices; the
-    /// vertices on the CPU; less accurate than `pixel` on the bundled accuracy scenes).
-    Hybrid,
-    /// vMF lobes over the prefiltered environment, each shadowed by the self-visibility and
-    /// occluder fields over a square of its own width (the image per pixel, on the GPU as
-    /// `hybrid` is; nothing traced).
-    Lobe,
-}
-
 fn print_preparation(engine: &Engine) {
     let t = engine.timings();
     let c = engine.cache_stats();
@@ -265,42 +206,13 @@ fn print_preparation(engine: &Engine) {
     );
 }
 
-/// The method `kind` asks for on `device` (the RSL path) for `engine`.
-fn method_for(kind: MethodArg, device: Device, engine: &Engine, spp: u32, seed: u64) -> Result<Box<dyn Method>> {
-    Ok(match kind {
-        MethodArg::Truth => {
-            let mut t = Truth::new(engine, spp, seed)?;
-            t.progress = crate::progress::bars();
-            Box::new(t)
-        }
-        MethodArg::Hybrid | MethodArg::Lobe => {
-            // The vertices (the RSL visibility ratio) are shaded on the CPU; the GPU, where
-            // there is one, draws the lobes per pixel.
-            let h = match device {
-                Device::Cpu => rsl_engine::lobe::Hybrid::new(),
-                Device::Gpu => rsl_engine::lobe::Hybrid::with_gpu(true).context("--device gpu")?,
-                Device::Auto => rsl_engine::lobe::Hybrid::with_gpu(false)?,
-            };
-            let h = h.with_fields(kind == MethodArg::Lobe);
-            if let Some(a) = h.gpu_adapter() {
-                eprintln!("drawing the lobes per pixel on the GPU: {a}");
-            }
-            Box::new(h)
-        }
-        MethodArg::Pixel | MethodArg::Auto => {
-            if device == Device::Gpu {
-                bail!(
-                    "--method {} runs on the CPU only; drop --device gpu",
-                    if kind == MethodArg::Auto { "auto" } else { "pixel" }
-                );
-            }
-            if kind == MethodArg::Auto { Box::new(rsl_engine::lobe::PerObject::new()) } else { Box::new(CpuRslPixels) }
-        }
-        MethodArg::Rsl => match select_device(device)? {
-            Some(renderer) => Box::new(GpuRsl { renderer }),
-            None => Box::new(CpuRsl),
-        },
-    })
+/// The method `id` on `device` for `engine`, its Monte Carlo samples and seed where it takes
+/// them, reporting progress as bars.
+fn method_for(id: MethodId, device: Device, engine: &Engine, spp: u32, seed: u64) -> Result<Box<dyn Method>> {
+    let options = MethodOptions { device, spp, seed, progress: crate::progress::bars(), gpu: None };
+    let method = id.create(engine, &options)?;
+    eprintln!("drawing with {}", method.describe());
+    Ok(method)
 }
 
 /// Says what a Monte Carlo frame's own error is, or that one sample cannot tell.
@@ -364,17 +276,26 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     {
         bail!("--exposure must be a positive number, got {e}");
     }
-    if args.method == MethodArg::Truth && args.device == Device::Gpu {
-        bail!("--method truth runs on the CPU only; drop --device gpu");
+    let capabilities = args.method.capabilities();
+    if args.device == Device::Gpu && !capabilities.gpu {
+        bail!("--method {} runs on the CPU only; drop --device gpu", args.method);
     }
-    if args.method == MethodArg::Truth && !(1..=rsl_truth::MAX_SPP).contains(&args.spp) {
+    if capabilities.monte_carlo && !(1..=rsl_truth::MAX_SPP).contains(&args.spp) {
         bail!("--spp must be in 1..={} samples per point, got {}", rsl_truth::MAX_SPP, args.spp);
     }
-    if args.oracle.is_some() && (args.method != MethodArg::Rsl || args.device == Device::Gpu) {
-        bail!("--oracle replaces parts of the RSL path on the CPU: use it with --method rsl and without --device gpu");
+    if args.oracle.is_some() && (!capabilities.oracles || args.device == Device::Gpu) {
+        bail!(
+            "--oracle replaces parts of the RSL path on the CPU: use it with --method {} and without --device gpu",
+            MethodId::all()
+                .into_iter()
+                .filter(|m| m.capabilities().oracles)
+                .map(|m| m.name())
+                .collect::<Vec<_>>()
+                .join(" or ")
+        );
     }
     let scene = Scene::load(&args.scene)?;
-    if args.method == MethodArg::Truth && scene.objects.is_empty() {
+    if capabilities.image == ImageKind::MonteCarlo && scene.objects.is_empty() {
         bail!("{}: the scene has no objects; there is nothing to estimate", args.scene.display());
     }
     // Frames are taken one at a time (a range of billions holds nothing up front); an
@@ -408,7 +329,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         }
         gif = Some(path);
     }
-    let layers = Layers { rsl: args.method != MethodArg::Truth };
+    let layers = capabilities.layers;
     let mut engine = Engine::new(&scene, EngineOptions { layers, ..args.prepare.options() })?;
     let mut method = match args.oracle {
         Some(oracles) => {
@@ -421,6 +342,11 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     };
     if layers.rsl {
         print_preparation(&engine);
+    }
+    if args.explain {
+        for line in method.explain(&engine, &scene)? {
+            eprintln!("{line}");
+        }
     }
     let mut exposure = args.exposure;
     let mut gif = match &gif {
@@ -438,7 +364,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         if args.timings {
             eprintln!("t = {t:.3} s: {}", frame.timings.describe());
         }
-        if args.method == MethodArg::Truth {
+        if capabilities.monte_carlo {
             print_self_error(&frame, args.spp, start.elapsed().as_secs_f64());
         }
         let mut written = Vec::new();
@@ -489,8 +415,9 @@ pub struct DemoArgs {
     /// The scene (default: the bundled default scene).
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    /// Where shading and drawing run.
-    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    /// Where shading and drawing run: `auto` (a hardware GPU when there is one and the
+    /// method runs there, else the CPU), `cpu` or `gpu` (software adapters included).
+    #[arg(long, default_value_t = Device::Auto)]
     pub device: Device,
     /// Precomputation options.
     #[command(flatten)]
@@ -525,7 +452,7 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
     let mut engine = Engine::new(&scene, args.prepare.options())?;
     let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
     print_preparation(&engine);
-    let mut method = method_for(MethodArg::Rsl, args.device, &engine, 1, 1)?;
+    let mut method = method_for(MethodId::RSL, args.device, &engine, 1, 1)?;
     let device = method.describe();
     let frames = (args.seconds * args.fps).round().max(1.0) as u32;
     let swap_at = frames / 2;

@@ -2,6 +2,7 @@
 
 use crate::render::PrepareArgs;
 use anyhow::{Context, Result, bail};
+use rsl_engine::MethodId;
 use rsl_engine::scene::Scene;
 use std::path::PathBuf;
 
@@ -21,39 +22,11 @@ pub struct ViewArgs {
     pub per_pixel: bool,
     /// How glossy objects are drawn once the view rests (the "drawing" drop-down): as
     /// `rsl render --method` draws them.
-    #[arg(long, value_enum)]
-    pub drawing: Option<DrawingArg>,
+    #[arg(long)]
+    pub drawing: Option<MethodId>,
     /// Precomputation options.
     #[command(flatten)]
     pub prepare: PrepareArgs,
-}
-
-/// The viewer's drawing choices, by `rsl render --method` name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum DrawingArg {
-    /// Every object's vertices interpolated.
-    Rsl,
-    /// The RSL sum per pixel.
-    Pixel,
-    /// vMF lobes per pixel × the RSL visibility ratio.
-    Hybrid,
-    /// Transport lobes (the object's own shadows fitted in), shadowed by the other objects'
-    /// fields over each lobe; drawn per pixel.
-    Lobe,
-    /// Each object as its scene `method` says.
-    Auto,
-}
-
-impl DrawingArg {
-    fn drawing(self) -> rsl_view::Drawing {
-        match self {
-            DrawingArg::Rsl => rsl_view::Drawing::Vertices,
-            DrawingArg::Pixel => rsl_view::Drawing::RslPixel,
-            DrawingArg::Hybrid => rsl_view::Drawing::Hybrid,
-            DrawingArg::Lobe => rsl_view::Drawing::Lobe,
-            DrawingArg::Auto => rsl_view::Drawing::Auto,
-        }
-    }
 }
 
 /// Frames a screenshot may draw (each costs a UI pass and possibly a reshade).
@@ -77,7 +50,13 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     let mut viewer = rsl_view::Viewer::new(scene, options);
     viewer.set_per_pixel(args.per_pixel);
     if let Some(d) = args.drawing {
-        viewer.set_drawing(d.drawing());
+        if !d.capabilities().interactive {
+            bail!(
+                "--drawing {d}: the viewer cannot redraw it on edits; it draws {}",
+                rsl_view::drawings().iter().map(|m| m.name()).collect::<Vec<_>>().join(", ")
+            );
+        }
+        viewer.set_drawing(d);
     }
     match &args.screenshot {
         Some(png) => {

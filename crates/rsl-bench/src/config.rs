@@ -1,59 +1,17 @@
 //! Configurations: what one measured point of the study is, and the sweeps that make them.
 
 use anyhow::{Result, bail};
+use rsl_engine::{Device, MethodId};
 use rsl_scene::{Preset, Quality, QualitySettings};
-
-/// Where the RSL path runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum MethodKind {
-    /// The CPU fast path.
-    Cpu,
-    /// The wgpu compute pass (any adapter).
-    Gpu,
-    /// vMF lobes × RSL visibility on every object, CPU (`rsl_engine::lobe::Hybrid`).
-    Hybrid,
-    /// Transport lobes, each shadowed by the other objects' fields over a square of its
-    /// width, CPU (`rsl_engine::lobe::Hybrid::lobe`).
-    Lobe,
-    /// The CPU fast path with glossy objects' pixels shaded per pixel
-    /// (`rsl_engine::CpuRslPixels`; its vertices are the CPU path's).
-    Pixel,
-    /// Each object as its scene `method` says (`rsl_engine::lobe::PerObject`).
-    Auto,
-}
-
-impl MethodKind {
-    /// Its name in sweeps and reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            MethodKind::Cpu => "cpu",
-            MethodKind::Gpu => "gpu",
-            MethodKind::Hybrid => "hybrid",
-            MethodKind::Lobe => "lobe",
-            MethodKind::Pixel => "pixel",
-            MethodKind::Auto => "auto",
-        }
-    }
-
-    fn from_name(s: &str) -> Option<Self> {
-        match s {
-            "cpu" => Some(MethodKind::Cpu),
-            "gpu" => Some(MethodKind::Gpu),
-            "hybrid" => Some(MethodKind::Hybrid),
-            "lobe" => Some(MethodKind::Lobe),
-            "pixel" => Some(MethodKind::Pixel),
-            "auto" => Some(MethodKind::Auto),
-            _ => None,
-        }
-    }
-}
 
 /// One configuration: a method, a quality (the scene's, or a preset) with knob overrides,
 /// and an RSL count (the scene's, or swept).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Config {
-    /// Where it shades.
-    pub method: MethodKind,
+    /// The method measured (the registry's).
+    pub method: MethodId,
+    /// Where it runs (the CPU unless swept).
+    pub device: Device,
     /// The preset the settings start from (`None`: the scene's own quality, overrides and
     /// all).
     pub quality: Option<Preset>,
@@ -67,7 +25,7 @@ impl Config {
     /// A stable, readable identity: `method=cpu quality=draft rsl=30 table_resolution=64`
     /// (what is not swept is left out).
     pub fn id(&self) -> String {
-        let mut s = format!("method={}", self.method.name());
+        let mut s = format!("method={}", self.method_name());
         if let Some(q) = self.quality {
             s.push_str(&format!(" quality={}", q.name()));
         }
@@ -78,6 +36,18 @@ impl Config {
             s.push_str(&format!(" {k}={v}"));
         }
         s
+    }
+
+    /// The method's name in identities and reports: its name, or the alias that names it on
+    /// this device (`cpu` and `gpu` for the RSL path), with the device where that is not the
+    /// CPU and no alias names it.
+    pub fn method_name(&self) -> String {
+        let alias = self.method.name_on(self.device);
+        if alias != self.method.name() || self.device == Device::Cpu {
+            alias.to_string()
+        } else {
+            format!("{}@{}", self.method, self.device)
+        }
     }
 
     /// The quality the configuration asks for, over the scene's `base`.
@@ -96,7 +66,7 @@ impl Config {
 /// One `--sweep KEY=V1,V2,…`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Sweep {
-    /// `rsl`, `quality`, `method`, or a quality knob (`table_resolution`, …).
+    /// `rsl`, `quality`, `method`, `device`, or a quality knob (`table_resolution`, …).
     pub key: String,
     /// The values, as written.
     pub values: Vec<String>,
@@ -113,8 +83,8 @@ impl std::str::FromStr for Sweep {
             return Err(format!("--sweep {key}: no values"));
         }
         let knobs = QualitySettings::names();
-        if !["rsl", "quality", "method"].contains(&key.as_str()) && !knobs.contains(&key.as_str()) {
-            return Err(format!("--sweep {key}: unknown; known: rsl, quality, method, {}", knobs.join(", ")));
+        if !["rsl", "quality", "method", "device"].contains(&key.as_str()) && !knobs.contains(&key.as_str()) {
+            return Err(format!("--sweep {key}: unknown; known: rsl, quality, method, device, {}", knobs.join(", ")));
         }
         Ok(Sweep { key, values })
     }
@@ -139,7 +109,8 @@ pub fn configs(sweeps: &[Sweep]) -> Result<Vec<Config>> {
         Some(n) if n <= MAX_CONFIGS => {}
         _ => bail!("the sweeps make more than {MAX_CONFIGS} configurations"),
     }
-    let mut out = vec![Config { method: MethodKind::Cpu, quality: None, rsl: None, knobs: Vec::new() }];
+    let mut out =
+        vec![Config { method: MethodId::RSL, device: Device::Cpu, quality: None, rsl: None, knobs: Vec::new() }];
     for s in sweeps {
         let mut next = Vec::with_capacity(out.len() * s.values.len());
         for c in &out {
@@ -158,11 +129,15 @@ pub fn configs(sweeps: &[Sweep]) -> Result<Vec<Config>> {
                         })?);
                     }
                     "method" => {
-                        c.method = MethodKind::from_name(v).ok_or_else(|| {
-                            anyhow::anyhow!(
-                                "--sweep method: `{v}` is not a method (cpu, gpu, hybrid, lobe, pixel, auto)"
-                            )
-                        })?;
+                        let (m, device) = MethodId::parse_with_device(v)
+                            .map_err(|e| anyhow::anyhow!("--sweep method: `{v}` is not a method ({e})"))?;
+                        c.method = m;
+                        if let Some(d) = device {
+                            c.device = d;
+                        }
+                    }
+                    "device" => {
+                        c.device = v.parse().map_err(|e| anyhow::anyhow!("--sweep device: {e}"))?;
                     }
                     knob => {
                         let n = QualitySettings::parse_value(knob, v)

@@ -14,13 +14,14 @@ pub mod plot;
 pub mod report;
 pub mod target;
 pub mod truth;
-pub mod wavelet;
+pub use rsl_engine::wavelet;
 
 use anyhow::{Context, Result, bail};
-use config::{Config, MethodKind};
+use config::Config;
 use glam::Vec3;
-use rsl_engine::method::{CpuRsl, CpuRslPixels, GpuRsl, Method, Oracle, Request};
-use rsl_engine::{Engine, EngineOptions, GpuRenderer, Progress};
+use rsl_engine::method::{Method, Oracle, Request};
+use rsl_engine::{Device, MethodId, MethodOptions};
+use rsl_engine::{Engine, EngineOptions, Progress};
 use rsl_scene::Scene;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -147,6 +148,7 @@ fn config_engine(scene: &Scene, options: &BenchOptions, config: &Config) -> Resu
             cache_dir: options.cache_dir.clone(),
             rsl_count: config.rsl,
             progress: options.progress.clone(),
+            layers: config.method.capabilities().layers,
             ..EngineOptions::default()
         },
     )
@@ -219,11 +221,7 @@ pub const GRID_ROWS: usize = 24;
 /// every configuration of the sweep rendered there (prepared data comes from the cache);
 /// its per-pixel error filled into its row; and the grid `<scene>_grid_t<time>.png` of the
 /// first [`GRID_ROWS`] configurations.
-fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: &mut Option<GpuRsl>) -> Result<()> {
-    let mut hybrid = rsl_engine::lobe::Hybrid::new();
-    let mut lobe = rsl_engine::lobe::Hybrid::lobe();
-    let mut pixel = CpuRslPixels;
-    let mut auto = rsl_engine::lobe::PerObject::new();
+fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) -> Result<()> {
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
         let full = Scene::load(scene_path)?;
@@ -245,14 +243,7 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
             for config in &options.configs {
                 scene.quality = config.quality(base)?;
                 let engine = config_engine(&scene, options, config)?;
-                let method: &mut dyn Method = match config.method {
-                    MethodKind::Cpu => cpu,
-                    MethodKind::Gpu => gpu.as_mut().context("the GPU was opened while measuring")?,
-                    MethodKind::Hybrid => &mut hybrid,
-                    MethodKind::Lobe => &mut lobe,
-                    MethodKind::Pixel => &mut pixel,
-                    MethodKind::Auto => &mut auto,
-                };
+                let method = methods.get(config, &engine, options)?;
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
                 let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
                 let err = grid::pixel_error(&image, &truth)?;
@@ -275,6 +266,38 @@ fn images(options: &BenchOptions, summary: &mut Summary, cpu: &mut CpuRsl, gpu: 
         }
     }
     Ok(())
+}
+
+/// The methods a bench measures, built from the registry when first needed and kept (what
+/// they prepare, such as the lobe methods' prefiltered environment, serves every
+/// configuration after).
+#[derive(Default)]
+struct Methods(Vec<((MethodId, Device), Box<dyn Method>)>);
+
+impl Methods {
+    /// The method of `config`, for `engine`'s scene.
+    fn get(&mut self, config: &Config, engine: &Engine, options: &BenchOptions) -> Result<&mut dyn Method> {
+        let key = (config.method, config.device);
+        let at = match self.0.iter().position(|(k, _)| *k == key) {
+            Some(at) => at,
+            None => {
+                let o = MethodOptions {
+                    device: config.device,
+                    spp: options.truth_spp,
+                    seed: options.seed,
+                    progress: options.progress.clone(),
+                    gpu: None,
+                };
+                let m = config
+                    .method
+                    .create(engine, &o)
+                    .with_context(|| format!("--sweep method={}", config.method_name()))?;
+                self.0.push((key, m));
+                self.0.len() - 1
+            }
+        };
+        Ok(self.0[at].1.as_mut())
+    }
 }
 
 /// Samples per vertex a Monte Carlo estimate needs to be `error` (relative L2) from a truth
@@ -343,12 +366,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
     let mut summary = Summary { rows: report::read_rows(&results)?, ..Summary::default() };
     let budget_file = options.out.join("budget.csv");
     let mut budget_rows = budget::read_rows(&budget_file)?;
-    let mut cpu = CpuRsl;
-    let mut hybrid = rsl_engine::lobe::Hybrid::new();
-    let mut lobe = rsl_engine::lobe::Hybrid::lobe();
-    let mut pixel = CpuRslPixels;
-    let mut auto = rsl_engine::lobe::PerObject::new();
-    let mut gpu: Option<GpuRsl> = None;
+    let mut methods = Methods::default();
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
         let mut scene = Scene::load(scene_path)?;
@@ -376,7 +394,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 options
                     .configs
                     .iter()
-                    .filter(|c| c.method == MethodKind::Cpu && c.rsl.unwrap_or(scene.environment.rsl_count) == n)
+                    .filter(|c| c.method.capabilities().oracles && c.device == Device::Cpu)
+                    .filter(|c| c.rsl.unwrap_or(scene.environment.rsl_count) == n)
                     .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
                     .flat_map(|(c, t)| budget::oracle_settings().into_iter().map(move |(o, set)| (c, t, o, set)))
                     .filter(|(c, t, o, _)| {
@@ -416,19 +435,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             let start = Instant::now();
             let engine = config_engine(&scene, options, config).with_context(|| format!("{name}: {}", config.id()))?;
             let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
-            let method: &mut dyn Method = match config.method {
-                MethodKind::Cpu => &mut cpu,
-                MethodKind::Gpu => {
-                    if gpu.is_none() {
-                        gpu = Some(GpuRsl { renderer: GpuRenderer::new().context("--sweep method=gpu")? });
-                    }
-                    gpu.as_mut().expect("opened above")
-                }
-                MethodKind::Hybrid => &mut hybrid,
-                MethodKind::Lobe => &mut lobe,
-                MethodKind::Pixel => &mut pixel,
-                MethodKind::Auto => &mut auto,
-            };
+            let method = methods.get(config, &engine, options).with_context(|| format!("{name}: {}", config.id()))?;
             let request = Request { time: t, image: false, vertices: true, exposure: None };
             let mut times = Vec::with_capacity(options.frames);
             let mut frame = None;
@@ -449,7 +456,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 &name,
                 &scene,
                 config.id(),
-                config.method.name(),
+                &config.method_name(),
                 engine.rsls().len() as u32,
                 t,
                 (prepare_ms, engine.memory().resident_bytes, engine.cache_stats().misses),
@@ -544,7 +551,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         }
     }
     if options.grid_spp > 0 {
-        images(options, &mut summary, &mut cpu, &mut gpu)?;
+        images(options, &mut summary, &mut methods)?;
         report::write_rows(&results, &summary.rows)?;
     }
     report::write_reports(&options.out, &summary.rows, &budget_rows)?;

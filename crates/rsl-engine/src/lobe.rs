@@ -28,7 +28,7 @@
 //! the vertices (the RSL sum per pixel has no GPU pass).
 
 use crate::engine::{Engine, EnvRadiance, ShadedFrame, brdf_key};
-use crate::method::{Frame, Method, Request, rasterise};
+use crate::method::{Frame, Method, Preparation, Prepared, Request, rasterise};
 use crate::progress::Timings;
 use anyhow::{Context, Result};
 use glam::Vec3;
@@ -735,6 +735,16 @@ impl Method for Hybrid {
         let per_pixel = self.per_pixel;
         self.render_drawn(engine, scene, request, &drawn, per_pixel)
     }
+
+    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
+        Ok(self.environment_job(engine)?.map(|job| Preparation::new(move || Box::new(job.run()) as Prepared)))
+    }
+
+    fn install(&mut self, prepared: Prepared) {
+        if let Ok(p) = prepared.downcast::<PreparedEnvironment>() {
+            Hybrid::install(self, *p);
+        }
+    }
 }
 
 /// Each object drawn as its scene `method` asks ([`Drawn::of`]; `auto`:
@@ -807,5 +817,49 @@ impl Method for PerObject {
             });
         }
         self.hybrid.render_drawn(engine, scene, request, &drawn, true)
+    }
+
+    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
+        self.hybrid.preparation(engine)
+    }
+
+    fn explain(&mut self, engine: &Engine, scene: &Scene) -> Result<Vec<String>> {
+        engine.check(scene)?;
+        let square = typical_square(engine.rsls());
+        let mut lines = Vec::with_capacity(scene.objects.len());
+        for (i, o) in scene.objects.iter().enumerate() {
+            let brdf = engine.brdf(i);
+            let drawn = match o.method {
+                ObjectMethod::Auto => self.auto_choice(engine, i)?,
+                m => Drawn::of(m, brdf),
+            };
+            let how = match drawn {
+                Drawn::Vertex => "RSL at the vertices, interpolated (rsl)",
+                Drawn::Pixel if brdf.is_lambertian() => "RSL at the vertices, interpolated (pixel)",
+                Drawn::Pixel => "the RSL sum per pixel (pixel)",
+                Drawn::Lobes => "vMF lobes × RSL visibility (hybrid)",
+                Drawn::LobeFields => "transport lobes shadowed by the fields (lobe)",
+            };
+            let why = if brdf.is_lambertian() {
+                "Lambertian: its radiance varies no faster than its visibility and its BRDF term is exact \
+                 (per pixel only where a traced light's shadow falls)"
+                    .to_string()
+            } else if o.method == ObjectMethod::Auto {
+                let width = 1.0 / self.hybrid.lobes(brdf)?.single_kappa_max().max(1e-6).sqrt();
+                let ratio = square / width;
+                format!(
+                    "auto: the typical square ({square:.4} rad) is {ratio:.1}× its sharpest lobe ({width:.4} rad); \
+                     auto takes the lobes from {LOBE_RATIO}×"
+                )
+            } else {
+                format!("the scene asks for method {:?}", o.method)
+            };
+            lines.push(format!("{}: {how} — {why}", o.name));
+        }
+        Ok(lines)
+    }
+
+    fn install(&mut self, prepared: Prepared) {
+        Method::install(&mut self.hybrid, prepared);
     }
 }

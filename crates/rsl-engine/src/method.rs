@@ -99,6 +99,55 @@ impl Frame {
         }
     }
 
+    /// A frame of per-vertex radiance: each object's vertices and normals in world space at
+    /// `state` (from `engine`'s meshes), `radiance` per object and vertex, and the CPU
+    /// rasteriser's image of them when `image` is asked for (its time added to `timings` as
+    /// "draw"). For methods that shade vertices by their own means.
+    pub fn of_vertices(
+        engine: &Engine,
+        scene: &Scene,
+        state: SceneState,
+        radiance: Vec<Vec<Vec3>>,
+        image: bool,
+        mut timings: Timings,
+    ) -> Result<Self> {
+        engine.check(scene)?;
+        anyhow::ensure!(
+            radiance.len() == scene.objects.len(),
+            "radiance for {} of {} objects",
+            radiance.len(),
+            scene.objects.len()
+        );
+        let mut positions = Vec::with_capacity(radiance.len());
+        let mut normals = Vec::with_capacity(radiance.len());
+        for (i, r) in radiance.iter().enumerate() {
+            let pose = rsl_shade::Pose::new(&state.objects[i]);
+            let mesh = engine.mesh(i);
+            anyhow::ensure!(
+                r.len() == mesh.vertex_count(),
+                "radiance for {} of {} vertices",
+                r.len(),
+                mesh.vertex_count()
+            );
+            positions.push(mesh.positions.iter().map(|p| pose.position(*p)).collect::<Vec<_>>());
+            normals.push(mesh.normals.iter().map(|n| pose.normal(*n)).collect::<Vec<_>>());
+        }
+        let image = image.then(|| timings.time("draw", || rasterise(engine, scene, &state, &positions, &radiance)));
+        Ok(Frame {
+            state,
+            positions,
+            normals,
+            radiance,
+            std_error: None,
+            image,
+            encoded: None,
+            self_error: None,
+            stats: FrameStats::default(),
+            shadow_rays: 0,
+            timings,
+        })
+    }
+
     /// Whether the frame holds per-vertex radiance.
     pub fn has_vertices(&self) -> bool {
         !self.radiance.is_empty()
@@ -112,6 +161,53 @@ pub trait Method {
 
     /// The frame of `scene` (which `engine` was last synced to) for `request`.
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame>;
+
+    /// What the method must still prepare for `engine`'s scene beyond the engine's own
+    /// data (the lobe methods' prefiltered environment and transport lobes), as a job a
+    /// front end may run on a worker thread and give back with [`Method::install`]; `None`
+    /// when nothing is missing. Without it, [`Method::render`] prepares what it needs itself.
+    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
+        let _ = engine;
+        Ok(None)
+    }
+
+    /// Takes what a [`Preparation`] made (anything not of this method is ignored).
+    fn install(&mut self, prepared: Prepared) {
+        let _ = prepared;
+    }
+
+    /// How each object of `scene` is drawn, and why: one line per object (`rsl render
+    /// --explain`).
+    fn explain(&mut self, engine: &Engine, scene: &Scene) -> Result<Vec<String>> {
+        engine.check(scene)?;
+        let what = self.describe();
+        Ok(scene.objects.iter().map(|o| format!("{}: {what}", o.name)).collect())
+    }
+}
+
+/// What a [`Preparation`] made, for [`Method::install`].
+pub type Prepared = Box<dyn std::any::Any + Send>;
+
+/// Work a method needs done before it draws without a long pause
+/// ([`Method::preparation`]); runs on any thread.
+pub struct Preparation(Box<dyn FnOnce() -> Prepared + Send>);
+
+impl Preparation {
+    /// The job `f`.
+    pub fn new(f: impl FnOnce() -> Prepared + Send + 'static) -> Self {
+        Self(Box::new(f))
+    }
+
+    /// Does the work.
+    pub fn run(self) -> Prepared {
+        (self.0)()
+    }
+}
+
+impl std::fmt::Debug for Preparation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Preparation")
+    }
 }
 
 /// The automatic exposure of an image: keyed on the pixels objects cover (the background

@@ -9,10 +9,11 @@
 //! `Σ_k L̂_k·T̂_k = Σ_t L_t·T_t·Ω_t`, the cube's quadrature of the lighting integral: with all
 //! `6R²` terms the baseline is exactly that sum.
 
+use crate::engine::{Engine, EnvRadiance};
+use crate::method::{Frame, Method, Request};
+use crate::progress::Timings;
 use anyhow::{Result, bail};
 use glam::Vec3;
-use rsl_engine::Engine;
-use rsl_engine::engine::EnvRadiance;
 use rsl_env::CubeEnv;
 use rsl_scene::Scene;
 use rsl_shade::Pose;
@@ -206,6 +207,58 @@ impl Wavelets {
                 o.iter().map(|t| t[..k].iter().zip(&self.lighting[..k]).map(|(a, (_, l))| *a * *l).sum()).collect()
             })
             .collect()
+    }
+}
+
+/// The Haar wavelet baseline as a method: the transport is prepared for the scene as it is
+/// at the frame's time (a static scene: prepared again when the time, the environment or
+/// the scene changes) on the quality's environment grid, and each frame keeps the
+/// [`WaveletMethod::terms`] largest lighting coefficients.
+pub struct WaveletMethod {
+    /// Lighting terms kept per frame.
+    pub terms: usize,
+    progress: crate::progress::Progress,
+    prepared: Option<(u64, Wavelets)>,
+}
+
+/// Lighting terms the baseline keeps when not told (Ng et al.'s figures use 100–200).
+pub const DEFAULT_TERMS: usize = 200;
+
+impl WaveletMethod {
+    /// The baseline with [`DEFAULT_TERMS`] terms (nothing prepared yet).
+    pub fn new(_engine: &Engine, options: &crate::registry::MethodOptions) -> Result<Self> {
+        Ok(Self { terms: DEFAULT_TERMS, progress: options.progress.clone(), prepared: None })
+    }
+}
+
+impl Method for WaveletMethod {
+    fn describe(&self) -> String {
+        format!("Haar wavelet baseline, {} terms (CPU)", self.terms)
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        let r = scene.quality.settings.env_grid as usize;
+        let mut h = crate::cache::KeyHasher::default()
+            .str("wavelet method")
+            .f32s(&[request.time])
+            .u64(engine.environment_key())
+            .u64(r as u64)
+            .u64(self.terms as u64);
+        for (i, o) in scene.objects.iter().enumerate() {
+            h = h.u64(engine.keys(i).mesh).str(&format!("{:?}{:?}{}", o.material, o.motion, o.casts_shadows));
+        }
+        let key = h.finish();
+        let mut timings = Timings::default();
+        if self.prepared.as_ref().is_none_or(|(k, _)| *k != key) {
+            let task = format!("wavelet transport ({} vertices, 6×{r}² rays each)", scene.counts().0);
+            let start = std::time::Instant::now();
+            let w = self.progress.task(&task, |_| Wavelets::new(engine, scene, request.time, r, self.terms, true))?;
+            timings.add("transport", start.elapsed().as_secs_f64() * 1e3, None);
+            self.prepared = Some((key, w));
+        }
+        let w = &self.prepared.as_ref().expect("prepared above").1;
+        let radiance = timings.time("shade", || w.radiance(self.terms));
+        Frame::of_vertices(engine, scene, scene.at(request.time), radiance, request.image, timings)
     }
 }
 

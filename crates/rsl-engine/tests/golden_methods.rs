@@ -12,7 +12,7 @@
 use glam::Vec3;
 use rsl_engine::method::{Method, Request};
 use rsl_engine::scene::Scene;
-use rsl_engine::{Engine, EngineOptions, Layers};
+use rsl_engine::{Device, Engine, EngineOptions, Layers, MethodId, MethodOptions};
 
 mod common;
 use common::root;
@@ -112,23 +112,16 @@ fn check(name: &str, (vertices, pixels): (Vec<Vec3>, Vec<Vec3>)) {
     }
 }
 
-/// The method `name` on the CPU (`None` for the GPU ones without an adapter).
+/// The method `name` (`<method>-gpu`: on the GPU) from the registry (`None` for the GPU
+/// ones without an adapter).
 fn method(name: &str, engine: &Engine, test: &str) -> Option<Box<dyn Method>> {
-    use rsl_engine::lobe::{Hybrid, PerObject};
-    use rsl_engine::method::{CpuRsl, CpuRslPixels, GpuRsl, Truth};
-    let gpu = || rsl_gpu::testing::context_or_skip(test).map(std::sync::Arc::new);
-    Some(match name {
-        "rsl" => Box::new(CpuRsl),
-        "pixel" => Box::new(CpuRslPixels),
-        "hybrid" => Box::new(Hybrid::new()),
-        "lobe" => Box::new(Hybrid::lobe()),
-        "auto" => Box::new(PerObject::new()),
-        "truth" => Box::new(Truth::new(engine, 4, 7).expect("truth")),
-        "rsl-gpu" => Box::new(GpuRsl { renderer: rsl_engine::GpuRenderer::with_context(gpu()?).expect("pipelines") }),
-        "hybrid-gpu" => Box::new(Hybrid::on_gpu(gpu()?).expect("draw pass")),
-        "lobe-gpu" => Box::new(Hybrid::on_gpu(gpu()?).expect("draw pass").with_fields(true)),
-        _ => unreachable!("no method {name}"),
-    })
+    let (id, gpu) = match name.strip_suffix("-gpu") {
+        Some(id) => (id, Some(std::sync::Arc::new(rsl_gpu::testing::context_or_skip(test)?))),
+        None => (name, None),
+    };
+    let device = if gpu.is_some() { Device::Gpu } else { Device::Cpu };
+    let options = MethodOptions { device, spp: 4, seed: 7, gpu, ..Default::default() };
+    Some(id.parse::<MethodId>().expect("a registered method").create(engine, &options).expect("the method builds"))
 }
 
 fn golden(name: &str) {

@@ -148,7 +148,8 @@ pub struct Object {
 }
 
 /// How an object's radiance reaches the image, per object (`method = "auto" | "rsl" |
-/// "rsl_pixel" | "hybrid" | "lobe"`, default `auto`). A Lambertian object is always shaded at its
+/// "pixel" | "hybrid" | "lobe"`, default `auto`; the names of `rsl_engine`'s method registry,
+/// `rsl_pixel` still taken for `pixel`). A Lambertian object is always shaded at its
 /// vertices by the RSL path and interpolated: its radiance varies no faster than its
 /// visibility, and its BRDF term is exact.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
@@ -161,7 +162,9 @@ pub enum ObjectMethod {
     Auto,
     /// The RSL path at the vertices, interpolated across triangles (the fastest).
     Rsl,
-    /// The RSL sum per pixel, with the visibility interpolated from the vertices.
+    /// The RSL sum per pixel, with the visibility interpolated from the vertices (`pixel`,
+    /// the method's name everywhere else, is taken too).
+    #[serde(alias = "pixel")]
     RslPixel,
     /// vMF lobes over the prefiltered environment per pixel, times the RSL path's visibility
     /// ratio (at each pixel on the CPU: the traced lights traced there, the others'

@@ -26,7 +26,7 @@ use egui::{Color32, ColorImage, TextureHandle, TextureOptions};
 use glam::{Quat, Vec3};
 use rayon::prelude::*;
 use rsl_engine::scene::{Material, Preset, Quality, Scene};
-use rsl_engine::{Engine, EngineOptions, Event, Progress, method::exposure_for};
+use rsl_engine::{Engine, EngineOptions, Event, Incremental, MethodId, Progress, method::exposure_for};
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -175,15 +175,14 @@ pub struct Viewer {
     /// The environment thumbnail with its RSLs, for (environment key, RSL count).
     thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,
-    /// How glossy objects are drawn once the view rests.
-    drawing: Drawing,
-    /// The lobe methods' state (prefiltered environment, material lobes), kept between frames.
-    hybrid: rsl_engine::lobe::Hybrid,
-    lobe: rsl_engine::lobe::Hybrid,
-    per_object: rsl_engine::lobe::PerObject,
-    /// The lobe methods' environment being prefiltered on a worker thread (seconds): frames
-    /// are drawn from the vertices meanwhile.
-    lobe_job: Option<std::thread::JoinHandle<rsl_engine::lobe::PreparedEnvironment>>,
+    /// How the view is drawn once it rests (a method of the registry).
+    drawing: MethodId,
+    /// The methods drawn in whole frames, built from the registry when first chosen and kept
+    /// with what they prepared (a prefiltered environment, material lobes).
+    methods: Vec<(MethodId, Box<dyn rsl_engine::Method>)>,
+    /// The drawing's preparation ([`rsl_engine::Method::preparation`]) running on a worker
+    /// thread (seconds): frames are drawn from the vertices meanwhile.
+    lobe_job: Option<(MethodId, std::thread::JoinHandle<rsl_engine::method::Prepared>)>,
     /// The next refresh draws per pixel (set on the toggle, and once edits rest).
     force_pixels: bool,
     /// When an edit was last drawn interpolated while drawing per pixel is on.
@@ -229,38 +228,22 @@ const GIZMO_PIXELS: f32 = 70.0;
 /// How near a pointer must come to a handle to take it, image pixels.
 const GIZMO_REACH: f32 = 6.0;
 
-/// How the viewer draws glossy objects once the view rests (while edits come, every object's
-/// vertex radiance is interpolated): what `rsl render --method` draws for the same name.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Drawing {
-    /// Every object's vertex radiance interpolated (`rsl`), always.
-    #[default]
-    Vertices,
-    /// The RSL sum per pixel (`pixel`; `rsl_engine::CpuRslPixels`).
-    RslPixel,
-    /// vMF lobes per pixel × the RSL visibility ratio (`hybrid`).
-    Hybrid,
-    /// Transport lobes per pixel, shadowed by the other objects' fields over each lobe
-    /// (`lobe`).
-    Lobe,
-    /// Each object as its scene `method` says (`auto`).
-    Auto,
+/// The drop-down's label of a drawing: the method's name (what it is shows on hover).
+pub fn label(drawing: MethodId) -> String {
+    drawing.name().to_string()
 }
 
-impl Drawing {
-    /// Every choice, in the order the drop-down lists them.
-    pub const ALL: [Drawing; 5] = [Drawing::Vertices, Drawing::RslPixel, Drawing::Hybrid, Drawing::Lobe, Drawing::Auto];
+/// The drawings the viewer offers: every registered method it can redraw on edits.
+pub fn drawings() -> Vec<MethodId> {
+    MethodId::all().into_iter().filter(|m| m.capabilities().interactive).collect()
+}
 
-    /// Its label in the drop-down.
-    pub fn label(self) -> &'static str {
-        match self {
-            Drawing::Vertices => "vertices interpolated (rsl)",
-            Drawing::RslPixel => "RSL sum per pixel (pixel)",
-            Drawing::Hybrid => "lobes × RSL visibility (hybrid)",
-            Drawing::Lobe => "lobes shadowed by fields (lobe)",
-            Drawing::Auto => "per object (auto)",
-        }
-    }
+/// The RSL sum per pixel, the drawing `--per-pixel` asks for.
+fn per_pixel_drawing() -> MethodId {
+    drawings()
+        .into_iter()
+        .find(|m| m.capabilities().incremental == Incremental::PixelCovers)
+        .expect("the registry holds the RSL sum per pixel")
 }
 
 /// Frames kept in the timings graph.
@@ -427,10 +410,8 @@ impl Viewer {
             moved: true,
             thumbnail: None,
             readout: None,
-            drawing: Drawing::Vertices,
-            hybrid: rsl_engine::lobe::Hybrid::new(),
-            lobe: rsl_engine::lobe::Hybrid::lobe(),
-            per_object: rsl_engine::lobe::PerObject::new(),
+            drawing: MethodId::RSL,
+            methods: Vec::new(),
             lobe_job: None,
             force_pixels: false,
             pixels_pending: None,
@@ -918,23 +899,29 @@ impl Viewer {
     /// `rsl_engine::CpuRslPixels` renders the same image) whenever the view rests
     /// ([`Viewer::settle_pixels`]), or interpolates every object's vertex radiance always.
     pub fn set_per_pixel(&mut self, on: bool) {
-        self.set_drawing(if on { Drawing::RslPixel } else { Drawing::Vertices });
+        self.set_drawing(if on { per_pixel_drawing() } else { MethodId::RSL });
     }
 
-    /// How glossy objects are drawn once the view rests ([`Drawing`]); drawn that way at once.
-    pub fn set_drawing(&mut self, drawing: Drawing) {
+    /// How the view is drawn once it rests (a method of the registry); drawn that way at
+    /// once.
+    pub fn set_drawing(&mut self, drawing: MethodId) {
         if self.drawing != drawing {
             self.drawing = drawing;
-            self.force_pixels = drawing != Drawing::Vertices;
+            self.force_pixels = !self.vertices_only();
             self.pixels_pending = None;
             self.covers.iter_mut().for_each(|c| *c = None);
             self.mark_all();
         }
     }
 
-    /// How glossy objects are drawn once the view rests.
-    pub fn drawing(&self) -> Drawing {
+    /// How the view is drawn once it rests.
+    pub fn drawing(&self) -> MethodId {
         self.drawing
+    }
+
+    /// Whether the drawing is the vertices interpolated, always (nothing to settle).
+    fn vertices_only(&self) -> bool {
+        self.drawing.capabilities().incremental == Incremental::Vertices
     }
 
     /// Drawing per pixel costs hundreds of milliseconds a frame on 2 cores: while edits come
@@ -956,45 +943,61 @@ impl Viewer {
 
     /// Whether glossy objects are drawn with the RSL sum per pixel.
     pub fn per_pixel(&self) -> bool {
-        self.drawing == Drawing::RslPixel
+        self.drawing.capabilities().incremental == Incremental::PixelCovers
     }
 
-    /// Whether the drawing's prefiltered environment is ready: if not, it is started on a
-    /// worker thread (once) and `false` comes back; a finished worker's result is taken.
+    /// Whether the drawing is prepared ([`rsl_engine::Method::preparation`]): if not, its
+    /// preparation is started on a worker thread (once) and `false` comes back; a finished
+    /// worker's result is given to its method.
     fn lobes_ready(&mut self) -> Result<bool> {
-        if self.lobe_job.as_ref().is_some_and(|h| !h.is_finished()) {
+        if self.lobe_job.as_ref().is_some_and(|(_, h)| !h.is_finished()) {
             return Ok(false);
         }
-        if let Some(h) = self.lobe_job.take() {
-            let p = h.join().map_err(|_| anyhow!("prefiltering the environment failed"))?;
-            self.hybrid.install(p.clone());
-            self.lobe.install(p.clone());
-            self.per_object.hybrid_mut().install(p);
+        if let Some((id, h)) = self.lobe_job.take() {
+            let p = h.join().map_err(|_| anyhow!("preparing the drawing {id} failed"))?;
+            if let Some((_, m)) = self.methods.iter_mut().find(|(m, _)| *m == id) {
+                m.install(p);
+            }
         }
+        if self.drawing.capabilities().incremental != Incremental::Frames {
+            return Ok(true);
+        }
+        let id = self.drawing;
+        let at = self.method()?;
         let Some(engine) = &self.engine else { return Ok(true) };
-        let method = match self.drawing {
-            Drawing::Hybrid => &mut self.hybrid,
-            Drawing::Lobe => &mut self.lobe,
-            Drawing::Auto => self.per_object.hybrid_mut(),
-            Drawing::Vertices | Drawing::RslPixel => return Ok(true),
-        };
-        match method.environment_job(engine)? {
+        match self.methods[at].1.preparation(engine)? {
             None => Ok(true),
             Some(job) => {
                 let handle = std::thread::Builder::new()
-                    .name("rsl-view prefilter".into())
+                    .name("rsl-view prepare".into())
                     .spawn(move || job.run())
-                    .context("starting the prefiltering thread")?;
-                self.lobe_job = Some(handle);
+                    .context("starting the preparation thread")?;
+                self.lobe_job = Some((id, handle));
                 Ok(false)
             }
         }
     }
 
+    /// Where the drawing's method is in `methods` (built from the registry, on the CPU, when
+    /// first asked for).
+    fn method(&mut self) -> Result<usize> {
+        let id = self.drawing;
+        let at = match self.methods.iter().position(|(m, _)| *m == id) {
+            Some(at) => at,
+            None => {
+                let engine = self.engine.as_ref().ok_or_else(|| anyhow!("the scene is not prepared yet"))?;
+                let options = rsl_engine::MethodOptions { device: rsl_engine::Device::Cpu, ..Default::default() };
+                self.methods.push((id, id.create(engine, &options)?));
+                self.methods.len() - 1
+            }
+        };
+        Ok(at)
+    }
+
     /// Waits for the environment being prefiltered for the lobes, if any (tests and the
     /// headless screenshot); the next refresh draws with them.
     pub fn wait_lobes(&mut self) {
-        if let Some(h) = &self.lobe_job {
+        if let Some((_, h)) = &self.lobe_job {
             while !h.is_finished() {
                 std::thread::sleep(std::time::Duration::from_millis(5));
             }
@@ -1010,14 +1013,13 @@ impl Viewer {
     /// [`Viewer::refresh`] through one of the lobe methods (or `auto`): the whole frame by
     /// the engine's method, as `rsl render --method` draws it.
     fn refresh_method(&mut self, start: Instant) -> Result<bool> {
+        if self.engine.is_none() {
+            return Ok(false);
+        }
+        let at = self.method()?;
         let Some(engine) = &self.engine else { return Ok(false) };
         let request = rsl_engine::Request { time: self.time, image: true, vertices: true, exposure: None };
-        use rsl_engine::Method;
-        let frame = match self.drawing {
-            Drawing::Hybrid => self.hybrid.render(engine, &self.scene, &request)?,
-            Drawing::Lobe => self.lobe.render(engine, &self.scene, &request)?,
-            _ => self.per_object.render(engine, &self.scene, &request)?,
-        };
+        let frame = self.methods[at].1.render(engine, &self.scene, &request)?;
         let n = self.scene.objects.len();
         for (i, (p, r)) in frame.positions.into_iter().zip(frame.radiance).enumerate().take(n) {
             self.counters.vertices_shaded += r.len() as u64;
@@ -1095,13 +1097,13 @@ impl Viewer {
             return Ok(false);
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
-        if self.drawing != Drawing::Vertices {
+        if !self.vertices_only() {
             if self.force_pixels && !self.lobes_ready()? {
                 // Drawn from the vertices until the worker has prefiltered the environment
                 // (`force_pixels` stays: the frame after it draws per pixel).
             } else if std::mem::take(&mut self.force_pixels) {
-                return match self.drawing {
-                    Drawing::RslPixel => self.refresh_per_pixel(start),
+                return match self.drawing.capabilities().incremental {
+                    Incremental::PixelCovers => self.refresh_per_pixel(start),
                     _ => self.refresh_method(start),
                 };
             }
@@ -1176,7 +1178,7 @@ impl Viewer {
                     self.rgba = None;
                     self.on_gpu = true;
                     self.record(start, shade_ms, drawn.draw_ms, drawn.tonemap_ms, true);
-                    if self.drawing != Drawing::Vertices {
+                    if !self.vertices_only() {
                         self.pixels_pending = Some(Instant::now());
                     }
                     return Ok(true);
@@ -1236,7 +1238,7 @@ impl Viewer {
                 .collect(),
         };
         self.show(image, pixels, [start, t2], shade_ms, raster_ms);
-        if self.drawing != Drawing::Vertices {
+        if !self.vertices_only() {
             // Per pixel again once the view has rested PREVIEW_REST after this frame (and,
             // while the worker prefilters, a check that often).
             self.pixels_pending = Some(Instant::now());
@@ -1345,10 +1347,10 @@ impl Viewer {
         self.environment_thumbnail(ui);
         let mut drawing = self.drawing;
         egui::ComboBox::from_label("drawing")
-            .selected_text(drawing.label())
+            .selected_text(label(drawing))
             .show_ui(ui, |ui| {
-                for d in Drawing::ALL {
-                    ui.selectable_value(&mut drawing, d, d.label());
+                for d in drawings() {
+                    ui.selectable_value(&mut drawing, d, label(d)).on_hover_text(d.summary());
                 }
             })
             .response

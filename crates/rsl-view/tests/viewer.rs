@@ -451,7 +451,7 @@ fn the_per_pixel_drawing_draws_what_the_pixel_method_renders() {
     };
     ready(&mut h);
     let interpolated = h.state().linear_image().expect("an image").clone();
-    choose_drawing(&mut h, rsl_view::Drawing::RslPixel);
+    choose_drawing(&mut h, id("pixel"));
     assert!(h.state().per_pixel());
     let v = h.state();
     let drawn = v.linear_image().expect("an image");
@@ -489,18 +489,23 @@ fn the_per_pixel_drawing_draws_what_the_pixel_method_renders() {
     }
     h.state_mut().set_material(bunny, m).unwrap();
     h.state_mut().settle(true).unwrap();
-    choose_drawing(&mut h, rsl_view::Drawing::Vertices);
+    choose_drawing(&mut h, id("rsl"));
     assert_eq!(h.state().linear_image().unwrap().pixels, interpolated.pixels);
 }
 
+/// The registered method `name`.
+fn id(name: &str) -> rsl_engine::MethodId {
+    name.parse().expect("a registered method")
+}
+
 /// Picks `drawing` in the "drawing" drop-down, and lets the viewer draw it.
-fn choose_drawing(h: &mut Harness<'static, Viewer>, drawing: rsl_view::Drawing) {
+fn choose_drawing(h: &mut Harness<'static, Viewer>, drawing: rsl_engine::MethodId) {
     use egui_kittest::kittest::Queryable;
     h.get_by_label("drawing").click();
     // The list opens on the next pass.
     h.step();
     h.step();
-    h.get_by_label(drawing.label()).click();
+    h.get_by_label(&rsl_view::label(drawing)).click();
     h.step();
     // Lobes: the environment is prefiltered on a worker while frames keep coming.
     h.state_mut().wait_lobes();
@@ -519,20 +524,20 @@ fn the_drawing_menu_draws_what_each_lobe_method_renders() {
     ready(&mut h);
     let interpolated = h.state().linear_image().expect("an image").clone();
     let request = Request { time: 0.0, image: true, vertices: false, exposure: None };
-    let methods: [(rsl_view::Drawing, Box<dyn Method>); 3] = [
-        (rsl_view::Drawing::Hybrid, Box::new(Hybrid::new())),
-        (rsl_view::Drawing::Lobe, Box::new(Hybrid::lobe())),
-        (rsl_view::Drawing::Auto, Box::new(PerObject::new())),
+    let methods: [(rsl_engine::MethodId, Box<dyn Method>); 3] = [
+        (id("hybrid"), Box::new(Hybrid::new())),
+        (id("lobe"), Box::new(Hybrid::lobe())),
+        (id("auto"), Box::new(PerObject::new())),
     ];
     // The first drawing with lobes prefilters the environment (seconds) on a worker thread:
     // the view keeps its image and frames keep coming meanwhile.
-    h.state_mut().set_drawing(rsl_view::Drawing::Hybrid);
+    h.state_mut().set_drawing(id("hybrid"));
     let frames = h.state().counters().shaded_frames;
     h.step();
     assert!(h.state().is_prefiltering(), "prefiltering on the worker");
     h.step();
     assert!(h.state().counters().shaded_frames > frames, "frames drawn while prefiltering");
-    h.state_mut().set_drawing(rsl_view::Drawing::Vertices);
+    h.state_mut().set_drawing(id("rsl"));
     h.step();
     for (drawing, mut method) in methods {
         choose_drawing(&mut h, drawing);

@@ -1,0 +1,136 @@
+//! A method registered by a program appears in every front end without edits there:
+//! `examples/normals_method.rs` registers `normals` and runs the `rsl` command line, which
+//! then lists and renders it (`rsl render --method`), measures it (`rsl bench --sweep
+//! method=`) and offers it in the viewer (`rsl view --drawing`, the drop-down's choices).
+//!
+//! The example is built by `cargo test` (all targets); `cargo test --test method_registry`
+//! alone does not build it: build it first with `cargo build --release --example
+//! normals_method`.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn example() -> Command {
+    let exe = PathBuf::from(env!("CARGO_BIN_EXE_rsl"))
+        .parent()
+        .expect("the binary's folder")
+        .join("examples")
+        .join(format!("normals_method{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        exe.is_file(),
+        "{} is missing: build it with `cargo build --release --example normals_method`",
+        exe.display()
+    );
+    let mut c = Command::new(exe);
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rsl-registry-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(c: &mut Command) -> (bool, String) {
+    let o = c.output().unwrap();
+    (o.status.success(), format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr)))
+}
+
+#[test]
+fn an_example_method_is_listed_rendered_and_refused_where_it_cannot_run() {
+    let (ok, help) = run(example().args(["render", "--help"]));
+    assert!(ok, "{help}");
+    for name in ["rsl", "pixel", "hybrid", "lobe", "auto", "truth", "wavelet", "normals"] {
+        assert!(
+            help.contains(&format!("{name}:")) || help.contains(&format!("- {name}")),
+            "--help lacks {name}:\n{help}"
+        );
+    }
+    let dir = out_dir("render");
+    let exr = dir.join("n.exr");
+    let (ok, log) =
+        run(example().args(["render", "data/scenes/default.toml", "--method", "normals", "--out"]).arg(&exr));
+    assert!(ok, "{log}");
+    let (w, h, pixels, covered) = rsl_engine::output::read_exr(&exr).unwrap();
+    assert_eq!((w, h), (640, 480));
+    let covered = covered.expect("coverage alpha");
+    // Every covered pixel is a normal's colour: each channel in [0, 1], and
+    // |2c − 1| a unit vector up to interpolation (which shortens it).
+    let mut n = 0;
+    for (p, c) in pixels.iter().zip(&covered) {
+        if *c {
+            let v = *p * 2.0 - glam::Vec3::ONE;
+            assert!(v.length() <= 1.0 + 1e-3 && v.length() > 0.5, "not a normal's colour: {p:?}");
+            n += 1;
+        }
+    }
+    assert!(n > 10_000, "{n} covered pixels");
+    // It runs on the CPU only, as it registered: asking for a GPU is an error before any work.
+    let png = dir.join("g.png");
+    let (ok, log) = run(example()
+        .args(["render", "data/scenes/default.toml", "--method", "normals", "--device", "gpu", "--out"])
+        .arg(&png));
+    assert!(!ok && log.contains("CPU only"), "{log}");
+    assert!(!png.exists());
+    // The plain `rsl` does not know it: the registry is the program's.
+    let o = Command::new(env!("CARGO_BIN_EXE_rsl"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["render", "data/scenes/default.toml", "--method", "normals", "--out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && log.contains("unknown method `normals`"), "{log}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_example_method_is_measured_by_the_bench() {
+    let dir = out_dir("bench");
+    let (ok, log) = run(example()
+        .args(["bench", "data/scenes/default.toml", "--out"])
+        .arg(&dir)
+        .args(["--sweep", "method=normals", "--truth-spp", "2", "--grid-spp", "0", "--frames", "1"])
+        .args(["--no-wavelet", "--no-budget", "--times", "0"]));
+    assert!(ok, "{log}");
+    let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 2, "{csv}");
+    assert!(csv.lines().nth(1).unwrap().contains("method=normals"), "{csv}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_example_method_is_a_drawing_of_the_viewer() {
+    if rsl_gpu::testing::context_or_skip("an_example_method_is_a_drawing_of_the_viewer").is_none() {
+        return;
+    }
+    let dir = out_dir("view");
+    let png = dir.join("shot.png");
+    let (ok, log) = run(example()
+        .args(["view", "data/scenes/default.toml", "--drawing", "normals", "--screenshot"])
+        .arg(&png)
+        .args(["--quality", "draft"]));
+    assert!(ok, "{log}");
+    // The view shows normals: the floor (normal +Y) green, where the default drawing shows
+    // it grey under the studio map.
+    let green = |png: &std::path::Path| {
+        let shot = image::open(png).unwrap().to_rgb8();
+        shot.pixels().filter(|p| p[1] > p[0].saturating_add(40) && p[1] > p[2].saturating_add(40)).count()
+    };
+    assert!(green(&png) > 20_000, "{} green pixels: the view does not show the normals", green(&png));
+    let plain = dir.join("rsl.png");
+    let (ok, log) = run(example()
+        .args(["view", "data/scenes/default.toml", "--drawing", "rsl", "--screenshot"])
+        .arg(&plain)
+        .args(["--quality", "draft"]));
+    assert!(ok, "{log}");
+    assert!(green(&plain) < 1_000, "{} green pixels in the default drawing", green(&plain));
+    // A method the viewer cannot redraw on edits is refused by name, with the choices.
+    let (ok, log) = run(example()
+        .args(["view", "data/scenes/default.toml", "--drawing", "truth", "--screenshot"])
+        .arg(dir.join("t.png")));
+    assert!(!ok && log.contains("--drawing truth") && log.contains("normals"), "{log}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
