@@ -49,6 +49,7 @@ fn main() -> std::process::ExitCode {
         name: "normals",
         aliases: &[],
         summary: "world normals as colours (an example method registered by a program)",
+        when: "checking a mesh's normals and the registry's front ends",
         capabilities: Capabilities {
             image: ImageKind::Vertices,
             cpu: true,

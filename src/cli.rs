@@ -58,6 +58,9 @@ pub enum Command {
     /// the RSL count and preset, and see what each stage costs; `--screenshot` renders the
     /// whole UI headless to a PNG.
     View(crate::view::ViewArgs),
+    /// List the methods `render --method`, `bench --sweep method=` and the viewer's drawing
+    /// take: how each draws, where, and when to use it (a Markdown table).
+    Methods,
 }
 
 /// Arguments of `rsl decompose`.
@@ -92,6 +95,10 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Compare(args) => crate::compare::run(&args),
         Command::Bench(args) => crate::bench::bench(&args),
         Command::View(args) => crate::view::run(&args),
+        Command::Methods => {
+            print!("{}", rsl_engine::registry::markdown_table());
+            Ok(())
+        }
     }
 }
 

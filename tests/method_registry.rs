@@ -134,3 +134,10 @@ fn an_example_method_is_a_drawing_of_the_viewer() {
     assert!(!ok && log.contains("--drawing truth") && log.contains("normals"), "{log}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_readmes_table_of_methods_is_the_registrys() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let table = rsl_engine::registry::markdown_table();
+    assert!(readme.contains(&table), "README.md's table of methods is not `rsl methods`'s; it prints:\n{table}");
+}

@@ -29,178 +29,16 @@ use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, Traced, Verte
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
 use rsl_vis::rays::Occluder;
-use rsl_vis::store::FieldFileError;
-use rsl_vis::{FaceMask, Ovdf, OvdfParams, Svdf, SvdfParams};
-use std::path::{Path, PathBuf};
+use rsl_vis::{FaceMask, Ovdf, Svdf};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Which layers of prepared data an engine builds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Layers {
-    /// The RSL path's data: light set, BRDF tables, visibility fields. Without it only the
-    /// method-neutral layer is prepared (what the Monte Carlo truth needs).
-    pub rsl: bool,
-}
-
-impl Default for Layers {
-    fn default() -> Self {
-        Self { rsl: true }
-    }
-}
-
-/// How the engine prepares a scene.
-#[derive(Clone, Debug, Default)]
-pub struct EngineOptions {
-    /// Disk cache folder; `None`: memory only.
-    pub cache_dir: Option<PathBuf>,
-    /// Overrides the scene's RSL count.
-    pub rsl_count: Option<u32>,
-    /// Overrides the scene's quality preset (the scene's own knob overrides are dropped).
-    pub quality: Option<Preset>,
-    /// Where long steps (decomposition, field builds) report their progress.
-    pub progress: Progress,
-    /// Bytes of rebuildable prepared data kept in memory beyond what the scene uses
-    /// (`None`: [`DEFAULT_BUDGET`]).
-    pub memory_budget: Option<usize>,
-    /// The layers to prepare.
-    pub layers: Layers,
-}
-
-/// The scene material as the BRDF model it names.
-pub fn brdf_of(m: &Material) -> Brdf {
-    let v = Vec3::from_array;
-    match *m {
-        Material::Lambert { albedo } => Brdf::Lambert { albedo: v(albedo) },
-        Material::Phong { exponent, specular, diffuse } => {
-            Brdf::Phong { exponent, specular: v(specular), diffuse: v(diffuse) }
-        }
-        Material::BlinnPhong { exponent, specular, diffuse } => {
-            Brdf::BlinnPhong { exponent, specular: v(specular), diffuse: v(diffuse) }
-        }
-        Material::CookTorrance { alpha, specular, diffuse } => {
-            Brdf::CookTorrance { alpha, specular: v(specular), diffuse: v(diffuse) }
-        }
-        Material::Ward { alpha, alpha_x, alpha_y, specular, diffuse } => {
-            // The scene file holds `alpha` or both of `alpha_x`, `alpha_y`; a missing value
-            // would fail the table's parameter check by name.
-            Brdf::Ward {
-                alpha_x: alpha_x.or(alpha).unwrap_or(f32::NAN),
-                alpha_y: alpha_y.or(alpha).unwrap_or(f32::NAN),
-                specular: v(specular),
-                diffuse: v(diffuse),
-            }
-        }
-        Material::Ggx { alpha, specular, diffuse } => Brdf::Ggx { alpha, specular: v(specular), diffuse: v(diffuse) },
-        Material::Beckmann { alpha, specular, diffuse } => {
-            Brdf::Beckmann { alpha, specular: v(specular), diffuse: v(diffuse) }
-        }
-    }
-}
-
-/// The content key of a BRDF: its model and every parameter, bit for bit.
-pub fn brdf_key(b: &Brdf) -> u64 {
-    let h = KeyHasher::default().str("brdf");
-    let v = |v: &Vec3| v.to_array();
-    match b {
-        Brdf::Lambert { albedo } => h.str("lambert").f32s(&v(albedo)),
-        Brdf::Phong { exponent, specular, diffuse } => {
-            h.str("phong").f32s(&[*exponent]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::BlinnPhong { exponent, specular, diffuse } => {
-            h.str("blinn_phong").f32s(&[*exponent]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::CookTorrance { alpha, specular, diffuse } => {
-            h.str("cook_torrance").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
-            h.str("ward").f32s(&[*alpha_x, *alpha_y]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::Ggx { alpha, specular, diffuse } => h.str("ggx").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse)),
-        Brdf::Beckmann { alpha, specular, diffuse } => {
-            h.str("beckmann").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-    }
-    .finish()
-}
-
-/// The self-visibility resolution of a quality setting.
-pub fn svdf_params(preset: Preset, q: &QualitySettings) -> SvdfParams {
-    let base = match preset {
-        Preset::Draft => SvdfParams::DRAFT,
-        Preset::Standard | Preset::Paper => SvdfParams::PAPER,
-        Preset::High => SvdfParams::HIGH,
-    };
-    SvdfParams {
-        n: q.visibility_resolution as usize,
-        clusters: q.cpca_clusters as usize,
-        vectors: q.cpca_vectors as usize,
-        ..base
-    }
-}
-
-/// The occluder-field resolution of a quality setting.
-pub fn ovdf_params(q: &QualitySettings) -> OvdfParams {
-    OvdfParams {
-        shells: q.ovdf_shells as usize,
-        m: q.ovdf_directions as usize,
-        n: q.visibility_resolution as usize,
-        supersample: 2,
-        vectors: q.ovdf_vectors as usize,
-    }
-}
-
-/// The BRDF table resolution of a quality setting for `brdf`: its `brdf_resolution`, or
-/// when that is automatic rsl-brdf's choice from the lobe width; `view_samples` views.
-/// Anisotropic tables hold `V×V` views (a quarter stored), so under `auto` their `N` stays
-/// at 32: at 128 one table would take 140 MB and a tenth of a second to build.
-pub fn table_resolution(q: &QualitySettings, brdf: &Brdf) -> Resolution {
-    let views = (q.view_samples as usize).max(2);
-    match q.brdf_resolution {
-        rsl_scene::quality::AUTO if brdf.is_anisotropic() => Resolution { n: 32, views },
-        rsl_scene::quality::AUTO => Resolution { views, ..Resolution::auto(brdf) },
-        n => Resolution { n: n as usize, views },
-    }
-}
-
-/// The BRDF table resolution of [`Engine::sync_previewing`]'s preview object.
-pub const PREVIEW_RESOLUTION: usize = 32;
-
-/// Environment variable overriding [`DEFAULT_PREPARE_LIMIT`] (bytes).
-pub const PREPARE_LIMIT_ENV: &str = "RSL_MAX_PREPARE_BYTES";
-/// The most bytes one prepared item (a BRDF table, a visibility field's build) may take
-/// unless [`PREPARE_LIMIT_ENV`] says otherwise: checked before anything is allocated, so that
-/// a quality setting the file format allows (tables of 512², 512 views) is an error naming
-/// its knobs rather than an exhausted machine.
-pub const DEFAULT_PREPARE_LIMIT: u64 = 8 << 30;
-
-/// The limit on one prepared item's bytes ([`DEFAULT_PREPARE_LIMIT`], or the environment's).
-pub fn prepare_limit() -> Result<u64> {
-    match std::env::var(PREPARE_LIMIT_ENV) {
-        Err(_) => Ok(DEFAULT_PREPARE_LIMIT),
-        Ok(v) => v
-            .trim()
-            .parse::<u64>()
-            .map_err(|_| anyhow::anyhow!("{PREPARE_LIMIT_ENV} must be a whole number of bytes, got \"{v}\"")),
-    }
-}
-
-/// Fails when `bytes` (what building `what` would take) is beyond [`prepare_limit`].
-pub(crate) fn check_size(what: &str, knobs: &str, bytes: u64) -> Result<()> {
-    let limit = prepare_limit()?;
-    if bytes > limit {
-        // Gigabytes where that says something, else megabytes (a low limit set for a test).
-        let size = |b: u64| {
-            if b >= 100_000_000 { format!("{:.1} GB", b as f64 / 1e9) } else { format!("{:.1} MB", b as f64 / 1e6) }
-        };
-        bail!(
-            "{what} would take {} to build, more than the limit of {} ({PREPARE_LIMIT_ENV}): lower {knobs}",
-            size(bytes),
-            size(limit)
-        );
-    }
-    Ok(())
-}
+use crate::field_io::{FieldIo, field_key, field_vertices, frames_bytes, reject, rsl_bytes};
+pub(crate) use crate::options::check_size;
+pub use crate::options::{
+    DEFAULT_PREPARE_LIMIT, EngineOptions, Layers, PREPARE_LIMIT_ENV, PREVIEW_RESOLUTION, brdf_key, brdf_of,
+    ovdf_params, prepare_limit, svdf_params, table_resolution,
+};
 
 /// The environment's radiance, before its intensity.
 #[derive(Clone, Debug)]
@@ -324,7 +162,7 @@ pub struct Engine {
 }
 
 /// Format version of everything this engine caches (bump when any computation changes).
-const CACHE_VERSION: u64 = 2;
+pub(crate) const CACHE_VERSION: u64 = 2;
 
 /// Stage names of [`Engine::timings`].
 pub mod stage {
@@ -986,60 +824,5 @@ impl PreparedObject {
             svdf: r.map_or(0, |r| r.svdf_key),
             ovdf: r.and_then(|r| r.ovdf.as_ref()).map_or(0, |(_, k)| *k),
         }
-    }
-}
-
-fn rsl_bytes(s: &[Rsl]) -> usize {
-    std::mem::size_of_val(s)
-}
-
-fn frames_bytes(f: &VertexFrames) -> usize {
-    std::mem::size_of_val(f.visibility.as_slice())
-        + f.tangent.as_ref().map_or(0, |t| std::mem::size_of_val(t.as_slice()))
-}
-
-/// Counts a rejected cache file, says why, and removes it.
-fn reject(stats: &mut CacheStats, file: &Path, why: &str) {
-    stats.rejected += 1;
-    tracing::warn!("cache file {} rejected ({why}); recomputing", file.display());
-    let _ = std::fs::remove_file(file);
-}
-
-/// The key of a visibility field of a mesh at some parameters.
-fn field_key(kind: &str, mesh_key: u64, params: &[usize]) -> u64 {
-    params
-        .iter()
-        .fold(
-            KeyHasher::default().str(kind).u64(mesh_key).u64(CACHE_VERSION).u64(rsl_vis::store::VERSION.into()),
-            |h, &p| h.u64(p as u64),
-        )
-        .finish()
-}
-
-/// A progress callback: `(done, total)`.
-type Report<'p> = dyn Fn(usize, usize) + Sync + 'p;
-
-/// How to read, check, build, measure and write one kind of visibility field.
-struct FieldIo<'a, T> {
-    /// File name prefix (`<prefix>-<key>.bin`).
-    prefix: &'static str,
-    load: fn(&Path, u64) -> Result<T, FieldFileError>,
-    save: fn(&T, u64, &Path) -> Result<(), FieldFileError>,
-    /// Whether a loaded field fits what is asked for (and why not).
-    check: &'a dyn Fn(&T) -> Result<(), &'static str>,
-    /// Builds the field, reporting `(done, total)`.
-    build: &'a dyn Fn(&Report<'_>) -> Result<T>,
-    /// Bytes the field holds.
-    bytes: fn(&T) -> usize,
-    /// The timing stage its builds count in.
-    stage: &'static str,
-    /// What the progress report says while building.
-    message: String,
-}
-
-fn field_vertices(f: &Svdf) -> usize {
-    match f {
-        Svdf::Convex { vertices } => *vertices,
-        Svdf::Field { cpca, .. } => cpca.assignment.len(),
     }
 }

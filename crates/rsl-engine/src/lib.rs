@@ -11,9 +11,11 @@
 
 pub mod cache;
 pub mod engine;
+mod field_io;
 pub mod gpu;
 pub mod lobe;
 pub mod method;
+pub mod options;
 pub mod output;
 pub mod ply;
 pub mod progress;

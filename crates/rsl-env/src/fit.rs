@@ -25,7 +25,7 @@ use std::f64::consts::PI;
 /// it fits; luminance alone lets regions straddle an edge of colour at equal luminance, and
 /// the squares then render both sides in one grey (a rough ball under sunrise.exr, 6.49 %
 /// per vertex at paper, 30 RSLs). Green, which carries most of the luminance, counts twice
-/// as much as red and blue: of the weights tried on the accuracy scenes (README), equal ones
+/// as much as red and blue: of the weights tried on the accuracy scenes (docs/history.md), equal ones
 /// gave that ball 3.24 % but the overcast bunny 3.16 % (2.64 % with luminance), these 3.84 %
 /// and 2.67 %, and luminance's own weights (blue at 0.07) 4.05 % and 2.68 % but 5.56 % at 35
 /// RSLs.

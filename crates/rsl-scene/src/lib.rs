@@ -156,7 +156,7 @@ pub struct Object {
 #[serde(rename_all = "snake_case")]
 pub enum ObjectMethod {
     /// For a glossy object, `rsl_pixel` (the most accurate per covered pixel on every bundled
-    /// accuracy scene, README), or `hybrid` where its lobe is much narrower than the squares
+    /// accuracy scene, docs/history.md), or `hybrid` where its lobe is much narrower than the squares
     /// that carry the light (a near-mirror under a smooth sky; `rsl_engine::lobe::PerObject`).
     #[default]
     Auto,

@@ -9,7 +9,7 @@ pub enum Preset {
     /// Fast, for tests and first looks.
     Draft,
     /// The default: the cheapest preset that meets the accuracy targets of the sun-lit,
-    /// studio and overcast scenes at 30 RSLs (README, "Accuracy against the truth"); the
+    /// studio and overcast scenes at 30 RSLs (docs/history.md, "Accuracy against the truth"); the
     /// paper's tables and environment grid with coarse occluder-field directions.
     #[default]
     Standard,

@@ -2,6 +2,7 @@
 //! (Xu et al. 2006, eq. 5 and fig. 8): a plain reference loop and a rayon fast path, the CPU
 //! rasteriser that draws the shaded vertices, and display encoding.
 
+pub mod frame;
 pub mod oracle;
 pub mod pixel;
 pub mod raster;
