@@ -89,3 +89,27 @@ fn all_terms_give_the_cube_quadrature_and_it_matches_the_unshadowed_truth() {
     eprintln!("terms 10, 30, 100, 400 against all: {e:?}");
     assert!(e.windows(2).all(|p| p[1] < p[0]), "{e:?}");
 }
+
+#[test]
+fn the_wavelet_method_is_the_baseline_and_prepares_again_only_when_the_scene_changes() {
+    let mut s = scene();
+    let engine = Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).unwrap();
+    let id: rsl_engine::MethodId = "wavelet".parse().unwrap();
+    let mut m = id.create(&engine, &rsl_engine::MethodOptions::default()).unwrap();
+    let request = Request { time: 0.0, image: false, vertices: true, exposure: None };
+    let f = m.render(&engine, &s, &request).unwrap();
+    let r = s.quality.settings.env_grid as usize;
+    let terms = rsl_engine::wavelet::DEFAULT_TERMS;
+    let w = Wavelets::new(&engine, &s, 0.0, r, terms, true).unwrap();
+    assert_eq!(f.radiance, w.radiance(terms), "the method's vertices are the baseline's");
+    assert!(f.timings.ms("transport") > 0.0, "the first frame prepares the transport");
+    // The same scene again: nothing prepared. The eye moved: the transport (which holds the
+    // view) is prepared again, and the radiance follows the baseline's for the new eye.
+    let again = m.render(&engine, &s, &request).unwrap();
+    assert_eq!(again.timings.ms("transport"), 0.0, "prepared again for an unchanged scene");
+    s.camera.eye = Vec3::new(-2.0, 1.0, 2.0);
+    let moved = m.render(&engine, &s, &request).unwrap();
+    assert!(moved.timings.ms("transport") > 0.0, "not prepared again after the eye moved");
+    let w = Wavelets::new(&engine, &s, 0.0, r, terms, true).unwrap();
+    assert_eq!(moved.radiance, w.radiance(terms));
+}

@@ -131,19 +131,6 @@ impl Hybrid {
         Self { fields, ..self }
     }
 
-    /// A hybrid drawing on the best GPU adapter: any adapter when `software_ok` (an error when
-    /// there is none), else a hardware one only (none: the CPU, as [`Hybrid::new`]).
-    pub fn with_gpu(software_ok: bool) -> Result<Self> {
-        match GpuContext::new() {
-            Ok(ctx) if software_ok || ctx.info.device_type != rsl_gpu::wgpu::DeviceType::Cpu => {
-                Self::on_gpu(Arc::new(ctx))
-            }
-            Ok(_) => Ok(Self::new()),
-            Err(e) if software_ok => Err(e.into()),
-            Err(_) => Ok(Self::new()),
-        }
-    }
-
     /// The GPU's adapter, in words, when the images are drawn there.
     pub fn gpu_adapter(&self) -> Option<String> {
         self.gpu.as_ref().map(|g| g.draw.context().describe())

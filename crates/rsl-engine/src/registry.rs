@@ -16,7 +16,7 @@ use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
 use rsl_gpu::GpuContext;
 use std::fmt;
-use std::sync::{Arc, RwLock};
+use std::sync::{Arc, LazyLock, RwLock};
 
 /// Where a method is asked to run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord, clap::ValueEnum)]
@@ -164,20 +164,11 @@ pub struct Registration {
 #[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct MethodId(&'static str);
 
-static REGISTRY: RwLock<Vec<&'static Registration>> = RwLock::new(Vec::new());
+/// The registered methods: the built-in ones, then those [`register`]ed, in that order.
+static REGISTRY: LazyLock<RwLock<Vec<&'static Registration>>> =
+    LazyLock::new(|| RwLock::new(BUILT_IN.iter().collect()));
 
 fn registry() -> std::sync::RwLockReadGuard<'static, Vec<&'static Registration>> {
-    {
-        let r = REGISTRY.read().unwrap_or_else(|e| e.into_inner());
-        if !r.is_empty() {
-            return r;
-        }
-    }
-    let mut w = REGISTRY.write().unwrap_or_else(|e| e.into_inner());
-    if w.is_empty() {
-        w.extend(BUILT_IN.iter());
-    }
-    drop(w);
     REGISTRY.read().unwrap_or_else(|e| e.into_inner())
 }
 
@@ -195,7 +186,6 @@ pub fn register(method: Registration) -> Result<MethodId> {
             bail!("method name `{name}` is already registered");
         }
     }
-    drop(registry());
     let mut w = REGISTRY.write().unwrap_or_else(|e| e.into_inner());
     w.push(Box::leak(Box::new(method)));
     Ok(MethodId(method.name))
@@ -414,6 +404,15 @@ const CPU_RSL: Capabilities = Capabilities {
     incremental: Incremental::Vertices,
 };
 
+/// The lobe methods': per pixel, isotropic materials only, whole frames.
+const LOBES: Capabilities = Capabilities {
+    image: ImageKind::PerPixel,
+    anisotropic: false,
+    oracles: false,
+    incremental: Incremental::Frames,
+    ..CPU_RSL
+};
+
 fn make_rsl(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
     Ok(match gpu_context(o)? {
         Some(ctx) => Box::new(GpuRsl { renderer: GpuRenderer::with_context(ctx)? }),
@@ -483,13 +482,7 @@ static BUILT_IN: [Registration; 7] = [
         aliases: &[],
         summary: "vMF lobes over the prefiltered environment per pixel × the RSL path's visibility ratio",
         when: "near-mirrors reflecting large uniform regions (a horizon), where the squares' outlines would show",
-        capabilities: Capabilities {
-            image: ImageKind::PerPixel,
-            anisotropic: false,
-            oracles: false,
-            incremental: Incremental::Frames,
-            ..CPU_RSL
-        },
+        capabilities: LOBES,
         constructor: make_hybrid,
     },
     Registration {
@@ -497,13 +490,7 @@ static BUILT_IN: [Registration; 7] = [
         aliases: &[],
         summary: "transport lobes (the object's own shadows fitted in), shadowed by the other objects' fields over each lobe; per pixel",
         when: "sharp lobes reflecting nearby objects with nothing traced per frame; its lobes take about 22 s per 10,000 vertices to fit",
-        capabilities: Capabilities {
-            image: ImageKind::PerPixel,
-            anisotropic: false,
-            oracles: false,
-            incremental: Incremental::Frames,
-            ..CPU_RSL
-        },
+        capabilities: LOBES,
         constructor: make_lobe,
     },
     Registration {

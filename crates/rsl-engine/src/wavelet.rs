@@ -238,14 +238,22 @@ impl Method for WaveletMethod {
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
         let r = scene.quality.settings.env_grid as usize;
+        // What the transport depends on: the meshes, materials and shadow casters, each
+        // object's world transform at this time, the eye, the environment and the grid.
+        let state = scene.at(request.time);
         let mut h = crate::cache::KeyHasher::default()
             .str("wavelet method")
-            .f32s(&[request.time])
             .u64(engine.environment_key())
+            .f32s(&state.world_from_env.to_array())
+            .f32s(&scene.camera.eye.to_array())
             .u64(r as u64)
             .u64(self.terms as u64);
         for (i, o) in scene.objects.iter().enumerate() {
-            h = h.u64(engine.keys(i).mesh).str(&format!("{:?}{:?}{}", o.material, o.motion, o.casts_shadows));
+            h = h
+                .u64(engine.keys(i).mesh)
+                .u64(crate::engine::brdf_key(engine.brdf(i)))
+                .u64(u64::from(o.casts_shadows))
+                .f32s(&state.world_from_object(i).to_cols_array());
         }
         let key = h.finish();
         let mut timings = Timings::default();
@@ -258,7 +266,7 @@ impl Method for WaveletMethod {
         }
         let w = &self.prepared.as_ref().expect("prepared above").1;
         let radiance = timings.time("shade", || w.radiance(self.terms));
-        Frame::of_vertices(engine, scene, scene.at(request.time), radiance, request.image, timings)
+        Frame::of_vertices(engine, scene, state, radiance, request.image, timings)
     }
 }
 

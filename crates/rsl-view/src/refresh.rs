@@ -59,7 +59,7 @@ impl Viewer {
     /// Whether the drawing is prepared ([`rsl_engine::Method::preparation`]): if not, its
     /// preparation is started on a worker thread (once) and `false` comes back; a finished
     /// worker's result is given to its method.
-    pub(crate) fn lobes_ready(&mut self) -> Result<bool> {
+    pub(crate) fn drawing_ready(&mut self) -> Result<bool> {
         if self.lobe_job.as_ref().is_some_and(|(_, h)| !h.is_finished()) {
             return Ok(false);
         }
@@ -208,7 +208,7 @@ impl Viewer {
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
         if !self.vertices_only() {
-            if self.force_pixels && !self.lobes_ready()? {
+            if self.force_pixels && !self.drawing_ready()? {
                 // Drawn from the vertices until the worker has prefiltered the environment
                 // (`force_pixels` stays: the frame after it draws per pixel).
             } else if std::mem::take(&mut self.force_pixels) {
