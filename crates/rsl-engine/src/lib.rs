@@ -9,6 +9,7 @@
 //!   cost; nothing here draws on the terminal.
 //! - [`output`] writes result files atomically, [`ply`] the per-vertex export.
 
+mod auto;
 pub mod cache;
 pub mod engine;
 mod field_io;

@@ -12,7 +12,7 @@
 //! a lobe narrower than the squares; the ratio carries the shadows, self and from other
 //! objects, weighted as the RSL path weighs them. Measured (rsl-lobe README), the lobes do
 //! not reproduce a microfacet lobe well enough to beat the RSL sum per pixel on the bundled
-//! scenes; [`PerObject`] chooses per object, and picks the lobes only where their width is
+//! scenes; [`PerObject`] (`auto`) chooses per object, and picks the lobes only where their width is
 //! well below the squares' (a near-mirror reflecting a sharp horizon).
 //!
 //! Prepared once and kept: the environment prefiltered up to the sharpest lobe the scene's
@@ -48,6 +48,8 @@ use rsl_sphere::latlong::LatLongMap;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Instant;
+
+pub use crate::auto::{LOBE_RATIO, PerObject, typical_square};
 
 /// The hybrid method, on every object with a specular lobe (Lambertian objects keep the RSL
 /// path's value).
@@ -137,7 +139,7 @@ impl Hybrid {
     }
 
     /// The material lobes of `brdf` (fitted once per parameter set).
-    fn lobes(&mut self, brdf: &Brdf) -> Result<Arc<MaterialLobes>> {
+    pub(crate) fn lobes(&mut self, brdf: &Brdf) -> Result<Arc<MaterialLobes>> {
         let key = brdf_key(brdf);
         if let Some(l) = self.materials.get(&key) {
             return Ok(l.clone());
@@ -731,122 +733,5 @@ impl Method for Hybrid {
         if let Ok(p) = prepared.downcast::<PreparedEnvironment>() {
             Hybrid::install(self, *p);
         }
-    }
-}
-
-/// Each object drawn as its scene `method` asks ([`Drawn::of`]; `auto`:
-/// [`PerObject::auto_choice`]), on the CPU.
-#[derive(Default)]
-pub struct PerObject {
-    hybrid: Hybrid,
-}
-
-impl PerObject {
-    /// The hybrid it draws its lobe objects with (to give it a prefiltered environment).
-    pub fn hybrid_mut(&mut self) -> &mut Hybrid {
-        &mut self.hybrid
-    }
-}
-
-impl PerObject {
-    /// Nothing prepared yet (lobes and the prefiltered environment are made when an object
-    /// first needs them, and kept).
-    pub fn new() -> Self {
-        Self::default()
-    }
-}
-
-impl PerObject {
-    /// What `auto` draws object `i` with: a glossy object gets the lobes when its sharpest
-    /// single-lobe fit is [`LOBE_RATIO`] times narrower than the squares that carry the light
-    /// ([`typical_square`]), where the RSL sum per pixel would show the squares' outlines
-    /// and gaps, and else the RSL sum per pixel.
-    pub fn auto_choice(&mut self, engine: &Engine, i: usize) -> Result<Drawn> {
-        let brdf = engine.brdf(i);
-        if brdf.is_lambertian() {
-            return Ok(Drawn::of(ObjectMethod::Auto, brdf));
-        }
-        let kappa = self.hybrid.lobes(brdf)?.single_kappa_max();
-        let width = 1.0 / kappa.max(1e-6).sqrt();
-        Ok(if width * LOBE_RATIO < typical_square(engine.rsls()) { Drawn::Lobes } else { Drawn::Pixel })
-    }
-}
-
-/// How much narrower than the typical square a lobe must be for `auto` to draw it with the
-/// lobes rather than the RSL sum.
-pub const LOBE_RATIO: f32 = 8.0;
-
-/// The energy-weighted mean half-diagonal of `rsls` (in the equal-area plane; about the
-/// half-width of a square in radians): how large the squares that carry most of the light
-/// are. A sun or a studio's lamps make it small, a uniform sky large.
-pub fn typical_square(rsls: &[rsl_env::Rsl]) -> f32 {
-    let (mut sum, mut energy) = (0.0f64, 0.0f64);
-    for r in rsls {
-        let e = f64::from(rsl_sphere::sampling::luminance(r.intensity).max(0.0) * r.solid_angle());
-        sum += e * f64::from(r.half_diagonal);
-        energy += e;
-    }
-    if energy > 0.0 { (sum / energy) as f32 } else { 0.0 }
-}
-
-impl Method for PerObject {
-    fn describe(&self) -> String {
-        format!("each object's own method on the CPU ({} threads)", rayon::current_num_threads())
-    }
-
-    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
-        engine.check(scene)?;
-        let mut drawn = Vec::with_capacity(scene.objects.len());
-        for (i, o) in scene.objects.iter().enumerate() {
-            drawn.push(match o.method {
-                ObjectMethod::Auto => self.auto_choice(engine, i)?,
-                m => Drawn::of(m, engine.brdf(i)),
-            });
-        }
-        self.hybrid.render_drawn(engine, scene, request, &drawn, true)
-    }
-
-    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
-        self.hybrid.preparation(engine)
-    }
-
-    fn explain(&mut self, engine: &Engine, scene: &Scene) -> Result<Vec<String>> {
-        engine.check(scene)?;
-        let square = typical_square(engine.rsls());
-        let mut lines = Vec::with_capacity(scene.objects.len());
-        for (i, o) in scene.objects.iter().enumerate() {
-            let brdf = engine.brdf(i);
-            let drawn = match o.method {
-                ObjectMethod::Auto => self.auto_choice(engine, i)?,
-                m => Drawn::of(m, brdf),
-            };
-            let how = match drawn {
-                Drawn::Vertex => "RSL at the vertices, interpolated (rsl)",
-                Drawn::Pixel if brdf.is_lambertian() => "RSL at the vertices, interpolated (pixel)",
-                Drawn::Pixel => "the RSL sum per pixel (pixel)",
-                Drawn::Lobes => "vMF lobes × RSL visibility (hybrid)",
-                Drawn::LobeFields => "transport lobes shadowed by the fields (lobe)",
-            };
-            let why = if brdf.is_lambertian() {
-                "Lambertian: its radiance varies no faster than its visibility and its BRDF term is exact \
-                 (per pixel only where a traced light's shadow falls)"
-                    .to_string()
-            } else if o.method == ObjectMethod::Auto {
-                let width = 1.0 / self.hybrid.lobes(brdf)?.single_kappa_max().max(1e-6).sqrt();
-                let ratio = square / width;
-                format!(
-                    "auto: the typical square ({square:.4} rad) is {ratio:.1}× its sharpest lobe ({width:.4} rad); \
-                     auto takes the lobes from {LOBE_RATIO}×"
-                )
-            } else {
-                format!("the scene asks for method {:?}", o.method)
-            };
-            lines.push(format!("{}: {how} — {why}", o.name));
-        }
-        Ok(lines)
-    }
-
-    fn install(&mut self, prepared: Prepared) {
-        Method::install(&mut self.hybrid, prepared);
     }
 }
