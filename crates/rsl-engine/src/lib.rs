@@ -21,15 +21,17 @@ pub mod output;
 pub mod ply;
 pub mod progress;
 pub mod registry;
+pub mod session;
 pub mod store;
 pub mod truth;
 pub mod wavelet;
 
 pub use engine::{Engine, EngineOptions, Layers, ShadedFrame};
 pub use gpu::GpuRenderer;
-pub use method::{CpuRsl, CpuRslPixels, Frame, GpuRsl, Method, Request, Truth};
+pub use method::{Changes, CpuRsl, CpuRslPixels, Frame, GpuRsl, Method, Request, Truth};
 pub use progress::{Event, Progress, Timings};
 pub use registry::{Capabilities, Device, Incremental, MethodId, MethodOptions, Registration};
 pub use rsl_env as env;
 pub use rsl_scene as scene;
 pub use rsl_sphere as sphere;
+pub use session::{Rendered, Session};

@@ -385,6 +385,17 @@ pub fn lobe_half_diagonal(kappa: f32) -> f32 {
     if kappa.is_finite() && kappa > 1.0 { (std::f32::consts::FRAC_PI_2 / kappa).sqrt() } else { hemisphere }
 }
 
+/// Every light's cover at every vertex of the objects `which` marks (to draw them per
+/// pixel): bounded before it is made.
+pub(crate) fn check_covers_size(engine: &Engine, setup: &rsl_shade::FrameSetup<'_>, which: &[bool]) -> Result<()> {
+    let covered: u64 = (0..which.len()).filter(|&i| which[i]).map(|i| engine.mesh(i).vertex_count() as u64).sum();
+    crate::engine::check_size(
+        "drawing per pixel (every light's cover at every vertex)",
+        "the RSL count or the meshes' vertices, or draw those objects with method \"rsl\"",
+        covered * (4 * setup.light_count() as u64 + 12),
+    )
+}
+
 impl Drawn {
     /// What an object of `brdf` asking for `method` gets: `auto` draws a glossy object per
     /// pixel; a Lambertian object never gets lobes (the RSL path's Lambertian term is exact
@@ -467,13 +478,7 @@ impl Hybrid {
         let gpu_draws = self.gpu.is_some() && request.image && per_pixel && !drawn.contains(&Drawn::Pixel);
         let pixel_ratio = per_pixel && request.image && !gpu_draws && !self.vertex_ratios;
         let with_covers: Vec<bool> = drawn.iter().map(|d| *d == Drawn::Pixel).collect();
-        // Every light's cover at every vertex drawn per pixel: bounded before it is made.
-        let covered: u64 = (0..n).filter(|&i| with_covers[i]).map(|i| engine.mesh(i).vertex_count() as u64).sum();
-        crate::engine::check_size(
-            "drawing per pixel (every light's cover at every vertex)",
-            "the RSL count or the meshes' vertices, or draw those objects with method \"rsl\"",
-            covered * (4 * setup.light_count() as u64 + 12),
-        )?;
+        check_covers_size(engine, &setup, &with_covers)?;
         let (mut radiance, covers, mut stats) = rsl_shade::shade_covers(&setup, &with_covers);
         let rest: Vec<bool> = with_covers.iter().map(|c| !c).collect();
         let (rest_radiance, rest_untraced, rest_stats) = rsl_shade::shade_objects_untraced(&setup, &rest);

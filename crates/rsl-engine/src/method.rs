@@ -9,7 +9,7 @@ use crate::progress::{Progress, Timings};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use rsl_scene::{ObjectMethod, Scene, SceneState};
-use rsl_shade::{FrameStats, Image, OracleParams, Oracles, RasterMesh, Terms, tonemap};
+use rsl_shade::{Covers, FrameStats, Image, OracleParams, Oracles, RasterMesh, Terms, tonemap};
 use rsl_truth::{EnvLight, Estimate, TruthObject, TruthScene};
 use std::time::Instant;
 
@@ -176,6 +176,24 @@ pub trait Method {
         let _ = prepared;
     }
 
+    /// The frame for `request` when, since the frame this method last drew in a
+    /// [`crate::Session`], only the objects `changes` marks may look different; `kept` is
+    /// what the method left there for itself then (`None` the first time, or after the front
+    /// end drew by other means). A method that can reuse per-object results (the vertices'
+    /// radiance, the covers) keeps them in `kept` and redraws only what changed; by default
+    /// the whole frame is rendered.
+    fn render_changed(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        request: &Request,
+        changes: &Changes,
+        kept: &mut Kept,
+    ) -> Result<Frame> {
+        let _ = (changes, kept);
+        self.render(engine, scene, request)
+    }
+
     /// How each object of `scene` is drawn, and why: one line per object (`rsl render
     /// --explain`).
     fn explain(&mut self, engine: &Engine, scene: &Scene) -> Result<Vec<String>> {
@@ -184,6 +202,43 @@ pub trait Method {
         Ok(scene.objects.iter().map(|o| format!("{}: {what}", o.name)).collect())
     }
 }
+
+/// What changed since a method's last frame in a [`crate::Session`]
+/// ([`Method::render_changed`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Changes {
+    /// Per object: whether its radiance may differ (its material, its pose, or a shadow
+    /// cast on it moved; everything, when the eye, the environment or the lights changed).
+    pub objects: Vec<bool>,
+    /// Whether anything moved (objects, the camera, the environment): if not, only the
+    /// changed objects' pixels can differ.
+    pub moved: bool,
+}
+
+impl Changes {
+    /// Every one of `n` objects changed, and the view moved.
+    pub fn all(n: usize) -> Self {
+        Self { objects: vec![true; n], moved: true }
+    }
+
+    /// Whether every object changed.
+    pub fn is_all(&self) -> bool {
+        self.objects.iter().all(|&c| c)
+    }
+
+    /// Whether anything changed.
+    pub fn any(&self) -> bool {
+        self.moved || self.objects.iter().any(|&c| c)
+    }
+
+    /// How many objects changed.
+    pub fn count(&self) -> usize {
+        self.objects.iter().filter(|&&c| c).count()
+    }
+}
+
+/// What a method keeps between its frames in a [`crate::Session`] ([`Method::render_changed`]).
+pub type Kept = Option<Box<dyn std::any::Any + Send>>;
 
 /// What a [`Preparation`] made, for [`Method::install`].
 pub type Prepared = Box<dyn std::any::Any + Send>;
@@ -245,13 +300,100 @@ impl Method for CpuRsl {
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
-        let f = engine.shade(scene, request.time)?;
+        Ok(Self::drawn(engine, scene, request, engine.shade(scene, request.time)?))
+    }
+
+    /// Shades only the changed objects' vertices; the others keep theirs.
+    fn render_changed(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        request: &Request,
+        changes: &Changes,
+        kept: &mut Kept,
+    ) -> Result<Frame> {
+        let f = Self::shade_changed(engine, scene, request.time, changes, kept)?;
+        Ok(Self::drawn(engine, scene, request, f))
+    }
+}
+
+/// What [`CpuRsl`] and [`CpuRslPixels`] keep between frames: the last frame's vertices, and
+/// per object drawn per pixel every light's cover at its vertices.
+struct VertexKept {
+    positions: Vec<Vec<Vec3>>,
+    normals: Vec<Vec<Vec3>>,
+    radiance: Vec<Vec<Vec3>>,
+    covers: Vec<Option<Covers>>,
+}
+
+impl VertexKept {
+    /// The kept vertices of `n` objects when `kept` holds them and `changes` leaves some to
+    /// reuse; `None`: shade everything.
+    fn reusable(kept: &mut Kept, changes: &Changes, n: usize) -> Option<Box<VertexKept>> {
+        let k = kept.take()?.downcast::<VertexKept>().ok()?;
+        (k.radiance.len() == n && changes.objects.len() == n && !changes.is_all()).then_some(k)
+    }
+
+    /// Takes object `i` of `f` (shaded this frame) in place of the kept one.
+    fn replace(&mut self, f: &mut ShadedFrame, i: usize) {
+        self.positions[i] = std::mem::take(&mut f.positions[i]);
+        self.normals[i] = std::mem::take(&mut f.normals[i]);
+        self.radiance[i] = std::mem::take(&mut f.radiance[i]);
+    }
+
+    /// The frame made of the kept vertices (copied: they stay kept).
+    fn frame(&self, state: SceneState, stats: FrameStats, shade_ms: f64) -> ShadedFrame {
+        ShadedFrame {
+            state,
+            positions: self.positions.clone(),
+            normals: self.normals.clone(),
+            radiance: self.radiance.clone(),
+            stats,
+            shade_ms,
+        }
+    }
+}
+
+impl CpuRsl {
+    /// The frame of shaded vertices `f`, rasterised when `request` asks for an image.
+    fn drawn(engine: &Engine, scene: &Scene, request: &Request, f: ShadedFrame) -> Frame {
         let mut timings = Timings::default();
         timings.add("shade", f.shade_ms, None);
         let image = request
             .image
             .then(|| timings.time("draw", || rasterise(engine, scene, &f.state, &f.positions, &f.radiance)));
-        Ok(Frame::rsl(f, image, None, timings))
+        Frame::rsl(f, image, None, timings)
+    }
+
+    /// The vertices of the frame at `time`: the objects `changes` marks shaded again, the
+    /// others as kept.
+    fn shade_changed(
+        engine: &Engine,
+        scene: &Scene,
+        time: f32,
+        changes: &Changes,
+        kept: &mut Kept,
+    ) -> Result<ShadedFrame> {
+        let n = scene.objects.len();
+        let Some(mut k) = VertexKept::reusable(kept, changes, n) else {
+            let f = engine.shade(scene, time)?;
+            let covers = vec![None; n];
+            let k = VertexKept {
+                positions: f.positions.clone(),
+                normals: f.normals.clone(),
+                radiance: f.radiance.clone(),
+                covers,
+            };
+            *kept = Some(Box::new(k));
+            return Ok(f);
+        };
+        let mut f = engine.shade_objects(scene, time, &changes.objects)?;
+        for i in (0..n).filter(|&i| changes.objects[i]) {
+            k.replace(&mut f, i);
+        }
+        let frame = k.frame(f.state, f.stats, f.shade_ms);
+        *kept = Some(k);
+        Ok(frame)
     }
 }
 
@@ -272,6 +414,66 @@ impl Method for CpuRslPixels {
         let drawn: Vec<Drawn> =
             (0..engine.object_count()).map(|i| Drawn::of(ObjectMethod::RslPixel, engine.brdf(i))).collect();
         crate::lobe::Hybrid::new().render_drawn(engine, scene, request, &drawn, true)
+    }
+
+    /// Shades only the changed objects at their vertices (those drawn per pixel keeping
+    /// every light's cover), the others keep theirs; the image is drawn whole. The same
+    /// image as [`Method::render`]'s.
+    fn render_changed(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        request: &Request,
+        changes: &Changes,
+        kept: &mut Kept,
+    ) -> Result<Frame> {
+        let n = scene.objects.len();
+        let start = Instant::now();
+        let state = scene.at(request.time);
+        let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
+        let per_pixel: Vec<bool> =
+            (0..n).map(|i| rsl_shade::drawn_per_pixel(&setup, !engine.brdf(i).is_lambertian())).collect();
+        let (mut k, changed) = match VertexKept::reusable(kept, changes, n) {
+            Some(k) => (k, changes.objects.clone()),
+            None => {
+                let empty = vec![Vec::new(); n];
+                let k = VertexKept {
+                    positions: empty.clone(),
+                    normals: empty.clone(),
+                    radiance: empty,
+                    covers: vec![None; n],
+                };
+                (Box::new(k), vec![true; n])
+            }
+        };
+        let with_covers: Vec<bool> = (0..n).map(|i| changed[i] && per_pixel[i]).collect();
+        let plain: Vec<bool> = (0..n).map(|i| changed[i] && !per_pixel[i]).collect();
+        crate::lobe::check_covers_size(engine, &setup, &with_covers)?;
+        let (mut radiance, covers, stats) = rsl_shade::shade_covers(&setup, &with_covers);
+        let (plain_radiance, plain_stats) = rsl_shade::shade_objects(&setup, &plain);
+        for (i, (c, r)) in covers.into_iter().zip(plain_radiance).enumerate() {
+            if plain[i] {
+                radiance[i] = r;
+            }
+            if changed[i] {
+                k.covers[i] = c;
+            }
+        }
+        let mut f = ShadedFrame::of(&setup, state.clone(), radiance, stats.plus(plain_stats), 0.0);
+        for i in (0..n).filter(|&i| changed[i]) {
+            k.replace(&mut f, i);
+        }
+        let mut timings = Timings::default();
+        timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
+        let image = request.image.then(|| {
+            timings.time("draw per pixel", || {
+                rsl_shade::shade_image(&setup, &scene.camera, &k.covers, &k.radiance, |d| engine.background(&state, d))
+                    .0
+            })
+        });
+        let f = k.frame(f.state, f.stats, 0.0);
+        *kept = Some(k);
+        Ok(Frame::rsl(f, image, None, timings))
     }
 }
 

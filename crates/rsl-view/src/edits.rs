@@ -24,14 +24,15 @@ impl Viewer {
         }
         self.previewing = if dragging { Some(i) } else { None };
         self.last_material_edit = Some((i, now));
-        self.dirty[i] = true;
         Ok(())
     }
 
     /// Builds the real table of an object shown with a preview table once its slider has
     /// rested for [`PREVIEW_REST`] (or at once with `now`); `true` when it did.
     pub fn settle(&mut self, now: bool) -> Result<bool> {
-        let Some(i) = self.previewing else { return Ok(false) };
+        if self.previewing.is_none() {
+            return Ok(false);
+        }
         let rested = self.last_material_edit.is_none_or(|(_, t)| t.elapsed() >= PREVIEW_REST);
         if !(now || rested) {
             return Ok(false);
@@ -42,7 +43,6 @@ impl Viewer {
             let start = Instant::now();
             engine.sync(&self.scene)?;
             self.pending_sync_ms += start.elapsed().as_secs_f64() * 1e3;
-            self.dirty[i] = true;
         }
         Ok(true)
     }
@@ -52,32 +52,15 @@ impl Viewer {
         self.previewing.is_some()
     }
 
-    /// Which objects object `j` can shadow at the current time (`None` without an engine).
-    pub(crate) fn shadow_reach(&self, j: usize) -> Option<Vec<bool>> {
-        let engine = self.engine.as_ref()?;
-        engine.shadowed_by(&self.scene, &self.scene.at(self.time), j).ok()
-    }
-
-    /// Replaces object `j`'s base transform: `j` is reshaded, and every object it can
-    /// shadow at the old or the new pose ([`Engine::shadowed_by`]); the rest keep their
-    /// radiance.
+    /// Replaces object `j`'s base transform: the session reshades `j` and every object it
+    /// can shadow at the old or the new pose ([`rsl_engine::Session::changes`]); the rest keep
+    /// their radiance.
     pub(crate) fn move_object(&mut self, j: usize, transform: rsl_engine::scene::Transform) {
         if self.scene.objects[j].transform == transform {
             return;
         }
         self.edit_started.get_or_insert_with(Instant::now);
-        let before = self.shadow_reach(j);
         self.scene.objects[j].transform = transform;
-        let after = self.shadow_reach(j);
-        match (before, after) {
-            (Some(b), Some(a)) => {
-                for (i, d) in self.dirty.iter_mut().enumerate() {
-                    *d |= i == j || b[i] || a[i];
-                }
-                self.moved = true;
-            }
-            _ => self.mark_all(),
-        }
     }
 
     /// Moves object `i` to `translation` (its base transform, before motion): it is
@@ -110,7 +93,6 @@ impl Viewer {
             self.edit_started.get_or_insert_with(Instant::now);
             self.env_degrees = degrees;
             self.scene.environment.rotation = (yaw_rotation(degrees) * self.env_base).normalize();
-            self.mark_all();
         }
     }
 
@@ -125,7 +107,6 @@ impl Viewer {
             let start = Instant::now();
             engine.set_rsl_count(n)?;
             self.pending_sync_ms += start.elapsed().as_secs_f64() * 1e3;
-            self.mark_all();
         }
         self.rsl_count = n;
         self.scene.environment.rsl_count = n as u32;
@@ -161,9 +142,6 @@ impl Viewer {
         if t != self.time && t.is_finite() {
             self.edit_started.get_or_insert_with(Instant::now);
             self.time = t;
-            if self.scene.is_dynamic() {
-                self.mark_all();
-            }
         }
     }
 
@@ -174,6 +152,5 @@ impl Viewer {
         self.orbit.pitch = (self.orbit.pitch + dy).clamp(-1.5, 1.5);
         self.orbit.distance = (self.orbit.distance * zoom).clamp(1e-2, 1e4);
         self.scene.camera.eye = self.orbit.eye();
-        self.mark_all();
     }
 }

@@ -25,8 +25,9 @@ use anyhow::{Context, Result, anyhow};
 use egui::{Color32, ColorImage, TextureHandle, TextureOptions};
 use glam::{Quat, Vec3};
 use rayon::prelude::*;
+use rsl_engine::registry::ImageKind;
 use rsl_engine::scene::{Material, Preset, Quality, Scene};
-use rsl_engine::{Engine, EngineOptions, Event, Incremental, MethodId, Progress, method::exposure_for};
+use rsl_engine::{Engine, EngineOptions, Event, Incremental, MethodId, Progress, Session, method::exposure_for};
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -60,7 +61,8 @@ pub struct ViewerOptions {
 pub struct Counters {
     /// egui frames drawn.
     pub frames: u64,
-    /// Frames in which anything was shaded.
+    /// Frames drawn by a refresh, each shading what changed since the last (nothing, when
+    /// only the drawing or the device changed).
     pub shaded_frames: u64,
     /// Objects shaded, summed over frames.
     pub objects_shaded: u64,
@@ -144,8 +146,11 @@ pub struct Viewer {
     env_degrees: f32,
     rsl_count: usize,
     preset: Preset,
-    /// Per object: whether its radiance must be recomputed.
-    dirty: Vec<bool>,
+    /// The methods the view is drawn with, and what changed since each one's last frame.
+    session: Session,
+    /// Whether the next refresh draws even if the scene did not change (a new drawing, a
+    /// new device, a rested edit).
+    redraw: bool,
     positions: Vec<Vec<Vec3>>,
     radiance: Vec<Vec<Vec3>>,
     exposure: Option<f32>,
@@ -178,26 +183,15 @@ pub struct Viewer {
     truth_rgba: Option<ColorImage>,
     /// Whether the texture must be uploaded again.
     texture_stale: bool,
-    /// Whether anything moved (objects, camera, environment, time, lights) since the last
-    /// image: if not, only the changed objects' pixels are redrawn.
-    moved: bool,
     /// The environment thumbnail with its RSLs, for (environment key, RSL count).
     thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,
     /// How the view is drawn once it rests (a method of the registry).
     drawing: MethodId,
-    /// The methods drawn in whole frames, built from the registry when first chosen and kept
-    /// with what they prepared (a prefiltered environment, material lobes).
-    methods: Vec<(MethodId, Box<dyn rsl_engine::Method>)>,
-    /// The drawing's preparation ([`rsl_engine::Method::preparation`]) running on a worker
-    /// thread (seconds): frames are drawn from the vertices meanwhile.
-    lobe_job: Option<(MethodId, std::thread::JoinHandle<rsl_engine::method::Prepared>)>,
     /// The next refresh draws per pixel (set on the toggle, and once edits rest).
     force_pixels: bool,
     /// When an edit was last drawn interpolated while drawing per pixel is on.
     pixels_pending: Option<Instant>,
-    /// Per object drawn per pixel: every light's cover at its vertices.
-    covers: Vec<Option<rsl_shade::Covers>>,
     /// The gizmo handle a drag in the view holds, if it started on one.
     gizmo_drag: Option<GizmoPart>,
     /// Where the view's image was last laid out: its screen rectangle, and screen points per

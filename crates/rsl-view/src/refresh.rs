@@ -1,5 +1,6 @@
-//! Drawing: the drawing chosen from the registry, and the refresh of what changed (vertices, per
-//! pixel, or whole frames of the drawing's method).
+//! Drawing: the drawing chosen from the registry, drawn through the render session
+//! ([`rsl_engine::Session`]): its vertices interpolated while edits come, its own frame once
+//! the view rests, each with only what changed drawn again.
 
 use super::*;
 
@@ -19,7 +20,6 @@ impl Viewer {
             self.drawing = drawing;
             self.force_pixels = !self.vertices_only();
             self.pixels_pending = None;
-            self.covers.iter_mut().for_each(|c| *c = None);
             self.mark_all();
         }
     }
@@ -31,7 +31,14 @@ impl Viewer {
 
     /// Whether the drawing is the vertices interpolated, always (nothing to settle).
     pub(crate) fn vertices_only(&self) -> bool {
-        self.drawing.capabilities().incremental == Incremental::Vertices
+        self.drawing.capabilities().image == ImageKind::Vertices
+    }
+
+    /// What the view is drawn with while edits come: the drawing itself when it
+    /// interpolates vertices, else the RSL path's vertices (drawn per pixel once the view
+    /// rests).
+    pub(crate) fn preview(&self) -> MethodId {
+        if self.vertices_only() { self.drawing } else { MethodId::RSL }
     }
 
     /// Drawing per pixel costs hundreds of milliseconds a frame on 2 cores: while edits come
@@ -43,7 +50,6 @@ impl Viewer {
             Some(t) if now || t.elapsed() >= PREVIEW_REST => {
                 self.pixels_pending = None;
                 self.force_pixels = true;
-                // Every object again, with its covers (interpolated frames did not keep them).
                 self.mark_all();
                 true
             }
@@ -56,91 +62,50 @@ impl Viewer {
         self.drawing.capabilities().incremental == Incremental::PixelCovers
     }
 
-    /// Whether the drawing is prepared ([`rsl_engine::Method::preparation`]): if not, its
-    /// preparation is started on a worker thread (once) and `false` comes back; a finished
-    /// worker's result is given to its method.
+    /// Whether the drawing is prepared ([`rsl_engine::Method::preparation`]): if not, the
+    /// session starts its preparation on a worker thread (once) and `false` comes back.
     pub(crate) fn drawing_ready(&mut self) -> Result<bool> {
-        if self.lobe_job.as_ref().is_some_and(|(_, h)| !h.is_finished()) {
-            return Ok(false);
-        }
-        if let Some((id, h)) = self.lobe_job.take() {
-            let p = h.join().map_err(|_| anyhow!("preparing the drawing {id} failed"))?;
-            if let Some((_, m)) = self.methods.iter_mut().find(|(m, _)| *m == id) {
-                m.install(p);
-            }
-        }
-        if self.drawing.capabilities().incremental != Incremental::Frames {
-            return Ok(true);
-        }
-        let id = self.drawing;
-        let at = self.method()?;
         let Some(engine) = &self.engine else { return Ok(true) };
-        match self.methods[at].1.preparation(engine)? {
-            None => Ok(true),
-            Some(job) => {
-                let handle = std::thread::Builder::new()
-                    .name("rsl-view prepare".into())
-                    .spawn(move || job.run())
-                    .context("starting the preparation thread")?;
-                self.lobe_job = Some((id, handle));
-                Ok(false)
-            }
-        }
+        self.session.ready(engine, self.drawing)
     }
 
-    /// Where the drawing's method is in `methods` (built from the registry, on the CPU, when
-    /// first asked for).
-    pub(crate) fn method(&mut self) -> Result<usize> {
-        let id = self.drawing;
-        let at = match self.methods.iter().position(|(m, _)| *m == id) {
-            Some(at) => at,
-            None => {
-                let engine = self.engine.as_ref().ok_or_else(|| anyhow!("the scene is not prepared yet"))?;
-                let options = rsl_engine::MethodOptions { device: rsl_engine::Device::Cpu, ..Default::default() };
-                self.methods.push((id, id.create(engine, &options)?));
-                self.methods.len() - 1
-            }
-        };
-        Ok(at)
-    }
-
-    /// Waits for the environment being prefiltered for the lobes, if any (tests and the
-    /// headless screenshot); the next refresh draws with them.
+    /// Waits for the drawing's preparation on the worker thread, if any (tests and the
+    /// headless screenshot); the next refresh draws with it.
     pub fn wait_lobes(&mut self) {
-        if let Some((_, h)) = &self.lobe_job {
-            while !h.is_finished() {
-                std::thread::sleep(std::time::Duration::from_millis(5));
+        if self.session.is_preparing() {
+            if let Err(e) = self.session.wait_preparation() {
+                self.error = Some(format!("{e:#}"));
             }
             self.mark_all();
         }
     }
 
-    /// Whether the lobes' environment is being prefiltered on the worker thread.
+    /// Whether the drawing's preparation (the lobes' prefiltered environment) runs on the
+    /// worker thread.
     pub fn is_prefiltering(&self) -> bool {
-        self.lobe_job.is_some()
+        self.session.is_preparing()
     }
 
-    /// [`Viewer::refresh`] through one of the lobe methods (or `auto`): the whole frame by
-    /// the engine's method, as `rsl render --method` draws it.
-    pub(crate) fn refresh_method(&mut self, start: Instant) -> Result<bool> {
-        if self.engine.is_none() {
-            return Ok(false);
-        }
-        let at = self.method()?;
+    /// [`Viewer::refresh`] once the view rests: the frame of the drawing's method, as `rsl
+    /// render --method` draws it, with what changed since its last frame drawn again.
+    pub(crate) fn refresh_drawing(&mut self, start: Instant) -> Result<bool> {
         let Some(engine) = &self.engine else { return Ok(false) };
         let request = rsl_engine::Request { time: self.time, image: true, vertices: true, exposure: None };
-        let frame = self.methods[at].1.render(engine, &self.scene, &request)?;
-        let n = self.scene.objects.len();
-        for (i, (p, r)) in frame.positions.into_iter().zip(frame.radiance).enumerate().take(n) {
-            self.counters.vertices_shaded += r.len() as u64;
-            self.counters.objects_shaded += 1;
+        let rendered = self.session.render(engine, &self.scene, self.drawing, &request)?;
+        // A method that draws whole frames draws every object again.
+        let whole = self.drawing.capabilities().incremental == Incremental::Frames;
+        let frame = rendered.frame;
+        for (i, (p, r)) in frame.positions.into_iter().zip(frame.radiance).enumerate() {
+            if whole || rendered.changes.objects.get(i).copied().unwrap_or(true) {
+                self.counters.vertices_shaded += r.len() as u64;
+                self.counters.objects_shaded += 1;
+            }
             self.positions[i] = p;
             self.radiance[i] = r;
         }
         self.counters.shaded_frames += 1;
         self.counters.rasterised += 1;
-        self.dirty.iter_mut().for_each(|d| *d = false);
-        self.moved = false;
+        self.redraw = false;
         let stages = &frame.timings.stages;
         let raster_ms: f64 = stages.iter().filter(|s| s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
         let shade_ms: f64 = stages.iter().filter(|s| !s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
@@ -159,75 +124,32 @@ impl Viewer {
         self.show(image, pixels, [start, t2], shade_ms, raster_ms);
     }
 
-    /// [`Viewer::refresh`] per pixel: the dirty objects shaded at their vertices (glossy ones
-    /// keeping every light's cover), then the whole image drawn.
-    pub(crate) fn refresh_per_pixel(&mut self, start: Instant) -> Result<bool> {
-        let Some(engine) = &self.engine else { return Ok(false) };
-        let t0 = Instant::now();
-        let state = self.scene.at(self.time);
-        let setup = engine.setup(&self.scene, &state, self.scene.camera.eye, rsl_shade::Terms::default())?;
-        let n = self.scene.objects.len();
-        let per_pixel: Vec<bool> =
-            (0..n).map(|i| rsl_shade::drawn_per_pixel(&setup, !engine.brdf(i).is_lambertian())).collect();
-        let with_covers: Vec<bool> = (0..n).map(|i| self.dirty[i] && per_pixel[i]).collect();
-        let plain: Vec<bool> = (0..n).map(|i| self.dirty[i] && !per_pixel[i]).collect();
-        let (mut radiance, covers, _) = rsl_shade::shade_covers(&setup, &with_covers);
-        let (plain_radiance, _) = rsl_shade::shade_objects(&setup, &plain);
-        for (i, (c, r)) in covers.into_iter().zip(plain_radiance).enumerate() {
-            if !self.dirty[i] {
-                continue;
-            }
-            if plain[i] {
-                radiance[i] = r;
-            }
-            self.counters.vertices_shaded += radiance[i].len() as u64;
-            self.counters.objects_shaded += 1;
-            self.positions[i] = (0..radiance[i].len()).map(|v| setup.position(i, v)).collect();
-            self.radiance[i] = std::mem::take(&mut radiance[i]);
-            self.covers[i] = c;
-        }
-        self.counters.shaded_frames += 1;
-        self.dirty.iter_mut().for_each(|d| *d = false);
-        self.moved = false;
-        let shade_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let t1 = Instant::now();
-        let (image, _) = rsl_shade::shade_image(&setup, &self.scene.camera, &self.covers, &self.radiance, |d| {
-            engine.background(&state, d)
-        });
-        self.counters.rasterised += 1;
-        let raster_ms = t1.elapsed().as_secs_f64() * 1e3;
-        self.show_whole(image, start, shade_ms, raster_ms);
-        Ok(true)
-    }
-
     /// Shades what changed and rasterises a new image; `false` when nothing changed (no
     /// shading, no rasterising).
     pub fn refresh(&mut self) -> Result<bool> {
-        if self.engine.is_none() || !self.dirty.iter().any(|&d| d) {
+        let Some(engine) = &self.engine else { return Ok(false) };
+        let preview = self.preview();
+        let mut changes = self.session.changes(engine, &self.scene, preview, self.time)?;
+        if !changes.any() && !self.redraw {
             return Ok(false);
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
         if !self.vertices_only() {
             if self.force_pixels && !self.drawing_ready()? {
-                // Drawn from the vertices until the worker has prefiltered the environment
+                // Drawn from the vertices until the worker has prepared the drawing
                 // (`force_pixels` stays: the frame after it draws per pixel).
             } else if std::mem::take(&mut self.force_pixels) {
-                return match self.drawing.capabilities().incremental {
-                    Incremental::PixelCovers => self.refresh_per_pixel(start),
-                    _ => self.refresh_method(start),
-                };
+                return self.refresh_drawing(start);
             }
         }
         let Some(engine) = &self.engine else { return Ok(false) };
-        // rsl-gpu's shading pass (a hardware adapter) shades every vertex.
-        if self.wgpu.as_ref().is_some_and(|w| w.shades) {
-            self.dirty.iter_mut().for_each(|d| *d = true);
+        // Drawn again whole (a new drawing or device), whatever changed in the scene.
+        if std::mem::take(&mut self.redraw) {
+            changes.moved = true;
         }
-        let all = self.dirty.iter().all(|&d| d);
         // Only radiance changed (material edits): the image is redrawn where those objects
         // are, over the last one.
-        let changed = self.dirty.clone();
-        let still = !std::mem::take(&mut self.moved);
+        let still = !changes.moved;
         let partial = still && self.linear.is_some();
         let t0 = Instant::now();
         let gpu_frame = match self.wgpu.as_mut().filter(|w| w.shades) {
@@ -244,23 +166,30 @@ impl Viewer {
             None => None,
         };
         let shaded_on_gpu = gpu_frame.is_some();
-        let frame = match gpu_frame {
-            Some(frame) => frame,
-            None if all => engine.shade(&self.scene, self.time)?,
-            None => engine.shade_objects(&self.scene, self.time, &self.dirty)?,
+        let (state, positions, radiance) = match gpu_frame {
+            // rsl-gpu's shading pass (a hardware adapter) shades every vertex.
+            Some(frame) => {
+                self.session.drawn_elsewhere(engine, &self.scene, preview, self.time)?;
+                changes = rsl_engine::Changes::all(self.scene.objects.len());
+                (frame.state, frame.positions, frame.radiance)
+            }
+            None => {
+                let request = rsl_engine::Request { time: self.time, image: false, vertices: true, exposure: None };
+                let frame = self.session.render(engine, &self.scene, preview, &request)?.frame;
+                (frame.state, frame.positions, frame.radiance)
+            }
         };
+        let changed = changes.objects.clone();
         let shade_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let state = frame.state.clone();
-        for (i, (p, r)) in frame.positions.into_iter().zip(frame.radiance).enumerate() {
-            if self.dirty[i] {
+        for (i, (p, r)) in positions.into_iter().zip(radiance).enumerate() {
+            if changed[i] {
                 self.counters.vertices_shaded += r.len() as u64;
                 self.counters.objects_shaded += 1;
-                self.positions[i] = p;
-                self.radiance[i] = r;
             }
+            self.positions[i] = p;
+            self.radiance[i] = r;
         }
         self.counters.shaded_frames += 1;
-        self.dirty.iter_mut().for_each(|d| *d = false);
         let meshes: Vec<rsl_shade::RasterMesh<'_>> = self
             .scene
             .objects

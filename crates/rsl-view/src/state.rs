@@ -33,7 +33,8 @@ impl Viewer {
             selected: 0,
             env_degrees: 0.0,
             preset,
-            dirty: vec![true; n],
+            session: Session::new(rsl_engine::MethodOptions { device: rsl_engine::Device::Cpu, ..Default::default() }),
+            redraw: true,
             positions: vec![Vec::new(); n],
             radiance: vec![Vec::new(); n],
             exposure: None,
@@ -55,17 +56,13 @@ impl Viewer {
             linear: None,
             truth_rgba: None,
             texture_stale: false,
-            moved: true,
             thumbnail: None,
             readout: None,
             drawing: MethodId::RSL,
-            methods: Vec::new(),
-            lobe_job: None,
             force_pixels: false,
             pixels_pending: None,
             gizmo_drag: None,
             view_area: None,
-            covers: vec![None; n],
             wgpu: None,
             on_gpu: false,
         };
@@ -133,6 +130,8 @@ impl Viewer {
                 self.engine = Some(engine);
                 self.error = None;
                 self.counters.prepared += 1;
+                // A new engine: every method draws its next frame whole.
+                self.session.forget_frames();
                 self.mark_all();
             }
             Ok(Err(e)) => self.error = Some(format!("{e:#}")),
@@ -247,8 +246,9 @@ impl Viewer {
         self.env_degrees
     }
 
+    /// Draws the next refresh whole, even if the scene did not change (what changed in it
+    /// the session finds by itself).
     pub(crate) fn mark_all(&mut self) {
-        self.dirty.iter_mut().for_each(|d| *d = true);
-        self.moved = true;
+        self.redraw = true;
     }
 }

@@ -1,0 +1,208 @@
+//! A render session: the methods a front end draws with, what changed since each one's
+//! last frame, their preparation on a worker thread, and incremental rendering for any
+//! method ([`Method::render_changed`]).
+//!
+//! A front end edits its [`Scene`] and keeps its [`Engine`] in step ([`Engine::sync`]), and
+//! asks the session for frames. The session finds what changed by content, against the
+//! frame each method last drew: the eye, the environment (its map, rotation, intensity and
+//! light count) and every object's material and pose. A material edit changes that object
+//! alone; a moved object changes itself and every object its shadow can reach at its old or
+//! its new pose ([`Engine::shadowed_by`]); anything else changes every object. Nothing is
+//! told to the session and nothing is branched on by method: each method reuses what it
+//! kept for the objects that did not change, or draws the whole frame.
+
+use crate::engine::{Engine, ObjectKeys, brdf_key};
+use crate::method::{Changes, Frame, Kept, Method, Prepared, Request};
+use crate::registry::{MethodId, MethodOptions};
+use anyhow::{Context, Result, anyhow};
+use rsl_scene::{Camera, Scene, SceneState};
+use std::thread::JoinHandle;
+
+/// What a frame was drawn from: compared with the scene now to find what changed.
+#[derive(Clone, Debug, PartialEq)]
+struct Seen {
+    camera: Camera,
+    state: SceneState,
+    /// The environment's content key, its intensity's bits, the light count.
+    environment: (u64, u32, usize),
+    /// Per object: its prepared data's keys, its BRDF's key, whether it casts shadows.
+    objects: Vec<(ObjectKeys, u64, bool)>,
+}
+
+impl Seen {
+    fn of(engine: &Engine, scene: &Scene, time: f32) -> Self {
+        Seen {
+            camera: scene.camera,
+            state: scene.at(time),
+            environment: (engine.environment_key(), engine.intensity().to_bits(), engine.rsl_count()),
+            objects: (0..engine.object_count())
+                .map(|i| (engine.keys(i), brdf_key(engine.brdf(i)), scene.objects[i].casts_shadows))
+                .collect(),
+        }
+    }
+}
+
+/// One method of the session, with what it keeps between frames.
+struct Slot {
+    id: MethodId,
+    method: Box<dyn Method>,
+    kept: Kept,
+    seen: Option<Seen>,
+}
+
+/// A frame from [`Session::render`], and what changed since the method's frame before it.
+pub struct Rendered {
+    /// The frame.
+    pub frame: Frame,
+    /// What the method drew again.
+    pub changes: Changes,
+}
+
+/// Methods built from the registry when first asked for and kept with what they prepared
+/// and what they keep between frames; see the module docs.
+pub struct Session {
+    options: MethodOptions,
+    slots: Vec<Slot>,
+    job: Option<(MethodId, JoinHandle<Prepared>)>,
+}
+
+impl Session {
+    /// A session building its methods with `options`.
+    pub fn new(options: MethodOptions) -> Self {
+        Self { options, slots: Vec::new(), job: None }
+    }
+
+    /// Where method `id` is in `slots`, built from the registry the first time.
+    fn slot(&mut self, engine: &Engine, id: MethodId) -> Result<usize> {
+        if let Some(at) = self.slots.iter().position(|s| s.id == id) {
+            return Ok(at);
+        }
+        let method = id.create(engine, &self.options)?;
+        self.slots.push(Slot { id, method, kept: None, seen: None });
+        Ok(self.slots.len() - 1)
+    }
+
+    /// Method `id` as this session holds it (built when first asked for).
+    pub fn method(&mut self, engine: &Engine, id: MethodId) -> Result<&mut dyn Method> {
+        let at = self.slot(engine, id)?;
+        Ok(self.slots[at].method.as_mut())
+    }
+
+    /// What changed in `scene` at `time` since method `id` last drew (everything when it
+    /// has not drawn yet).
+    pub fn changes(&self, engine: &Engine, scene: &Scene, id: MethodId, time: f32) -> Result<Changes> {
+        engine.check(scene)?;
+        let n = scene.objects.len();
+        let Some(before) = self.slots.iter().find(|s| s.id == id).and_then(|s| s.seen.as_ref()) else {
+            return Ok(Changes::all(n));
+        };
+        let now = Seen::of(engine, scene, time);
+        let everything = before.camera.eye != now.camera.eye
+            || before.environment != now.environment
+            || before.state.world_from_env != now.state.world_from_env
+            || before.objects.len() != n
+            || before.objects.iter().zip(&now.objects).any(|(b, a)| b.2 != a.2);
+        if everything {
+            return Ok(Changes::all(n));
+        }
+        let mut changes = Changes { objects: vec![false; n], moved: before.camera != now.camera };
+        for j in 0..n {
+            if before.objects[j] != now.objects[j] {
+                changes.objects[j] = true;
+            }
+            if before.state.objects[j] != now.state.objects[j] {
+                // Its shadow, where it was and where it is.
+                let was = engine.shadowed_by(scene, &before.state, j)?;
+                let is = engine.shadowed_by(scene, &now.state, j)?;
+                for (i, c) in changes.objects.iter_mut().enumerate() {
+                    *c |= i == j || was[i] || is[i];
+                }
+                changes.moved = true;
+            }
+        }
+        Ok(changes)
+    }
+
+    /// The frame of method `id` for `request`: only what changed since its last frame is
+    /// drawn again, as far as the method can reuse what it kept.
+    pub fn render(&mut self, engine: &Engine, scene: &Scene, id: MethodId, request: &Request) -> Result<Rendered> {
+        let changes = self.changes(engine, scene, id, request.time)?;
+        let at = self.slot(engine, id)?;
+        let slot = &mut self.slots[at];
+        let frame = match slot.method.render_changed(engine, scene, request, &changes, &mut slot.kept) {
+            Ok(frame) => frame,
+            Err(e) => {
+                // Nothing half-kept: the next frame starts afresh.
+                slot.kept = None;
+                slot.seen = None;
+                return Err(e);
+            }
+        };
+        slot.seen = Some(Seen::of(engine, scene, request.time));
+        Ok(Rendered { frame, changes })
+    }
+
+    /// Records that the front end drew `scene` at `time` for method `id` by its own means
+    /// (a device of its own): what the method kept is dropped, and what changes next is
+    /// counted from here.
+    pub fn drawn_elsewhere(&mut self, engine: &Engine, scene: &Scene, id: MethodId, time: f32) -> Result<()> {
+        let at = self.slot(engine, id)?;
+        let slot = &mut self.slots[at];
+        slot.kept = None;
+        slot.seen = Some(Seen::of(engine, scene, time));
+        Ok(())
+    }
+
+    /// Forgets every method's last frame (after the engine was replaced): each draws its
+    /// next frame whole.
+    pub fn forget_frames(&mut self) {
+        for s in &mut self.slots {
+            s.kept = None;
+            s.seen = None;
+        }
+    }
+
+    /// Whether method `id` is prepared for `engine`'s scene ([`Method::preparation`]): if
+    /// not, its preparation is started on a worker thread (once) and `false` comes back; a
+    /// finished preparation is given to its method first.
+    pub fn ready(&mut self, engine: &Engine, id: MethodId) -> Result<bool> {
+        if self.job.as_ref().is_some_and(|(_, h)| !h.is_finished()) {
+            return Ok(false);
+        }
+        self.install_finished()?;
+        let at = self.slot(engine, id)?;
+        match self.slots[at].method.preparation(engine)? {
+            None => Ok(true),
+            Some(job) => {
+                let handle = std::thread::Builder::new()
+                    .name(format!("rsl prepare {id}"))
+                    .spawn(move || job.run())
+                    .context("starting the preparation thread")?;
+                self.job = Some((id, handle));
+                Ok(false)
+            }
+        }
+    }
+
+    /// Gives a finished preparation to its method.
+    fn install_finished(&mut self) -> Result<()> {
+        if let Some((id, h)) = self.job.take() {
+            let prepared = h.join().map_err(|_| anyhow!("preparing {id} failed"))?;
+            if let Some(s) = self.slots.iter_mut().find(|s| s.id == id) {
+                s.method.install(prepared);
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether a method's preparation runs on the worker thread.
+    pub fn is_preparing(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// Waits for the preparation running on the worker thread, if any, and gives it to its
+    /// method.
+    pub fn wait_preparation(&mut self) -> Result<()> {
+        self.install_finished()
+    }
+}
