@@ -13,7 +13,7 @@ use anyhow::Result;
 use clap::Parser;
 use glam::Vec3;
 use rsl_engine::method::{Frame, Method, Request};
-use rsl_engine::registry::{Capabilities, ImageKind, Incremental};
+use rsl_engine::registry::{Capabilities, ErrorModel, ImageKind, Incremental};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, Layers, MethodOptions, Registration, Timings};
 
@@ -61,6 +61,7 @@ fn main() -> std::process::ExitCode {
             oracles: false,
             interactive: true,
             incremental: Incremental::Frames,
+            error: ErrorModel::Unbounded,
         },
         constructor: normals,
     });

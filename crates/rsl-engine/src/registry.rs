@@ -95,21 +95,38 @@ pub struct Capabilities {
     pub oracles: bool,
     /// The viewer may show it as its drawing (fast enough to redraw on edits).
     pub interactive: bool,
-    /// How the viewer redraws it between whole frames.
+    /// What it draws again of a frame in a [`crate::Session`] when only some objects
+    /// changed ([`Method::render_changed`]).
     pub incremental: Incremental,
+    /// What bounds its error: how the method matrix (`crates/rsl-engine/tests/methods.rs`)
+    /// holds it to analytic answers.
+    pub error: ErrorModel,
 }
 
-/// How a front end may redraw a method's frames incrementally (only what changed) instead
-/// of whole frames through [`Method::render`].
+/// What bounds a method's error against an analytic answer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorModel {
+    /// The RSL path's tables: a constant environment reproduced to 1 %, a visibility
+    /// boundary placed to within half a cell of the hemisphere grid, the same numbers when
+    /// the scene, the environment and the eye turn together (f32 rounding only).
+    Tables,
+    /// Its own standard error (Monte Carlo): within 5 σ per vertex.
+    StandardError,
+    /// None that can be checked (a baseline with its own truncation, or a view that is not
+    /// radiance): its frames are complete and finite.
+    Unbounded,
+}
+
+/// What a method draws again when only some objects changed since its last frame in a
+/// [`crate::Session`] ([`Method::render_changed`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Incremental {
-    /// Whole frames only (after [`Method::preparation`]).
+    /// The whole frame, whatever changed (the default `render_changed`).
     Frames,
-    /// The changed objects' vertices reshaded by the RSL path and the changed pixels
-    /// redrawn from them.
+    /// The changed objects' vertices; the others' are kept.
     Vertices,
-    /// As `Vertices`, with every light's cover kept at the glossy objects' vertices and
-    /// their pixels shaded by the RSL sum per pixel.
+    /// As `Vertices`, keeping every light's cover at the vertices of the objects drawn per
+    /// pixel; the image is drawn whole from them.
     PixelCovers,
 }
 
@@ -402,6 +419,7 @@ const CPU_RSL: Capabilities = Capabilities {
     oracles: true,
     interactive: true,
     incremental: Incremental::Vertices,
+    error: ErrorModel::Tables,
 };
 
 /// The lobe methods': per pixel, isotropic materials only, whole frames.
@@ -522,6 +540,7 @@ static BUILT_IN: [Registration; 7] = [
             oracles: false,
             interactive: false,
             incremental: Incremental::Frames,
+            error: ErrorModel::StandardError,
             ..CPU_RSL
         },
         constructor: make_truth,
@@ -538,6 +557,7 @@ static BUILT_IN: [Registration; 7] = [
             oracles: false,
             interactive: false,
             incremental: Incremental::Frames,
+            error: ErrorModel::Unbounded,
             ..CPU_RSL
         },
         constructor: make_wavelet,

@@ -11,7 +11,7 @@ use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, Layers};
 
 mod common;
-use common::scene;
+use common::{relative_l2, scene};
 
 /// A glossy Phong floor (n = 200, a lobe the material fit reproduces to 1–2 % at every view)
 /// under a Lambert ball, sunrise.exr's low sun behind the camera: the floor in front of the
@@ -53,12 +53,7 @@ fn vertices(method: &mut dyn Method, engine: &Engine, s: &Scene) -> Frame {
 
 /// Relative L2 over object `i`'s vertices of `a` against `b`.
 fn l2(a: &Frame, b: &Frame, i: usize) -> f64 {
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for (x, y) in a.radiance[i].iter().zip(&b.radiance[i]) {
-        num += f64::from((*x - *y).length_squared());
-        den += f64::from(y.length_squared());
-    }
-    (num / den).sqrt()
+    relative_l2(&a.radiance[i], &b.radiance[i])
 }
 
 #[test]

@@ -54,12 +54,7 @@ fn render(method: &mut dyn Method, engine: &Engine, s: &Scene, image: bool) -> F
 /// Relative L2 of `a` against `b` over the pixels `b`'s objects cover.
 fn pixel_l2(a: &Image, b: &Image) -> f64 {
     assert_eq!(a.covered, b.covered, "the same pixels covered");
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for ((x, y), _) in a.pixels.iter().zip(&b.pixels).zip(&b.covered).filter(|(_, c)| **c) {
-        num += f64::from((*x - *y).length_squared());
-        den += f64::from(y.length_squared());
-    }
-    (num / den).sqrt()
+    rsl_truth::compare(&a.pixels, &b.pixels, Some(&b.covered)).expect("comparable images").relative_l2
 }
 
 /// The truth's image of `s` at t = 0 (256 spp per pixel, `seed`), with its own noise
@@ -292,19 +287,19 @@ fn mixed_scene_sized(rough: &str, sharp: &str, width: u32, height: u32) -> Scene
     ))
 }
 
-/// Per object, the relative L2 of `a` against `b` over the pixels that object covers.
+/// Per object, the relative L2 of `a` against `b` over the pixels that object covers
+/// (rsl-truth's metric).
 fn object_pixel_l2(s: &Scene, f: &Frame, a: &Image, b: &Image) -> Vec<f64> {
     let geometry: Vec<(&[Vec3], &[u32])> =
         s.objects.iter().enumerate().map(|(i, o)| (f.positions[i].as_slice(), o.mesh.indices.as_slice())).collect();
     let frags = rsl_shade::fragments(&s.camera, &geometry);
-    let mut sums = vec![(0.0f64, 0.0f64); s.objects.len()];
-    for (k, fr) in frags.iter().enumerate() {
-        let Some(fr) = fr else { continue };
-        let e = &mut sums[fr.mesh as usize];
-        e.0 += f64::from((a.pixels[k] - b.pixels[k]).length_squared());
-        e.1 += f64::from(b.pixels[k].length_squared());
-    }
-    sums.iter().map(|(n, d)| (n / d).sqrt()).collect()
+    (0..s.objects.len())
+        .map(|i| {
+            let mask: Vec<bool> = frags.iter().map(|fr| fr.as_ref().is_some_and(|fr| fr.mesh as usize == i)).collect();
+            // NaN for an object that covers no pixel.
+            rsl_truth::compare(&a.pixels, &b.pixels, Some(&mask)).map_or(f64::NAN, |m| m.relative_l2)
+        })
+        .collect()
 }
 
 #[test]

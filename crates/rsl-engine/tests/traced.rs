@@ -9,7 +9,7 @@ use rsl_sphere::Frame;
 use rsl_sphere::hemi::dir_from_hemi;
 
 mod common;
-use common::scene;
+use common::{relative_l2, scene};
 
 /// A ground plane under a thin box (1 × 0.02 × 0.5, turned 90° about y: 0.5 wide in x, 1 in
 /// z, its middle at height 0.5), lit by a constant environment cut into 6 RSLs (squares a
@@ -197,12 +197,6 @@ fn torus(traced: u32, rays: u32) -> Scene {
     ))
 }
 
-fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f32 {
-    let num: f32 = a.iter().zip(b).map(|(x, y)| (*x - *y).length_squared()).sum();
-    let den: f32 = b.iter().map(|y| y.length_squared()).sum();
-    (num / den).sqrt()
-}
-
 #[test]
 fn with_every_light_traced_self_visibility_is_the_self_oracles() {
     use rsl_engine::method::{Method, Oracle, Request};
@@ -219,7 +213,7 @@ fn with_every_light_traced_self_visibility_is_the_self_oracles() {
     let mut again = Oracle::new(oracles);
     again.params.seed ^= 0x9e37_79b9;
     let other = again.render(&engine, &fields, &request).unwrap().radiance[0].clone();
-    let noise = relative_l2(&other, &oracle) / std::f32::consts::SQRT_2;
+    let noise = relative_l2(&other, &oracle) / std::f64::consts::SQRT_2;
     let field = engine.shade(&fields, 0.0).unwrap().radiance[0].clone();
     let all = torus(64, 1024);
     let traced_engine = Engine::new(&all, EngineOptions::default()).unwrap();

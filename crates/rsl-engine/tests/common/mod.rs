@@ -24,11 +24,9 @@ pub fn facing(f: &Frame, i: usize, v: usize, eye: Vec3) -> bool {
     f.normals[i][v].dot((eye - f.positions[i][v]).normalize()) > 0.05
 }
 
-/// Relative L2 of `a` against `b`, in f64.
+/// Relative L2 of `a` against `b` (rsl-truth's one metric, in f64).
 pub fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| f64::from((*x - *y).length_squared())).sum();
-    let den: f64 = b.iter().map(|y| f64::from(y.length_squared())).sum();
-    (num / den).sqrt()
+    rsl_truth::compare(a, b, None).expect("comparable radiance").relative_l2
 }
 
 /// A ball of radius 1 and `resolution` with `material` in a constant white environment of
