@@ -2,6 +2,7 @@
 //! replay test (`tests/fuzz_corpus.rs`) calls with every committed input: each takes
 //! arbitrary bytes, may fail, and must never panic, hang or allocate without bound.
 
+use rsl_sphere::framed::frame;
 use std::path::Path;
 
 /// Where relative files of fuzzed inputs would be looked for: a folder that does not exist,
@@ -48,7 +49,7 @@ pub fn svdf_file(data: &[u8]) {
     for key in keys(data) {
         let _ = rsl_vis::store::svdf_from_bytes(data, key);
     }
-    let framed = frame(&rsl_vis::store::SVDF_MAGIC, rsl_vis::store::VERSION, Some(0), data);
+    let framed = frame(&rsl_vis::store::SVDF_MAGIC, rsl_vis::store::VERSION, 0, data);
     let _ = rsl_vis::store::svdf_from_bytes(&framed, 0);
 }
 
@@ -57,7 +58,7 @@ pub fn ovdf_file(data: &[u8]) {
     for key in keys(data) {
         let _ = rsl_vis::store::ovdf_from_bytes(data, key);
     }
-    let framed = frame(&rsl_vis::store::OVDF_MAGIC, rsl_vis::store::VERSION, Some(0), data);
+    let framed = frame(&rsl_vis::store::OVDF_MAGIC, rsl_vis::store::VERSION, 0, data);
     let _ = rsl_vis::store::ovdf_from_bytes(&framed, 0);
 }
 
@@ -66,32 +67,20 @@ pub fn rsl_file(data: &[u8]) {
     for key in keys(data) {
         let _ = rsl_engine::cache::rsls_from_bytes(data, key);
     }
-    let framed = frame(&rsl_engine::cache::RSL_MAGIC, rsl_engine::cache::RSL_VERSION, Some(0), data);
+    let framed = frame(&rsl_engine::cache::RSL_MAGIC, rsl_engine::cache::RSL_VERSION, 0, data);
     let _ = rsl_engine::cache::rsls_from_bytes(&framed, 0);
 }
 
 /// A cached truth file, read for 1 and 256 samples per vertex, as it is and as the payload
 /// of a well-formed header.
 pub fn truth_file(data: &[u8]) {
-    let framed = frame(&rsl_bench::truth::MAGIC, rsl_bench::truth::VERSION, None, data);
+    let framed = frame(&rsl_bench::truth::MAGIC, rsl_bench::truth::VERSION, 0, data);
     for spp in [1, 256] {
-        let _ = rsl_bench::truth::from_bytes(data, spp);
-        let _ = rsl_bench::truth::from_bytes(&framed, spp);
+        for key in keys(data) {
+            let _ = rsl_bench::truth::from_bytes(data, key, spp);
+        }
+        let _ = rsl_bench::truth::from_bytes(&framed, 0, spp);
     }
-}
-
-/// The cache files' header over `payload`: magic, version, length, FNV-1a checksum, and the
-/// key where the format has one.
-fn frame(magic: &[u8; 8], version: u32, key: Option<u64>, payload: &[u8]) -> Vec<u8> {
-    let mut out = magic.to_vec();
-    out.extend_from_slice(&version.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&rsl_vis::store::fnv1a64(payload).to_le_bytes());
-    if let Some(k) = key {
-        out.extend_from_slice(&k.to_le_bytes());
-    }
-    out.extend_from_slice(payload);
-    out
 }
 
 /// A PLY file of shaded vertices (what `rsl compare` reads).

@@ -1,5 +1,6 @@
 //! The per-vertex truth of a scene at a time, computed once per (scene contents, time, spp,
-//! seed) and kept in a checksummed file in the cache folder.
+//! seed) and kept in the cache folder, in the frame every cache file shares
+//! ([`rsl_sphere::framed`]).
 
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
@@ -8,14 +9,14 @@ use rsl_engine::engine::brdf_key;
 use rsl_engine::method::{Method, Request, Truth};
 use rsl_engine::{Engine, Progress};
 use rsl_scene::Scene;
-use rsl_vis::store::fnv1a64;
+use rsl_sphere::framed::{self, FrameError};
 use std::path::Path;
 
 /// Magic number of a cached truth file.
 pub const MAGIC: [u8; 8] = *b"RSLTRUTH";
 /// Version of the truth file format (3: vertices' visibility is face-averaged,
-/// rsl_sphere::faces).
-pub const VERSION: u32 = 3;
+/// rsl_sphere::faces; 4: the shared frame, with the content key in the header).
+pub const VERSION: u32 = 4;
 
 /// Per object, per vertex: the mean radiance and its standard error.
 #[derive(Clone, Debug, PartialEq)]
@@ -83,11 +84,12 @@ pub fn truth(
     dir: Option<&Path>,
     progress: &Progress,
 ) -> Result<(VertexTruth, bool)> {
-    let file = dir.map(|d| d.join(format!("truth-{:016x}.bin", key(engine, scene, time, spp, seed))));
+    let key = key(engine, scene, time, spp, seed);
+    let file = dir.map(|d| d.join(format!("truth-{key:016x}.bin")));
     if let Some(f) = &file
         && let Ok(bytes) = rsl_sphere::io::read_bounded(f, rsl_sphere::io::MAX_DATA_BYTES)
     {
-        match from_bytes(&bytes, spp) {
+        match from_bytes(&bytes, key, spp) {
             Ok(t) if t.mean.iter().map(Vec::len).eq(engine_counts(engine)) => return Ok((t, true)),
             Ok(_) => eprintln!("warning: {}: vertex counts differ from the scene; estimating again", f.display()),
             Err(e) => eprintln!("warning: {}: {e}; estimating again", f.display()),
@@ -107,7 +109,7 @@ pub fn truth(
         if let Some(d) = f.parent() {
             std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
         }
-        rsl_engine::output::write_atomic(f, &to_bytes(&t))?;
+        rsl_engine::output::write_atomic(f, &to_bytes(&t, key))?;
     }
     Ok((t, false))
 }
@@ -116,7 +118,7 @@ fn engine_counts(engine: &Engine) -> impl Iterator<Item = usize> + '_ {
     (0..engine.object_count()).map(|i| engine.mesh(i).vertex_count())
 }
 
-fn to_bytes(t: &VertexTruth) -> Vec<u8> {
+fn to_bytes(t: &VertexTruth, key: u64) -> Vec<u8> {
     let mut payload = Vec::new();
     payload.extend_from_slice(&t.spp.to_le_bytes());
     payload.extend_from_slice(&t.seconds.to_le_bytes());
@@ -129,31 +131,16 @@ fn to_bytes(t: &VertexTruth) -> Vec<u8> {
             }
         }
     }
-    let mut out = MAGIC.to_vec();
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
-    out.extend_from_slice(&payload);
-    out
+    framed::frame(&MAGIC, VERSION, key, &payload)
 }
 
-/// Reads a cached truth file's bytes (for `spp` samples per vertex), verifying everything.
-pub fn from_bytes(b: &[u8], spp: u32) -> Result<VertexTruth> {
-    if b.len() < 28 || b[..8] != MAGIC {
-        bail!("not a truth file (bad magic number)");
-    }
-    let word = |k: usize| u32::from_le_bytes(b[k..k + 4].try_into().expect("4 bytes"));
-    if word(8) != VERSION {
-        bail!("truth file version {}, this build reads {VERSION}", word(8));
-    }
-    let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
-    let payload = &b[28..];
-    if payload.len() as u64 != len {
-        bail!("truth file is truncated or padded");
-    }
-    if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
-        bail!("truth file is corrupt (checksum mismatch)");
-    }
+/// Reads a cached truth file's bytes (built for content key `key`, at `spp` samples per
+/// vertex), verifying everything.
+pub fn from_bytes(b: &[u8], key: u64, spp: u32) -> Result<VertexTruth> {
+    let payload = framed::unframe(&MAGIC, VERSION, key, b).map_err(|e| match e {
+        FrameError::BadMagic => anyhow::anyhow!("not a truth file (bad magic number)"),
+        e => anyhow::anyhow!("truth file: {e}"),
+    })?;
     let mut at = 0usize;
     let mut next = |n: usize| -> Result<&[u8]> {
         let s = payload.get(at..at + n).context("truth file is malformed (too short)")?;
@@ -204,13 +191,14 @@ mod tests {
             spp: 64,
             seconds: 2.5,
         };
-        let b = to_bytes(&t);
-        assert_eq!(from_bytes(&b, 64).unwrap(), t);
-        assert!(from_bytes(&b, 32).unwrap_err().to_string().contains("sample count"));
+        let b = to_bytes(&t, 7);
+        assert_eq!(from_bytes(&b, 7, 64).unwrap(), t);
+        assert!(from_bytes(&b, 7, 32).unwrap_err().to_string().contains("sample count"));
         let mut flipped = b.clone();
         flipped[40] ^= 1;
-        assert!(from_bytes(&flipped, 64).unwrap_err().to_string().contains("checksum"));
-        assert!(from_bytes(&b[..b.len() - 1], 64).is_err());
+        assert!(from_bytes(&flipped, 7, 64).unwrap_err().to_string().contains("checksum"));
+        assert!(from_bytes(&b[..b.len() - 1], 7, 64).is_err());
+        assert!(from_bytes(&b, 8, 64).unwrap_err().to_string().contains("built for key"));
         assert!((t.noise(Some(0)) - (0.03f64 / 14.0).sqrt()).abs() < 1e-6);
     }
 }

@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 use rsl_env::Rsl;
-use rsl_vis::store::fnv1a64;
+use rsl_sphere::framed::{self, FrameError};
 use std::path::{Path, PathBuf};
 
 /// Environment variable naming the cache folder.
@@ -109,10 +109,8 @@ pub fn mesh_key(mesh: &rsl_sphere::mesh::TriMesh) -> u64 {
 pub const RSL_MAGIC: [u8; 8] = *b"RSLLIGHT";
 /// Version of the RSL-set file format.
 pub const RSL_VERSION: u32 = 3;
-/// Header bytes: magic, version, payload length, checksum, key.
-const RSL_HEADER: usize = 8 + 4 + 8 + 8 + 8;
-
-/// Serialises an RSL set (environment space, before intensity) built for content key `key`.
+/// Serialises an RSL set (environment space, before intensity) built for content key `key`,
+/// in the frame every cache file shares ([`rsl_sphere::framed`]).
 pub fn rsls_to_bytes(rsls: &[Rsl], key: u64) -> Vec<u8> {
     let mut payload = Vec::with_capacity(4 + rsls.len() * 28);
     payload.extend_from_slice(&(rsls.len() as u32).to_le_bytes());
@@ -121,42 +119,15 @@ pub fn rsls_to_bytes(rsls: &[Rsl], key: u64) -> Vec<u8> {
             payload.extend_from_slice(&v.to_le_bytes());
         }
     }
-    let mut out = Vec::with_capacity(payload.len() + RSL_HEADER);
-    out.extend_from_slice(&RSL_MAGIC);
-    out.extend_from_slice(&RSL_VERSION.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
-    out.extend_from_slice(&key.to_le_bytes());
-    out.extend_from_slice(&payload);
-    out
+    framed::frame(&RSL_MAGIC, RSL_VERSION, key, &payload)
 }
 
 /// Reads an RSL set written by [`rsls_to_bytes`] for `key`, verifying everything.
 pub fn rsls_from_bytes(b: &[u8], key: u64) -> Result<Vec<Rsl>, String> {
-    if b.len() < 12 || b[..8] != RSL_MAGIC {
-        return Err("not an rsl light set (bad magic number)".into());
-    }
-    let version = u32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
-    if version != RSL_VERSION {
-        return Err(format!("light set format version {version}, this build reads version {RSL_VERSION}"));
-    }
-    if b.len() < RSL_HEADER {
-        return Err(format!("light set file is truncated: {} bytes, the header alone is {RSL_HEADER}", b.len()));
-    }
-    let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
-    let payload = &b[RSL_HEADER..];
-    if payload.len() as u64 != len {
-        return Err(format!("light set file is truncated or padded: {} payload bytes, expected {len}", payload.len()));
-    }
-    if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
-        return Err("light set file is corrupt (checksum mismatch)".into());
-    }
-    let found = u64::from_le_bytes(b[28..36].try_into().expect("8 bytes"));
-    if found != key {
-        return Err(format!(
-            "light set file was built for key {found:016x}, not {key:016x} (copied over another's name?)"
-        ));
-    }
+    let payload = framed::unframe(&RSL_MAGIC, RSL_VERSION, key, b).map_err(|e| match e {
+        FrameError::BadMagic => "not an rsl light set (bad magic number)".to_string(),
+        e => format!("light set file: {e}"),
+    })?;
     if payload.len() < 4 {
         return Err(format!("light set file is malformed: {} payload bytes, no light count", payload.len()));
     }
@@ -217,11 +188,7 @@ mod tests {
         assert!(rsls_from_bytes(&future, 42).unwrap_err().contains("version"));
         // A well-formed header over an empty payload (its checksum right) is an error, not a
         // panic, so the engine rejects and removes the file.
-        let mut empty = RSL_MAGIC.to_vec();
-        empty.extend_from_slice(&RSL_VERSION.to_le_bytes());
-        empty.extend_from_slice(&0u64.to_le_bytes());
-        empty.extend_from_slice(&fnv1a64(&[]).to_le_bytes());
-        empty.extend_from_slice(&42u64.to_le_bytes());
+        let empty = framed::frame(&RSL_MAGIC, RSL_VERSION, 42, &[]);
         assert!(rsls_from_bytes(&empty, 42).unwrap_err().contains("no light count"));
     }
 

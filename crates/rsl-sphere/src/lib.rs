@@ -25,6 +25,7 @@ pub mod approx;
 pub mod cube;
 pub mod faces;
 pub mod frame;
+pub mod framed;
 pub mod hemi;
 pub mod io;
 pub mod latlong;

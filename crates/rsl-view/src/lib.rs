@@ -1,8 +1,9 @@
 //! `rsl view`: the interactive viewer (egui/eframe on wgpu).
 //!
-//! [`Viewer`] holds an edited [`Scene`] and the [`Engine`] prepared for it, and draws one
-//! egui frame at a time ([`Viewer::ui`]): the 3D view (shaded by the engine's CPU RSL path
-//! and rasterised on the CPU into a texture that egui draws with wgpu), and panels to pick
+//! [`Viewer`] holds an edited [`Scene`], the [`Engine`] prepared for it and the render
+//! [`Session`] it draws through, and draws one egui frame at a time ([`Viewer::ui`]): the 3D
+//! view (its drawing's vertices while edits come, rasterised on the CPU into a texture that
+//! egui draws with wgpu, and the drawing's own frame once the view rests), and panels to pick
 //! and move objects, rotate the environment, change the RSL count, the quality preset and
 //! materials, play the scene's motion, and read what each stage cost.
 //!
@@ -13,11 +14,12 @@
 //!
 //! - **Never blocks**: the engine is prepared on a worker thread ([`Viewer::is_preparing`]);
 //!   the UI keeps drawing the last frame, with a progress bar.
-//! - **Only what changed is reshaded** ([`Counters`]): a material edit reshades that object
-//!   alone (the others' radiance does not depend on it); moving an object reshades it and
-//!   the objects its shadow can reach (its occluder field's reach, and the traced lights'
-//!   cones) at the old and new pose; moving the camera or the environment reshades every
-//!   object; a frame in which nothing changed costs no shading and no rasterising.
+//! - **Only what changed is reshaded** ([`Counters`]; the session finds it by content): a
+//!   material edit reshades that object alone (the others' radiance does not depend on
+//!   it); moving an object reshades it and the objects its shadow can reach (its occluder
+//!   field's reach, and the traced lights' cones) at the old and new pose; moving the
+//!   camera or the environment reshades every object; a frame in which nothing changed
+//!   costs no shading and no rasterising.
 //! - [`screenshot`] renders the whole UI headless (egui's wgpu test renderer, any adapter
 //!   including llvmpipe) to a PNG.
 

@@ -1,7 +1,7 @@
 //! The on-disk form of visibility fields (SVDF and OVDF) (docs/conventions.md,
-//! Precomputation cache): a magic number, a format version, the payload's length, an
-//! FNV-1a 64 checksum and the content key the field was built for, then the little-endian
-//! payload. A wrong magic, an unknown version, a short file, a checksum mismatch or another
+//! Precomputation cache), in the frame every cache file shares ([`rsl_sphere::framed`]): a
+//! magic number, a format version, the payload's length, an FNV-1a 64 checksum and the
+//! content key the field was built for, then the little-endian payload. A wrong magic, an unknown version, a short file, a checksum mismatch or another
 //! key (a file copied over another's name) is an error, never a half-read or foreign field.
 //! Files are read only when regular and within [`rsl_sphere::io::MAX_DATA_BYTES`]. Saving
 //! writes a temporary file and renames it.
@@ -16,7 +16,6 @@ pub const SVDF_MAGIC: [u8; 8] = *b"RSLSVDF\0";
 pub const OVDF_MAGIC: [u8; 8] = *b"RSLOVDF\0";
 /// Current format version.
 pub const VERSION: u32 = 3;
-const HEADER: usize = 8 + 4 + 8 + 8 + 8;
 
 /// Why a field file was rejected.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -57,9 +56,19 @@ pub enum FieldFileError {
     Io(String),
 }
 
-/// FNV-1a, 64 bits.
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
+use rsl_sphere::framed::FrameError;
+pub use rsl_sphere::framed::fnv1a64;
+
+impl From<FrameError> for FieldFileError {
+    fn from(e: FrameError) -> Self {
+        match e {
+            FrameError::BadMagic => FieldFileError::BadMagic,
+            FrameError::Version { found, .. } => FieldFileError::Version { found },
+            FrameError::Length { expected, got } => FieldFileError::Length { expected, got },
+            FrameError::Checksum => FieldFileError::Checksum,
+            FrameError::Key { expected, found } => FieldFileError::Key { expected, found },
+        }
+    }
 }
 
 struct Writer(Vec<u8>);
@@ -126,44 +135,14 @@ pub fn svdf_to_bytes(f: &Svdf, key: u64) -> Vec<u8> {
     frame(&SVDF_MAGIC, key, w.0)
 }
 
-/// Header (magic, version, length, checksum, key) and payload.
+/// The framed file ([`rsl_sphere::framed`]) of a field's payload.
 fn frame(magic: &[u8; 8], key: u64, payload: Vec<u8>) -> Vec<u8> {
-    let mut out = Vec::with_capacity(HEADER + payload.len());
-    out.extend_from_slice(magic);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&fnv1a64(&payload).to_le_bytes());
-    out.extend_from_slice(&key.to_le_bytes());
-    out.extend_from_slice(&payload);
-    out
+    rsl_sphere::framed::frame(magic, VERSION, key, &payload)
 }
 
 /// Checks the header, checksum and key; returns the payload.
 fn unframe<'a>(magic: &[u8; 8], key: u64, b: &'a [u8]) -> Result<&'a [u8], FieldFileError> {
-    if b.len() < 8 || &b[..8] != magic {
-        return Err(FieldFileError::BadMagic);
-    }
-    if b.len() < HEADER {
-        return Err(FieldFileError::Length { expected: HEADER as u64, got: b.len() as u64 });
-    }
-    let version = u32::from_le_bytes(b[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
-        return Err(FieldFileError::Version { found: version });
-    }
-    let len = u64::from_le_bytes(b[12..20].try_into().expect("8 bytes"));
-    let expected = (HEADER as u64).saturating_add(len);
-    if b.len() as u64 != expected {
-        return Err(FieldFileError::Length { expected, got: b.len() as u64 });
-    }
-    let payload = &b[HEADER..];
-    if fnv1a64(payload) != u64::from_le_bytes(b[20..28].try_into().expect("8 bytes")) {
-        return Err(FieldFileError::Checksum);
-    }
-    let found = u64::from_le_bytes(b[28..36].try_into().expect("8 bytes"));
-    if found != key {
-        return Err(FieldFileError::Key { expected: key, found });
-    }
-    Ok(payload)
+    Ok(rsl_sphere::framed::unframe(magic, VERSION, key, b)?)
 }
 
 fn write_cpca(w: &mut Writer, c: &Cpca) {
