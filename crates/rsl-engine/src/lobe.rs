@@ -1,4 +1,4 @@
-//! The hybrid of the lobe path and the RSL path (rsl-lobe; the variant (b)): per
+//! The hybrid of the lobe path and the RSL path (rsl-lobe; variant (b) of the lobe path): per
 //! vertex, the unshadowed glossy radiance from the material's vMF lobes over the prefiltered
 //! environment, times the RSL path's visibility ratio `Σ_i E_i·B̄_i·V̄_i / Σ_i E_i·B̄_i` (the
 //! ratio estimator of Heitz et al. 2018, with RSL visibility in place of rays), per channel.
@@ -64,7 +64,7 @@ pub struct Hybrid {
     vertex_ratios: bool,
     /// Draw glossy objects with their transport lobes (their own shadows fitted in), each
     /// shadowed by the other objects' occluder fields over a square of its width (`method =
-    /// "lobe"`, the variant (a)), instead of the material lobes times the RSL path's
+    /// "lobe"`, variant (a)), instead of the material lobes times the RSL path's
     /// visibility ratio (variant (b), the hybrid).
     pub fields: bool,
     env: Option<(u64, u32, Arc<Prefiltered>)>,

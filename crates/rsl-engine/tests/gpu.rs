@@ -28,7 +28,7 @@ fn renderer(test: &str) -> Option<GpuRenderer> {
 /// Relative tolerance of the GPU against the CPU, per vertex. Both evaluate the same
 /// formula in f32 from the same data; the CPU sums BRDF boxes in f64 and the GPU in f32
 /// with per-cell weights (shaders/common/brdf.wgsl), and transcendental functions differ by
-/// a few ulps, so agreement is to ~1e-5; 1e-3 is the bound.
+/// a few ulps, so agreement is to ~1e-5; 1e-3 is the bound the GPU path is held to.
 const RELATIVE: f32 = 1e-3;
 /// Absolute tolerance on dark vertices (radiance of the default scene is ~0.1–10), at least.
 const ABSOLUTE: f32 = 1e-5;

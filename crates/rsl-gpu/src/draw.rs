@@ -431,7 +431,7 @@ impl GpuDraw {
     /// error.
     pub fn draw_meshes(
         &mut self,
-        meshes: &[rsl_shade::RasterMesh<'_>],
+        meshes: &[rsl_frame::RasterMesh<'_>],
         camera: &Camera,
         env_from_world: Mat3,
     ) -> Result<PassTime, GpuError> {
@@ -448,7 +448,7 @@ impl GpuDraw {
     /// drawn then (only the changed ones are uploaded).
     pub fn redraw_meshes(
         &mut self,
-        meshes: &[rsl_shade::RasterMesh<'_>],
+        meshes: &[rsl_frame::RasterMesh<'_>],
         changed: &[bool],
         camera: &Camera,
         env_from_world: Mat3,
@@ -465,7 +465,7 @@ impl GpuDraw {
     /// Packs and uploads meshes for a drawing: the vertex and index counts.
     fn upload_meshes<'a>(
         &mut self,
-        meshes: impl Iterator<Item = &'a rsl_shade::RasterMesh<'a>> + Clone,
+        meshes: impl Iterator<Item = &'a rsl_frame::RasterMesh<'a>> + Clone,
     ) -> Result<(u32, u32), GpuError> {
         self.ctx.check_alive()?;
         let vertices: usize = meshes.clone().map(|m| m.positions.len()).sum();

@@ -1,6 +1,6 @@
 //! The compute pass of Xu et al. 2006, §5.2: every vertex shaded over all RSLs and occluders
 //! (`shaders/shade/vertices.wgsl`, one vertex per invocation), evaluating exactly the CPU
-//! fast path's formula (`rsl_shade::shade`), into a buffer of world positions and radiance
+//! fast path's formula (rsl-shade's `shade`), into a buffer of world positions and radiance
 //! that the draw pass reads as vertex data.
 //!
 //! What is uploaded when:
@@ -20,7 +20,7 @@ use crate::{GpuContext, GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
 use rsl_brdf::{BrdfTable, Views};
-use rsl_shade::{Light, OccluderBound, Pose, ShadeObject, Terms, TracedCovers};
+use rsl_frame::{Light, OccluderBound, Pose, ShadeObject, Terms, TracedCovers};
 use rsl_sphere::Frame;
 use rsl_sphere::cube::CubeGrid;
 use rsl_vis::cpca::Cpca;
@@ -535,7 +535,7 @@ impl GpuShading {
     /// Shades every vertex of `objects` (the ones loaded, at their current transforms) under
     /// `lights`, seen from `eye`, and waits for the result. Uploads only per-frame data.
     /// Traced lights take their occluders' shadows from `traced` (rays traced on the CPU,
-    /// [`rsl_shade::FrameSetup::traced_covers`]) instead of the occluder fields.
+    /// rsl-shade's `FrameSetup::traced_covers`) instead of the occluder fields.
     pub fn shade(
         &mut self,
         objects: &[ShadeObject<'_>],

@@ -29,6 +29,7 @@ use crate::shade::{FrameSetup, FrameStats, Lazy, Near};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use rsl_brdf::{ViewLookup, square_exact, square_exact_at};
+pub use rsl_frame::{Blockers, Rays};
 use rsl_sphere::Frame;
 use rsl_sphere::hemi::{dir_from_hemi, hemi_from_dir};
 use rsl_sphere::sampling::Pcg32;
@@ -110,37 +111,6 @@ impl Oracles {
         ];
         let names: Vec<_> = on.iter().filter(|(b, _)| *b).map(|(_, n)| *n).collect();
         if names.is_empty() { "none".into() } else { names.join(",") }
-    }
-}
-
-/// Which objects a shadow ray tests.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Blockers {
-    /// The receiving object alone.
-    Own,
-    /// One other object.
-    Object(usize),
-    /// The receiver (when `own`) and every other object that casts shadows (when `others`).
-    All {
-        /// The receiver itself.
-        own: bool,
-        /// The other objects.
-        others: bool,
-    },
-}
-
-/// Shadow rays from the scene's vertices, with the truth's conventions (where they start).
-pub trait Rays: Sync {
-    /// Whether light from world direction `dir` (unit) reaches vertex `vertex` of object
-    /// `object` past `blockers`.
-    fn visible(&self, object: usize, vertex: usize, dir: Vec3, blockers: Blockers) -> bool;
-
-    /// The weight of world direction `dir` at the vertex besides its shadow ray: the truth's
-    /// face-averaged mask over the vertex's incident faces (`rsl_sphere::faces`). It belongs
-    /// with self-visibility: the self and product oracles apply it.
-    fn mask(&self, object: usize, vertex: usize, dir: Vec3) -> f32 {
-        let _ = (object, vertex, dir);
-        1.0
     }
 }
 

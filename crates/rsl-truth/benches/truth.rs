@@ -5,8 +5,8 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Quat, Vec2, Vec3};
 use rsl_brdf::Brdf;
+use rsl_frame::VertexFrames;
 use rsl_scene::{Primitive, Transform};
-use rsl_shade::VertexFrames;
 use rsl_sphere::latlong::{LatLongMap, dir_from_uv};
 use rsl_truth::{EnvLight, TruthObject, TruthScene};
 use std::hint::black_box;

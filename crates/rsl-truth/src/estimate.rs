@@ -25,8 +25,8 @@ use obvhs::{
 };
 use rayon::prelude::*;
 use rsl_brdf::Brdf;
+use rsl_frame::{Pose, VertexFrames};
 use rsl_scene::{Camera, Transform};
-use rsl_shade::{Pose, VertexFrames};
 use rsl_sphere::Frame;
 use rsl_sphere::faces::IncidentFaces;
 use rsl_sphere::latlong::LatLongMap;
@@ -571,7 +571,7 @@ impl TruthScene {
                 if d.is_multiple_of(4096) || d == total {
                     progress(d, total);
                 }
-                let dir = rsl_shade::raster::pixel_ray(camera, k % w, k / w);
+                let dir = rsl_frame::pixel_ray(camera, k % w, k / w);
                 match self.hit(camera.eye, dir) {
                     None => (Estimate { mean: self.background(dir), std_error: Vec3::ZERO }, false, 0),
                     Some((i, p, frame, face)) => {
@@ -591,9 +591,9 @@ impl TruthScene {
 /// Shadow rays for the RSL path's oracles, from the same points as the truth's (vertices
 /// lifted `1e-4` scene radii along the shading normal). Objects that cast no shadows block
 /// only themselves.
-impl rsl_shade::Rays for TruthScene {
-    fn visible(&self, object: usize, vertex: usize, dir: Vec3, blockers: rsl_shade::Blockers) -> bool {
-        use rsl_shade::Blockers;
+impl rsl_frame::Rays for TruthScene {
+    fn visible(&self, object: usize, vertex: usize, dir: Vec3, blockers: rsl_frame::Blockers) -> bool {
+        use rsl_frame::Blockers;
         let x = self.positions[object][vertex] + self.frames[object][vertex].n * self.offset;
         match blockers {
             Blockers::Own => self.visible_past(x, dir, |o| o == object),

@@ -4,8 +4,8 @@
 
 use glam::{Quat, Vec3};
 use rsl_brdf::Brdf;
+use rsl_frame::VertexFrames;
 use rsl_scene::{Primitive, Transform};
-use rsl_shade::VertexFrames;
 use rsl_sphere::Frame;
 use rsl_sphere::faces::IncidentFaces;
 use rsl_sphere::latlong::{LatLongMap, dir_from_uv};
