@@ -3,7 +3,7 @@
 use anyhow::{Context, Result, bail};
 use rsl_engine::method::{Frame, Method, Oracle, Request, exposure_for};
 use rsl_engine::registry::ImageKind;
-use rsl_engine::{Device, Engine, EngineOptions, MethodId, MethodOptions, output, ply};
+use rsl_engine::{Device, Engine, EngineOptions, MethodId, MethodOptions, Session, output, ply};
 use rsl_scene::{Material, Preset, Scene};
 use rsl_shade::{Oracles, tonemap};
 use std::path::{Path, PathBuf};
@@ -331,7 +331,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     }
     let layers = capabilities.layers;
     let mut engine = Engine::new(&scene, EngineOptions { layers, ..args.prepare.options() })?;
-    let mut method = match args.oracle {
+    let method: Box<dyn Method> = match args.oracle {
         Some(oracles) => {
             Oracle::prepare(&mut engine, oracles)?;
             let mut o = Oracle::new(oracles);
@@ -340,11 +340,15 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         }
         None => method_for(args.method, args.device, &engine, args.spp, args.seed)?,
     };
+    // Frames through a render session: each draws again only what changed since the last.
+    let id = args.method;
+    let mut session = Session::new(MethodOptions::default());
+    session.insert(id, method);
     if layers.rsl {
         print_preparation(&engine);
     }
     if args.explain {
-        for line in method.explain(&engine, &scene)? {
+        for line in session.method(&engine, id)?.explain(&engine, &scene)? {
             eprintln!("{line}");
         }
     }
@@ -357,7 +361,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     for (k, t) in times {
         let start = Instant::now();
         let request = Request { time: t, image: args.out.is_some(), vertices: args.vertex_out.is_some(), exposure };
-        let mut frame = method.render(&engine, &scene, &request)?;
+        let mut frame = session.render(&engine, &scene, id, &request)?.frame;
         for s in &frame.timings.stages {
             spent.add(s.name, s.wall_ms, s.gpu_ms);
         }
@@ -396,7 +400,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     let n = count as f64;
     let per_frame: Vec<String> =
         spent.stages.iter().map(|s| format!("{} {:.1} ms/frame", s.name, s.ms() / n)).collect();
-    eprintln!("{count} frame(s) by {}: {}", method.describe(), per_frame.join(", "));
+    eprintln!("{count} frame(s) by {}: {}", session.method(&engine, id)?.describe(), per_frame.join(", "));
     Ok(())
 }
 
@@ -452,8 +456,9 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
     let mut engine = Engine::new(&scene, args.prepare.options())?;
     let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
     print_preparation(&engine);
-    let mut method = method_for(MethodId::RSL, args.device, &engine, 1, 1)?;
-    let device = method.describe();
+    let mut session = Session::new(MethodOptions::default());
+    session.insert(MethodId::RSL, method_for(MethodId::RSL, args.device, &engine, 1, 1)?);
+    let device = session.method(&engine, MethodId::RSL)?.describe();
     let frames = (args.seconds * args.fps).round().max(1.0) as u32;
     let swap_at = frames / 2;
     let swapped = &scene.objects[1].name.clone();
@@ -474,7 +479,7 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
         }
         let t = k as f32 / args.fps;
         let request = Request { time: t, image: true, vertices: false, exposure };
-        let mut frame = method.render(&engine, &scene, &request)?;
+        let mut frame = session.render(&engine, &scene, MethodId::RSL, &request)?.frame;
         shade.push(frame.timings.ms("shade"));
         raster += frame.timings.ms("draw");
         let s = Instant::now();

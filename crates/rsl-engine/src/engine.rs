@@ -622,6 +622,14 @@ impl Engine {
         Ok((0..scene.objects.len()).map(|i| setup.may_shadow(j, i)).collect())
     }
 
+    /// Per object, whether any object `movers` marks can shadow it at `state` (one frame
+    /// set up for all of them; [`Engine::shadowed_by`] for each).
+    pub fn shadowed_by_any(&self, scene: &Scene, state: &SceneState, movers: &[bool]) -> Result<Vec<bool>> {
+        let setup = self.setup(scene, state, scene.camera.eye, Terms::default())?;
+        let n = scene.objects.len();
+        Ok((0..n).map(|i| (0..n).any(|j| movers.get(j).copied().unwrap_or(false) && setup.may_shadow(j, i))).collect())
+    }
+
     /// [`Engine::shade`] with a choice of terms.
     pub fn shade_with(&self, scene: &Scene, t: f32, terms: Terms) -> Result<ShadedFrame> {
         let state = scene.at(t);

@@ -82,6 +82,14 @@ impl Session {
         Ok(self.slots.len() - 1)
     }
 
+    /// Holds `method` under `id` in place of the registry's (a method the front end built
+    /// itself, such as the command line's RSL path with oracles); it draws its next frame
+    /// whole.
+    pub fn insert(&mut self, id: MethodId, method: Box<dyn Method>) {
+        self.slots.retain(|s| s.id != id);
+        self.slots.push(Slot { id, method, kept: None, seen: None });
+    }
+
     /// Method `id` as this session holds it (built when first asked for).
     pub fn method(&mut self, engine: &Engine, id: MethodId) -> Result<&mut dyn Method> {
         let at = self.slot(engine, id)?;
@@ -105,19 +113,17 @@ impl Session {
         if everything {
             return Ok(Changes::all(n));
         }
-        let mut changes = Changes { objects: vec![false; n], moved: before.camera != now.camera };
-        for j in 0..n {
-            if before.objects[j] != now.objects[j] {
-                changes.objects[j] = true;
-            }
-            if before.state.objects[j] != now.state.objects[j] {
-                // Its shadow, where it was and where it is.
-                let was = engine.shadowed_by(scene, &before.state, j)?;
-                let is = engine.shadowed_by(scene, &now.state, j)?;
-                for (i, c) in changes.objects.iter_mut().enumerate() {
-                    *c |= i == j || was[i] || is[i];
-                }
-                changes.moved = true;
+        let movers: Vec<bool> = (0..n).map(|j| before.state.objects[j] != now.state.objects[j]).collect();
+        let mut changes = Changes {
+            objects: (0..n).map(|j| movers[j] || before.objects[j] != now.objects[j]).collect(),
+            moved: before.camera != now.camera || movers.contains(&true),
+        };
+        if movers.contains(&true) && !changes.is_all() {
+            // The movers' shadows, where they were and where they are.
+            let was = engine.shadowed_by_any(scene, &before.state, &movers)?;
+            let is = engine.shadowed_by_any(scene, &now.state, &movers)?;
+            for (i, c) in changes.objects.iter_mut().enumerate() {
+                *c |= was[i] || is[i];
             }
         }
         Ok(changes)
