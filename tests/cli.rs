@@ -419,3 +419,40 @@ fn a_run_that_works_prints_no_error_without_a_runtime_dir() {
     assert!(ok, "{err}");
     assert!(!err.to_lowercase().contains("error"), "{err}");
 }
+
+#[test]
+fn explain_says_how_each_object_is_drawn_and_why_for_every_per_object_method() {
+    // The default scene: a Lambert floor, and three glossy objects.
+    let glossy = ["bunny", "suzanne", "sphere"];
+    let dir = out_dir("explain");
+    // (`lobe` explains through the hybrid's code; its transport fit would add half a minute.)
+    for (method, glossy_how) in [("auto", "per pixel"), ("hybrid", "vMF lobes")] {
+        let out = dir.join(format!("{method}.png"));
+        let (ok, _, err) = run(rsl()
+            .args(["render", "data/scenes/default.toml", "--quality", "draft", "--device", "cpu", "--method", method])
+            .args(["--explain", "--out"])
+            .arg(&out));
+        assert!(ok, "{method}: {err}");
+        let line = |name: &str| {
+            err.lines()
+                .find(|l| l.starts_with(&format!("{name}: ")))
+                .unwrap_or_else(|| panic!("{method}: no line for {name}:\n{err}"))
+                .to_string()
+        };
+        let floor = line("floor");
+        assert!(floor.contains("RSL at the vertices") && floor.contains("Lambertian"), "{method}: {floor}");
+        for name in glossy {
+            let l = line(name);
+            assert!(l.contains(" — ") && !l.contains("Lambertian"), "{method}: {l}");
+            if method != "auto" {
+                assert!(l.contains(glossy_how), "{method}: {l}");
+            }
+        }
+        if method == "auto" {
+            // auto gives its rule's numbers for each glossy object, and draws one of them
+            // (at least) per pixel or with lobes.
+            assert!(glossy.iter().all(|n| line(n).contains("typical square")), "{err}");
+            assert!(glossy.iter().any(|n| line(n).contains(glossy_how) || line(n).contains("lobes")), "{err}");
+        }
+    }
+}

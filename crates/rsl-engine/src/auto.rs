@@ -3,7 +3,7 @@
 //! ([`PerObject::auto_choice`]).
 
 use crate::engine::Engine;
-use crate::lobe::{Drawn, Hybrid};
+use crate::lobe::{Drawn, Hybrid, LAMBERTIAN};
 use crate::method::{Frame, Method, Preparation, Prepared, Request};
 use anyhow::Result;
 use rsl_scene::{ObjectMethod, Scene};
@@ -94,17 +94,9 @@ impl Method for PerObject {
                 ObjectMethod::Auto => self.auto_choice(engine, i)?,
                 m => Drawn::of(m, brdf),
             };
-            let how = match drawn {
-                Drawn::Vertex => "RSL at the vertices, interpolated (rsl)",
-                Drawn::Pixel if brdf.is_lambertian() => "RSL at the vertices, interpolated (pixel)",
-                Drawn::Pixel => "the RSL sum per pixel (pixel)",
-                Drawn::Lobes => "vMF lobes × RSL visibility (hybrid)",
-                Drawn::LobeFields => "transport lobes shadowed by the fields (lobe)",
-            };
+            let how = drawn.describe(brdf);
             let why = if brdf.is_lambertian() {
-                "Lambertian: its radiance varies no faster than its visibility and its BRDF term is exact \
-                 (per pixel only where a traced light's shadow falls)"
-                    .to_string()
+                LAMBERTIAN.to_string()
             } else if o.method == ObjectMethod::Auto {
                 let width = 1.0 / self.hybrid.lobes(brdf)?.single_kappa_max().max(1e-6).sqrt();
                 let ratio = square / width;

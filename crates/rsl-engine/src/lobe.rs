@@ -396,7 +396,22 @@ pub(crate) fn check_covers_size(engine: &Engine, setup: &rsl_shade::FrameSetup<'
     )
 }
 
+/// Why a Lambertian object is drawn from its vertices (`rsl render --explain`).
+pub(crate) const LAMBERTIAN: &str = "Lambertian: its radiance varies no faster than its visibility and its BRDF \
+     term is exact (per pixel only where a traced light's shadow falls)";
+
 impl Drawn {
+    /// How an object of `brdf` drawn so is drawn, in words, with the method's name.
+    pub fn describe(self, brdf: &Brdf) -> &'static str {
+        match self {
+            Drawn::Vertex => "RSL at the vertices, interpolated (rsl)",
+            Drawn::Pixel if brdf.is_lambertian() => "RSL at the vertices, interpolated (pixel)",
+            Drawn::Pixel => "the RSL sum per pixel (pixel)",
+            Drawn::Lobes => "vMF lobes × RSL visibility (hybrid)",
+            Drawn::LobeFields => "transport lobes shadowed by the fields (lobe)",
+        }
+    }
+
     /// What an object of `brdf` asking for `method` gets: `auto` draws a glossy object per
     /// pixel; a Lambertian object never gets lobes (the RSL path's Lambertian term is exact
     /// where a cosine-fitted lobe is not), and is drawn per pixel only where that changes
@@ -416,6 +431,19 @@ impl Drawn {
 }
 
 impl Hybrid {
+    /// How it draws each of `engine`'s objects: the lobes for glossy ones, the RSL path for
+    /// Lambertian ones (on the GPU from their vertices: the RSL sum per pixel, which would
+    /// trace their shadows of the traced lights pixel by pixel, is CPU-only).
+    fn drawn(&self, engine: &Engine) -> Vec<Drawn> {
+        let method = if self.fields { ObjectMethod::Lobe } else { ObjectMethod::Hybrid };
+        (0..engine.object_count())
+            .map(|i| match Drawn::of(method, engine.brdf(i)) {
+                Drawn::Pixel if self.gpu.is_some() => Drawn::Vertex,
+                d => d,
+            })
+            .collect()
+    }
+
     /// A frame with each object drawn as `drawn` says (one per object); with `per_pixel`
     /// false, the image interpolates every object's vertices.
     pub fn render_drawn(
@@ -716,18 +744,24 @@ impl Method for Hybrid {
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
-        // On the GPU a Lambertian object is drawn from its vertices: the RSL sum per pixel,
-        // which would trace its shadows of the traced lights pixel by pixel, is CPU-only.
-        let on_gpu = self.gpu.is_some();
-        let method = if self.fields { ObjectMethod::Lobe } else { ObjectMethod::Hybrid };
-        let drawn: Vec<Drawn> = (0..engine.object_count())
-            .map(|i| match Drawn::of(method, engine.brdf(i)) {
-                Drawn::Pixel if on_gpu => Drawn::Vertex,
-                d => d,
-            })
-            .collect();
+        let drawn = self.drawn(engine);
         let per_pixel = self.per_pixel;
         self.render_drawn(engine, scene, request, &drawn, per_pixel)
+    }
+
+    fn explain(&mut self, engine: &Engine, scene: &Scene) -> Result<Vec<String>> {
+        engine.check(scene)?;
+        let drawn = self.drawn(engine);
+        Ok(scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                let brdf = engine.brdf(i);
+                let why = if brdf.is_lambertian() { LAMBERTIAN } else { "glossy: the method's lobes" };
+                format!("{}: {} — {why}", o.name, drawn[i].describe(brdf))
+            })
+            .collect())
     }
 
     fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
