@@ -518,6 +518,11 @@ impl Engine {
         self.store.pin(keys);
     }
 
+    /// The traced lights of the quality settings.
+    pub fn traced(&self) -> Traced {
+        Traced { lights: self.settings.traced_lights as usize, rays: self.settings.shadow_rays as usize }
+    }
+
     /// The RSLs at `state`, in world space, with the environment's intensity.
     pub fn lights(&self, state: &SceneState) -> Vec<Light> {
         self.env

@@ -226,15 +226,19 @@ impl Hybrid {
         Ok((env.is_some() || !transport.is_empty()).then_some(EnvironmentJob { env, transport }))
     }
 
-    /// The map to prefilter, its content key and top κ, if what is held does not serve
-    /// `kappa_max`.
-    fn environment_need(&self, engine: &Engine, kappa_max: f32) -> Option<(u64, u32, Arc<LatLongMap>)> {
+    /// The map to prefilter, its content key and top κ, if neither what is held nor what
+    /// another method of this process holds ([`SHARED`]) serves `kappa_max`.
+    fn environment_need(&mut self, engine: &Engine, kappa_max: f32) -> Option<(u64, u32, Arc<LatLongMap>)> {
         let top = kappa_max.clamp(1.0, 4096.0).log2().ceil().exp2() as u32;
         let key = engine.environment_key();
         if let Some((k, t, _)) = &self.env
             && *k == key
             && *t >= top
         {
+            return None;
+        }
+        if let Some((t, p)) = shared(key, top) {
+            self.env = Some((key, t, p));
             return None;
         }
         let map = match engine.environment() {
@@ -253,6 +257,7 @@ impl Hybrid {
                 None => true,
             };
             if keep {
+                share(key, top, &prefiltered);
                 self.env = Some((key, top, prefiltered));
             }
         }
@@ -262,6 +267,24 @@ impl Hybrid {
             }
         }
     }
+}
+
+/// The prefiltered environments the lobe methods of this process hold, by the map's content
+/// key and top κ: a method built later (the viewer's next drawing) takes one that serves it
+/// instead of prefiltering again (seconds). Weak: an environment no method holds is freed.
+static SHARED: std::sync::Mutex<Vec<(u64, u32, std::sync::Weak<Prefiltered>)>> = std::sync::Mutex::new(Vec::new());
+
+/// A prefiltered environment of map `key` up to at least `top`, if a method holds one.
+fn shared(key: u64, top: u32) -> Option<(u32, Arc<Prefiltered>)> {
+    let held = SHARED.lock().unwrap_or_else(|e| e.into_inner());
+    held.iter().filter(|(k, t, _)| *k == key && *t >= top).find_map(|(_, t, w)| Some((*t, w.upgrade()?)))
+}
+
+/// Offers `p` (map `key` up to `top`) to the lobe methods built later.
+fn share(key: u64, top: u32, p: &Arc<Prefiltered>) {
+    let mut held = SHARED.lock().unwrap_or_else(|e| e.into_inner());
+    held.retain(|(_, _, w)| w.strong_count() > 0);
+    held.push((key, top, Arc::downgrade(p)));
 }
 
 /// The transport lobes' key: mesh, material, fitted without self-shadows.

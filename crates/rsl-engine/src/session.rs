@@ -5,9 +5,10 @@
 //! A front end edits its [`Scene`] and keeps its [`Engine`] in step ([`Engine::sync`]), and
 //! asks the session for frames. The session finds what changed by content, against the
 //! frame each method last drew: the eye, the environment (its map, rotation, intensity and
-//! light count) and every object's material and pose. A material edit changes that object
-//! alone; a moved object changes itself and every object its shadow can reach at its old or
-//! its new pose ([`Engine::shadowed_by`]); anything else changes every object. Nothing is
+//! light count), the traced lights, and every object's material, shadow and pose. A material
+//! edit changes that object alone; a moved object changes itself and every object its shadow
+//! can reach at its old or its new pose ([`Engine::shadowed_by_any`]); anything else (a new
+//! mesh or occluder field included) changes every object. Nothing is
 //! told to the session and nothing is branched on by method: each method reuses what it
 //! kept for the objects that did not change, or draws the whole frame.
 
@@ -16,6 +17,7 @@ use crate::method::{Changes, Frame, Kept, Method, Prepared, Request};
 use crate::registry::{MethodId, MethodOptions};
 use anyhow::{Context, Result, anyhow};
 use rsl_scene::{Camera, Scene, SceneState};
+use rsl_shade::Traced;
 use std::thread::JoinHandle;
 
 /// What a frame was drawn from: compared with the scene now to find what changed.
@@ -25,6 +27,8 @@ struct Seen {
     state: SceneState,
     /// The environment's content key, its intensity's bits, the light count.
     environment: (u64, u32, usize),
+    /// Which lights are traced, and with how many rays.
+    traced: Traced,
     /// Per object: its prepared data's keys, its BRDF's key, whether it casts shadows.
     objects: Vec<(ObjectKeys, u64, bool)>,
 }
@@ -35,6 +39,7 @@ impl Seen {
             camera: scene.camera,
             state: scene.at(time),
             environment: (engine.environment_key(), engine.intensity().to_bits(), engine.rsl_count()),
+            traced: engine.traced(),
             objects: (0..engine.object_count())
                 .map(|i| (engine.keys(i), brdf_key(engine.brdf(i)), scene.objects[i].casts_shadows))
                 .collect(),
@@ -107,9 +112,12 @@ impl Session {
         let now = Seen::of(engine, scene, time);
         let everything = before.camera.eye != now.camera.eye
             || before.environment != now.environment
+            || before.traced != now.traced
             || before.state.world_from_env != now.state.world_from_env
             || before.objects.len() != n
-            || before.objects.iter().zip(&now.objects).any(|(b, a)| b.2 != a.2);
+            // What an object's shadow is made of (whether it casts one, its mesh, its
+            // occluder field) changes what the others receive.
+            || before.objects.iter().zip(&now.objects).any(|(b, a)| b.2 != a.2 || b.0.mesh != a.0.mesh || b.0.ovdf != a.0.ovdf);
         if everything {
             return Ok(Changes::all(n));
         }
@@ -152,6 +160,7 @@ impl Session {
     /// (a device of its own): what the method kept is dropped, and what changes next is
     /// counted from here.
     pub fn drawn_elsewhere(&mut self, engine: &Engine, scene: &Scene, id: MethodId, time: f32) -> Result<()> {
+        engine.check(scene)?;
         let at = self.slot(engine, id)?;
         let slot = &mut self.slots[at];
         slot.kept = None;

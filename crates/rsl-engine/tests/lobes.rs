@@ -148,3 +148,41 @@ fn the_transport_lobes_shadow_a_torus_by_itself() {
     vertices(&mut method, &engine, &edited);
     assert_eq!(method.transport_held(), 1, "the edited material's fit replaced the old one");
 }
+
+#[test]
+fn a_lobe_method_built_later_takes_the_environment_another_prefiltered() {
+    // A constant environment of its own (its content key is this test's alone), so that no
+    // other test of this binary holds a prefiltered copy of it.
+    let s = scene(
+        r#"
+        quality = "draft"
+        [environment]
+        constant = [0.123, 0.456, 0.789]
+        rsl_count = 8
+        [camera]
+        eye = [0.0, 0.0, 3.0]
+        target = [0.0, 0.0, 0.0]
+        width = 32
+        height = 24
+        [[objects]]
+        name = "ball"
+        primitive = { kind = "sphere", radius = 0.5, resolution = 8 }
+        material = { model = "ggx", alpha = 0.1 }
+        "#,
+    );
+    let engine = Engine::new(&s, EngineOptions::default()).unwrap();
+    let mut first = Hybrid::new();
+    let job = first.environment_job(&engine).unwrap().expect("the first prefilters");
+    first.install(job.run());
+    // A second hybrid, and the lobe path, find it held: nothing to prefilter.
+    let mut second = Hybrid::new();
+    assert!(second.environment_job(&engine).unwrap().is_none(), "the second prefilters again");
+    let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
+    let (a, b) = (first.render(&engine, &s, &request).unwrap(), second.render(&engine, &s, &request).unwrap());
+    assert_eq!(a.radiance, b.radiance);
+    assert_eq!(a.image.unwrap().pixels, b.image.unwrap().pixels);
+    // Once no method holds it, it is freed: the next one prefilters.
+    drop((first, second));
+    let mut third = Hybrid::new();
+    assert!(third.environment_job(&engine).unwrap().is_some(), "a freed environment was found");
+}

@@ -93,11 +93,6 @@ impl Engine {
         Ok(bvh)
     }
 
-    /// The traced lights of the quality settings.
-    pub fn traced(&self) -> Traced {
-        Traced { lights: self.settings.traced_lights as usize, rays: self.settings.shadow_rays as usize }
-    }
-
     pub(super) fn svdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Svdf>, u64)> {
         let p = svdf_params(self.preset, &self.settings);
         let key = field_key("svdf", mesh_key, &[p.n, p.supersample, p.clusters, p.vectors, p.iterations]);
