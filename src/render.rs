@@ -59,6 +59,10 @@ pub struct RenderArgs {
     /// Frames per second of an animation.
     #[arg(long, default_value_t = 24.0)]
     pub fps: f32,
+    /// Image size WIDTHxHEIGHT in pixels, in place of the scene camera's (its vertical field
+    /// of view kept), e.g. `1920x1080`.
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
     /// Where shading and drawing run: `auto` (a hardware GPU when there is one and the
     /// method runs there, else the CPU), `cpu` or `gpu` (software adapters included).
     #[arg(long, default_value_t = Device::Auto)]
@@ -106,6 +110,25 @@ pub struct RenderArgs {
 
 fn parse_oracles(s: &str) -> Result<Oracles, String> {
     Oracles::parse(s).map_err(|e| e.to_string())
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT in pixels (e.g. 1920x1080), got `{s}`"))?;
+    let n = |x: &str| match x.trim().parse::<u32>() {
+        Ok(v) if (1..=16384).contains(&v) => Ok(v),
+        _ => Err(format!("`{x}` is not a side of 1..=16384 pixels")),
+    };
+    let (w, h) = (n(w)?, n(h)?);
+    let pixels = u64::from(w) * u64::from(h);
+    if pixels > rsl_engine::scene::MAX_PIXELS {
+        return Err(format!(
+            "{w}×{h} is {pixels} pixels, more than the limit of {} (8192×4096)",
+            rsl_engine::scene::MAX_PIXELS
+        ));
+    }
+    Ok((w, h))
 }
 
 fn parse_range(s: &str) -> Result<(u32, u32), String> {
@@ -294,7 +317,11 @@ pub fn render(args: &RenderArgs) -> Result<()> {
                 .join(" or ")
         );
     }
-    let scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load(&args.scene)?;
+    if let Some((width, height)) = args.size {
+        scene.camera.width = width;
+        scene.camera.height = height;
+    }
     if capabilities.image == ImageKind::MonteCarlo && scene.objects.is_empty() {
         bail!("{}: the scene has no objects; there is nothing to estimate", args.scene.display());
     }

@@ -456,3 +456,18 @@ fn explain_says_how_each_object_is_drawn_and_why_for_every_per_object_method() {
         }
     }
 }
+
+#[test]
+fn size_replaces_the_cameras_and_bad_sizes_are_refused_by_name() {
+    let dir = out_dir("size");
+    let scene = small_scene(&dir);
+    let png = dir.join("s.png");
+    let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--size", "40x30", "--out"]).arg(&png));
+    assert!(ok, "{err}");
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (40, 30));
+    for (bad, says) in [("40", "WIDTHxHEIGHT"), ("0x30", "`0`"), ("16384x16384", "more than the limit")] {
+        let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--size", bad, "--out"]).arg(&png));
+        assert!(!ok && err.contains("--size") && err.contains(says), "{bad}: {err}");
+    }
+}

@@ -85,6 +85,10 @@ struct Target {
     color: wgpu::Texture,
     depth: wgpu::Texture,
     encoded: wgpu::Buffer,
+    /// Where the linear image and the encoded one are copied to be read, made on the first
+    /// read and kept for the next frames of this size.
+    readback: std::sync::OnceLock<wgpu::Buffer>,
+    tone_readback: std::sync::OnceLock<wgpu::Buffer>,
 }
 
 /// Pipelines and targets of the draw pass.
@@ -413,7 +417,8 @@ impl GpuDraw {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            self.target = Some(Target { width, height, color, depth, encoded });
+            let (readback, tone_readback) = Default::default();
+            self.target = Some(Target { width, height, color, depth, encoded, readback, tone_readback });
         }
         Ok(self.target.as_ref().expect("just created"))
     }

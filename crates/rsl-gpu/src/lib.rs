@@ -236,16 +236,28 @@ impl GpuContext {
 
     /// Copies the first `size` bytes of a GPU buffer into host memory (blocking).
     pub fn read_buffer(&self, src: &wgpu::Buffer, size: u64) -> Result<Vec<u8>, GpuError> {
-        self.check_alive()?;
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let staging = self.readback_buffer("readback", size);
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
         enc.copy_buffer_to_buffer(src, 0, &staging, 0, size);
         self.queue.submit([enc.finish()]);
+        self.read_mapped(&staging, <[u8]>::to_vec)
+    }
+
+    /// A buffer of `size` bytes that copies can write and the host can map to read.
+    pub fn readback_buffer(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Waits for the work submitted so far, maps `staging` (a [`Self::readback_buffer`]),
+    /// hands its bytes to `read` where they lie, and unmaps it: one pass over the bytes,
+    /// no copy of the whole buffer.
+    pub fn read_mapped<R>(&self, staging: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> R) -> Result<R, GpuError> {
+        self.check_alive()?;
         let (tx, rx) = std::sync::mpsc::channel();
         staging.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
@@ -257,8 +269,8 @@ impl GpuContext {
             Ok(Err(e)) => return Err(GpuError::Readback(e.to_string())),
             Err(_) => return Err(GpuError::Readback("map callback never ran".into())),
         }
-        let bytes = staging.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?.to_vec();
+        let result = read(&staging.get_mapped_range(..).map_err(|e| GpuError::Readback(e.to_string()))?);
         staging.unmap();
-        Ok(bytes)
+        Ok(result)
     }
 }

@@ -12,11 +12,16 @@ impl GpuDraw {
     /// object covers each.
     pub fn read_linear(&self) -> Result<(Vec<Vec3>, Vec<bool>), GpuError> {
         let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
-        let bytes = self.read_texture(&t.color, 16, "image readback")?;
-        let (mut pixels, mut covered) = (Vec::new(), Vec::new());
-        let px: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-        pixels.extend(px.iter().map(|p| Vec3::new(p[0], p[1], p[2])));
-        covered.extend(px.iter().map(|p| p[3] > 0.5));
+        let n = t.width as usize * t.height as usize;
+        let (mut pixels, mut covered) = (Vec::with_capacity(n), Vec::with_capacity(n));
+        let staging = t.readback.get_or_init(|| self.ctx.readback_buffer("image readback", staging_size(&t.color, 16)));
+        self.read_texture(&t.color, 16, staging, |row| {
+            for p in row.chunks_exact(16) {
+                let f = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+                pixels.push(Vec3::new(f(0), f(4), f(8)));
+                covered.push(f(12) > 0.5);
+            }
+        })?;
         Ok((pixels, covered))
     }
 
@@ -25,6 +30,7 @@ impl GpuDraw {
     pub fn tonemap(&mut self, exposure: f32) -> Result<(Vec<u8>, PassTime), GpuError> {
         let t = self.target.as_ref().ok_or_else(|| GpuError::Scene("nothing drawn yet".into()))?;
         let (encoded, size) = (t.encoded.clone(), u64::from(t.width) * u64::from(t.height) * 4);
+        let staging = t.tone_readback.get_or_init(|| self.ctx.readback_buffer("tonemap readback", size)).clone();
         let start = Instant::now();
         self.run_tonemap(
             "tonemap",
@@ -32,9 +38,16 @@ impl GpuDraw {
             false,
             wgpu::BindingResource::Buffer(encoded.as_entire_buffer_binding()),
         )?;
-        let words = self.ctx.read_buffer(&encoded, size)?;
+        let mut enc =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("tonemap readback") });
+        enc.copy_buffer_to_buffer(&encoded, 0, &staging, 0, size);
+        self.ctx.queue.submit([enc.finish()]);
+        let rgb = self.ctx.read_mapped(&staging, |words| {
+            let mut rgb = Vec::with_capacity(words.len() / 4 * 3);
+            rgb.extend(words.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]));
+            rgb
+        })?;
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-        let rgb = words.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
         Ok((rgb, PassTime { gpu_ms: None, wall_ms }))
     }
 
@@ -127,23 +140,29 @@ impl GpuDraw {
 
     /// Reads a [`DISPLAY`] texture back as interleaved 8-bit RGB (for tests and screenshots).
     pub fn read_display(&self, texture: &wgpu::Texture) -> Result<Vec<u8>, GpuError> {
-        let bytes = self.read_texture(texture, 4, "display readback")?;
-        Ok(bytes.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect())
+        let mut rgb = Vec::with_capacity(texture.width() as usize * texture.height() as usize * 3);
+        let staging = self.ctx.readback_buffer("display readback", staging_size(texture, 4));
+        self.read_texture(texture, 4, &staging, |row| {
+            rgb.extend(row.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]));
+        })?;
+        Ok(rgb)
     }
 
-    /// A 2D texture of `texel` bytes per texel read back, rows packed without the copy's
-    /// row padding, row 0 first.
-    fn read_texture(&self, texture: &wgpu::Texture, texel: u64, label: &str) -> Result<Vec<u8>, GpuError> {
+    /// Copies a 2D texture of `texel` bytes per texel into `staging` (a readback buffer of
+    /// [`staging_size`]) and hands `row` each of its rows in turn (row 0 first, without the
+    /// copy's row padding).
+    fn read_texture(
+        &self,
+        texture: &wgpu::Texture,
+        texel: u64,
+        staging: &wgpu::Buffer,
+        mut row: impl FnMut(&[u8]),
+    ) -> Result<(), GpuError> {
         let (w, h) = (texture.width(), texture.height());
-        let row = u64::from(w) * texel;
-        let padded = row.next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
-        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(label),
-            size: padded * u64::from(h),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let mut enc = self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        let bytes = u64::from(w) * texel;
+        let padded = bytes.next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
+        let mut enc =
+            self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("readback") });
         enc.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
                 texture,
@@ -152,7 +171,7 @@ impl GpuDraw {
                 aspect: wgpu::TextureAspect::All,
             },
             wgpu::TexelCopyBufferInfo {
-                buffer: &staging,
+                buffer: staging,
                 layout: wgpu::TexelCopyBufferLayout {
                     offset: 0,
                     bytes_per_row: Some(padded as u32),
@@ -162,9 +181,19 @@ impl GpuDraw {
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
         );
         self.ctx.queue.submit([enc.finish()]);
-        let bytes = self.ctx.read_buffer(&staging, padded * u64::from(h))?;
-        Ok(bytes.chunks_exact(padded as usize).flat_map(|r| r[..row as usize].iter().copied()).collect())
+        self.ctx.read_mapped(staging, |mapped| {
+            for r in mapped.chunks_exact(padded as usize) {
+                row(&r[..bytes as usize]);
+            }
+        })
     }
+}
+
+/// The bytes of a readback buffer for a 2D texture of `texel` bytes per texel: its rows
+/// padded to the copy's alignment.
+fn staging_size(texture: &wgpu::Texture, texel: u64) -> u64 {
+    let padded = (u64::from(texture.width()) * texel).next_multiple_of(u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT));
+    padded * u64::from(texture.height())
 }
 
 /// The bind group layout and compute pipeline of a tonemap pass: parameters (0), the
