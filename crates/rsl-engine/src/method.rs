@@ -4,11 +4,10 @@
 
 use crate::engine::{Engine, ShadedFrame};
 use crate::gpu::GpuRenderer;
-use crate::lobe::Drawn;
 use crate::progress::{Progress, Timings};
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
-use rsl_scene::{ObjectMethod, Scene, SceneState};
+use rsl_scene::{Scene, SceneState};
 use rsl_shade::{Covers, FrameStats, Image, OracleParams, Oracles, RasterMesh, Terms, tonemap};
 use rsl_truth::{EnvLight, Estimate, TruthObject, TruthScene};
 use std::time::Instant;
@@ -410,15 +409,15 @@ impl Method for CpuRslPixels {
         format!("RSL per pixel on the CPU ({} threads)", rayon::current_num_threads())
     }
 
+    /// The whole frame: [`Method::render_changed`] with every object changed and nothing
+    /// kept.
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
-        let drawn: Vec<Drawn> =
-            (0..engine.object_count()).map(|i| Drawn::of(ObjectMethod::RslPixel, engine.brdf(i))).collect();
-        crate::lobe::Hybrid::new().render_drawn(engine, scene, request, &drawn, true)
+        let all = Changes::all(scene.objects.len());
+        self.render_changed(engine, scene, request, &all, &mut None)
     }
 
     /// Shades only the changed objects at their vertices (those drawn per pixel keeping
-    /// every light's cover), the others keep theirs; the image is drawn whole. The same
-    /// image as [`Method::render`]'s.
+    /// every light's cover), the others keep theirs; the image is drawn whole.
     fn render_changed(
         &mut self,
         engine: &Engine,

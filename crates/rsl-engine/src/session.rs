@@ -141,8 +141,24 @@ impl Session {
     /// drawn again, as far as the method can reuse what it kept.
     pub fn render(&mut self, engine: &Engine, scene: &Scene, id: MethodId, request: &Request) -> Result<Rendered> {
         let changes = self.changes(engine, scene, id, request.time)?;
+        self.render_changes(engine, scene, id, request, changes)
+    }
+
+    /// [`Session::render`] with what changed already found ([`Session::changes`] for this
+    /// scene, method and time, since which nothing was drawn), for a front end that looked
+    /// before deciding to draw.
+    pub fn render_changes(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        id: MethodId,
+        request: &Request,
+        changes: Changes,
+    ) -> Result<Rendered> {
         let at = self.slot(engine, id)?;
         let slot = &mut self.slots[at];
+        // A method installed since the changes were found has drawn nothing yet.
+        let changes = if slot.seen.is_some() { changes } else { Changes::all(scene.objects.len()) };
         let frame = match slot.method.render_changed(engine, scene, request, &changes, &mut slot.kept) {
             Ok(frame) => frame,
             Err(e) => {

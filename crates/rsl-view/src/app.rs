@@ -59,8 +59,8 @@ pub fn screenshot(viewer: Viewer, frames: usize) -> Result<image_rgba::Rgba> {
         .build_ui_state(|ui, v: &mut Viewer| v.ui(ui), viewer);
     for _ in 0..frames.max(1) {
         harness.step();
-        // A drawing with lobes prefilters on a worker: the next frame draws with them.
-        harness.state_mut().wait_lobes();
+        // A drawing prepares on a worker (the lobes prefiltered, say): the next frame draws with it.
+        harness.state_mut().wait_drawing();
     }
     if let Some(e) = harness.state().error() {
         return Err(anyhow!("{e}"));

@@ -71,7 +71,7 @@ impl Viewer {
 
     /// Waits for the drawing's preparation on the worker thread, if any (tests and the
     /// headless screenshot); the next refresh draws with it.
-    pub fn wait_lobes(&mut self) {
+    pub fn wait_drawing(&mut self) {
         if self.session.is_preparing() {
             if let Err(e) = self.session.wait_preparation() {
                 self.error = Some(format!("{e:#}"));
@@ -129,7 +129,8 @@ impl Viewer {
     pub fn refresh(&mut self) -> Result<bool> {
         let Some(engine) = &self.engine else { return Ok(false) };
         let preview = self.preview();
-        let mut changes = self.session.changes(engine, &self.scene, preview, self.time)?;
+        let found = self.session.changes(engine, &self.scene, preview, self.time)?;
+        let mut changes = found.clone();
         if !changes.any() && !self.redraw {
             return Ok(false);
         }
@@ -175,7 +176,7 @@ impl Viewer {
             }
             None => {
                 let request = rsl_engine::Request { time: self.time, image: false, vertices: true, exposure: None };
-                let frame = self.session.render(engine, &self.scene, preview, &request)?.frame;
+                let frame = self.session.render_changes(engine, &self.scene, preview, &request, found)?.frame;
                 (frame.state, frame.positions, frame.radiance)
             }
         };

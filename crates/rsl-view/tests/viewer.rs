@@ -468,7 +468,7 @@ fn choose_drawing(h: &mut Harness<'static, Viewer>, drawing: rsl_engine::MethodI
     h.get_by_label(&rsl_view::label(drawing)).click();
     h.step();
     // Lobes: the environment is prefiltered on a worker while frames keep coming.
-    h.state_mut().wait_lobes();
+    h.state_mut().wait_drawing();
     h.step();
     h.step();
     assert_eq!(h.state().drawing(), drawing);
