@@ -34,7 +34,7 @@ pub fn truth_image(
     progress: &Progress,
 ) -> Result<(Image, f64, bool)> {
     let key = KeyHasher::default()
-        .str("pixels")
+        .str("pixels, box-filtered")
         .u64(vertex_key(engine, scene, time, spp, seed))
         .f32s(&scene.camera.target.to_array())
         .f32s(&scene.camera.up.to_array())

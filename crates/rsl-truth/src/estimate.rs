@@ -127,6 +127,24 @@ pub struct Estimate {
     pub std_error: Vec3,
 }
 
+impl Estimate {
+    /// The estimate from `n` samples split into equal replicates whose means are `means`,
+    /// with the samples' sum and sum of squares: the standard error from the replicates'
+    /// spread, or with one replicate from the samples' (conservative under stratification).
+    fn of_replicates(means: &[Vec3], sum: Vec3, sum2: Vec3, n: usize) -> Self {
+        let mean = sum / n as f32;
+        let std_error = if means.len() > 1 {
+            let b = means.len() as f32;
+            let var = means.iter().map(|m| (*m - mean) * (*m - mean)).sum::<Vec3>() / (b - 1.0);
+            (var / b).sqrt()
+        } else {
+            let var = (sum2 / n as f32 - mean * mean).max(Vec3::ZERO) * (n as f32 / (n as f32 - 1.0).max(1.0));
+            (var / n as f32).sqrt()
+        };
+        Estimate { mean, std_error }
+    }
+}
+
 /// Counts of a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TruthStats {
@@ -171,6 +189,12 @@ enum Mask {
 
 /// `n` points stratified in each coordinate (a Latin hypercube: one per row and column
 /// stratum, in random pairings).
+/// How many independent replicates `n` samples are split into (each stratified on its own):
+/// the spread of their means is an honest standard error for the stratified estimate.
+fn replicates(n: usize) -> usize {
+    [16, 8, 4, 2].into_iter().find(|&b| n >= b && n.is_multiple_of(b)).unwrap_or(1)
+}
+
 fn latin_hypercube(n: usize, rng: &mut Pcg32) -> Vec<Vec2> {
     let mut px: Vec<usize> = (0..n).collect();
     let mut py: Vec<usize> = (0..n).collect();
@@ -362,9 +386,7 @@ impl TruthScene {
         }
         let origin = x + frame.n * self.offset;
         let n = spp as usize;
-        // Independent replicates, each stratified on its own: the spread of their means is an
-        // honest standard error for the stratified estimate.
-        let replicates = [16, 8, 4, 2].into_iter().find(|&b| n >= b && n.is_multiple_of(b)).unwrap_or(1);
+        let replicates = replicates(n);
         let per = n / replicates;
         let mut means = Vec::with_capacity(replicates);
         let (mut sum_all, mut sum2_all) = (Vec3::ZERO, Vec3::ZERO);
@@ -381,17 +403,7 @@ impl TruthScene {
             }
             means.push(sum / per as f32);
         }
-        let mean = sum_all / n as f32;
-        let std_error = if replicates > 1 {
-            let b = replicates as f32;
-            let var = means.iter().map(|m| (*m - mean) * (*m - mean)).sum::<Vec3>() / (b - 1.0);
-            (var / b).sqrt()
-        } else {
-            // One replicate: the per-sample spread (conservative under stratification).
-            let var = (sum2_all / n as f32 - mean * mean).max(Vec3::ZERO) * (n as f32 / (n as f32 - 1.0).max(1.0));
-            (var / n as f32).sqrt()
-        };
-        (Estimate { mean, std_error }, rays)
+        (Estimate::of_replicates(&means, sum_all, sum2_all, n), rays)
     }
 
     /// One sample of each strategy, MIS-weighted (power heuristic): the sum, and the shadow
@@ -535,9 +547,53 @@ impl TruthScene {
         Some((i, p, frame, if face.dot(frame.n) < 0.0 { -face } else { face }))
     }
 
-    /// Per pixel (row-major, row 0 at the top): the estimate along the primary ray through
-    /// the pixel's centre, the environment where it meets nothing, and whether it met an
-    /// object.
+    /// Pixel `(x, y)`'s value, the mean radiance over its square, from `spp` samples at
+    /// stratified positions inside it (a Latin hypercube per replicate, as the BRDF's and the
+    /// light's directions are): each sample follows its own primary ray to the object it
+    /// meets — one sample of each strategy there, as [`TruthScene::estimate`] — or to the
+    /// environment. Returns the estimate (its standard error from independent replicates),
+    /// whether objects cover at least half the samples, and the shadow rays traced.
+    pub fn pixel(&self, camera: &Camera, x: u32, y: u32, spp: u32, rng: &mut Pcg32) -> (Estimate, bool, u64) {
+        let n = spp.max(1) as usize;
+        let replicates = replicates(n);
+        let per = n / replicates;
+        let mut means = Vec::with_capacity(replicates);
+        let (mut sum_all, mut sum2_all) = (Vec3::ZERO, Vec3::ZERO);
+        let (mut rays, mut hits) = (0u64, 0usize);
+        for _ in 0..replicates {
+            let at = latin_hypercube(per, rng);
+            let (ul, ub) = (latin_hypercube(per, rng), latin_hypercube(per, rng));
+            let mut sum = Vec3::ZERO;
+            for k in 0..per {
+                let dir = rsl_frame::image_ray(camera, x as f32 + at[k].x, y as f32 + at[k].y);
+                let value = match self.hit(camera.eye, dir) {
+                    None => self.background(dir),
+                    Some((i, p, frame, face)) => {
+                        hits += 1;
+                        let wo = frame.to_local(-dir);
+                        if wo.z <= 0.0 {
+                            Vec3::ZERO
+                        } else {
+                            let origin = p + frame.n * self.offset;
+                            let lobe = rng.next_f32();
+                            let (v, r) = self.sample(i, origin, &frame, wo, Mask::Face(face), [ul[k], ub[k]], lobe);
+                            rays += r;
+                            v
+                        }
+                    }
+                };
+                sum += value;
+                sum_all += value;
+                sum2_all += value * value;
+            }
+            means.push(sum / per as f32);
+        }
+        (Estimate::of_replicates(&means, sum_all, sum2_all, n), 2 * hits >= n, rays)
+    }
+
+    /// Per pixel (row-major, row 0 at the top): the estimate of the pixel's value — the mean
+    /// radiance over its square (a box filter), objects and environment alike
+    /// ([`TruthScene::pixel`]) — and whether objects cover most of it.
     pub fn pixels(
         &self,
         camera: &Camera,
@@ -571,15 +627,8 @@ impl TruthScene {
                 if d.is_multiple_of(4096) || d == total {
                     progress(d, total);
                 }
-                let dir = rsl_frame::pixel_ray(camera, k % w, k / w);
-                match self.hit(camera.eye, dir) {
-                    None => (Estimate { mean: self.background(dir), std_error: Vec3::ZERO }, false, 0),
-                    Some((i, p, frame, face)) => {
-                        let mut rng = Pcg32::new(seed ^ u64::from(k).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-                        let (e, rays) = self.estimate_masked(i, p, &frame, -dir, spp, Mask::Face(face), &mut rng);
-                        (e, true, rays)
-                    }
-                }
+                let mut rng = Pcg32::new(seed ^ u64::from(k).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+                self.pixel(camera, k % w, k / w, spp, &mut rng)
             })
             .collect();
         let stats =
