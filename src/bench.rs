@@ -78,6 +78,14 @@ fn parse_error(s: &str) -> Result<f64, String> {
     if !(x.is_finite() && x > 0.0) {
         return Err(format!("`{s}`: the target error must be positive"));
     }
+    if scale == 1.0 && x >= 1.0 {
+        // A bare 5 is far more likely "5 %" than 500 %: say which to write.
+        return Err(format!(
+            "`{s}` would be {}% (a fraction); write {s}% for {s} percent, or {} as a fraction",
+            x * 100.0,
+            x / 100.0
+        ));
+    }
     Ok(x)
 }
 
@@ -174,4 +182,18 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_error;
+
+    #[test]
+    fn a_target_error_is_a_fraction_or_a_percentage_and_a_bare_5_is_refused() {
+        assert_eq!(parse_error("0.05"), Ok(0.05));
+        assert!((parse_error("5%").unwrap() - 0.05).abs() < 1e-12);
+        let e = parse_error("5").unwrap_err();
+        assert!(e.contains("500%") && e.contains("5%") && e.contains("0.05"), "{e}");
+        assert!(parse_error("0").is_err() && parse_error("-1%").is_err() && parse_error("NaN").is_err());
+    }
 }

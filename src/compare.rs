@@ -63,7 +63,13 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     };
     if let Some(h) = &args.heatmap {
         crate::render::check_png(h, "--heatmap")?;
-        crate::render::check_writable(h, "--heatmap")?;
+        let mut outputs = crate::outputs::Outputs::new()
+            .input(&args.a, "the first file compared")
+            .input(&args.b, "the second file compared");
+        if let Some(scene) = &args.scene {
+            outputs = outputs.input(scene, "the scene file");
+        }
+        outputs.output(h, "--heatmap").check()?;
     }
     if k == "ply" {
         let (a, b) = (read_ply(&args.a)?, read_ply(&args.b)?);

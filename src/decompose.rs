@@ -58,13 +58,15 @@ pub fn run(args: &DecomposeArgs) -> Result<()> {
     if !(1..=texels).contains(&args.rsl) {
         bail!("--rsl must be between 1 and {texels} (the texels of a 6×{g}×{g} grid), got {}", args.rsl, g = args.grid);
     }
+    let mut outputs = crate::outputs::Outputs::new().input(&args.map, "the map to decompose");
     if let Some(path) = &args.png {
         crate::render::check_png(path, "--png")?;
-        crate::render::check_writable(path, "--png")?;
+        outputs = outputs.output(path, "--png");
     }
     if let Some(path) = &args.json {
-        crate::render::check_writable(path, "--json")?;
+        outputs = outputs.output(path, "--json");
     }
+    outputs.check()?;
     let t = Instant::now();
     let loaded = load_latlong(&args.map)?;
     let load_ms = ms(t);

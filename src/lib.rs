@@ -10,6 +10,7 @@ pub mod cli;
 pub mod compare;
 pub mod decompose;
 pub mod fuzzing;
+pub mod outputs;
 pub mod progress;
 pub mod render;
 pub mod view;

@@ -356,6 +356,28 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         }
         gif = Some(path);
     }
+    // Nothing written over the scene's own files, nor one output over another.
+    let (first, last) = (frames.start, frames.end - 1);
+    let named: Vec<(PathBuf, &str)> = match single {
+        Some(_) => [(&args.out, "--out"), (&args.vertex_out, "--vertex-out")]
+            .into_iter()
+            .filter_map(|(p, what)| p.clone().map(|p| (p, what)))
+            .collect(),
+        None => [(&args.out, "--out"), (&args.vertex_out, "--vertex-out")]
+            .into_iter()
+            .filter_map(|(p, what)| p.as_ref().map(|p| (p, what)))
+            .flat_map(|(p, what)| {
+                let ends = if first == last { vec![first] } else { vec![first, last] };
+                ends.into_iter().map(move |k| (numbered(p, k), what))
+            })
+            .chain(gif.clone().map(|g| (g, "the animation's GIF")))
+            .collect(),
+    };
+    let mut outputs = crate::outputs::Outputs::new().scene(&scene);
+    for (path, what) in &named {
+        outputs = outputs.output(path, *what);
+    }
+    outputs.check()?;
     let layers = capabilities.layers;
     let mut engine = Engine::new(&scene, EngineOptions { layers, ..args.prepare.options() })?;
     let method: Box<dyn Method> = match args.oracle {

@@ -36,12 +36,15 @@ const MAX_FRAMES: usize = 10_000;
 pub fn run(args: &ViewArgs) -> Result<()> {
     if let Some(png) = &args.screenshot {
         crate::render::check_png(png, "--screenshot")?;
-        rsl_engine::output::check_writable(png)?;
+        crate::render::check_writable(png, "--screenshot")?;
         if args.frames == 0 || args.frames > MAX_FRAMES {
             bail!("--frames must be in 1..={MAX_FRAMES}, got {}", args.frames);
         }
     }
     let mut scene = Scene::load(&args.scene)?;
+    if let Some(png) = &args.screenshot {
+        crate::outputs::Outputs::new().scene(&scene).output(png, "--screenshot").check()?;
+    }
     if let Some(n) = args.prepare.rsl {
         scene.environment.rsl_count = n;
     }

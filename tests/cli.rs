@@ -3,6 +3,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod common;
+
 fn rsl() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_rsl"));
     c.current_dir(env!("CARGO_MANIFEST_DIR"));
@@ -229,7 +231,7 @@ fn unwritable_outputs_are_errors_and_leave_nothing() {
 #[test]
 fn inputs_that_would_run_away_are_refused_before_any_work() {
     let dir = out_dir("bounded");
-    let scene = small_scene(&dir);
+    let scene = common::small_scene(&dir);
     let fails = |c: &mut Command, expect: &[&str]| {
         let (ok, _, err) = run(c);
         assert!(!ok, "accepted: {c:?}");
@@ -360,23 +362,10 @@ fn a_lobe_narrower_than_its_tables_cells_is_a_warning_not_a_silent_blur() {
     assert_eq!(err.matches("narrower than one cell").count(), 1, "once: {err}");
 }
 
-/// A small scene: one sphere in a constant environment.
-fn small_scene(dir: &Path) -> PathBuf {
-    let path = dir.join("small.toml");
-    std::fs::write(
-        &path,
-        "[environment]\nconstant = [1.0, 1.0, 1.0]\n[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
-         width = 64\nheight = 48\n[[objects]]\nname = \"ball\"\nprimitive = { kind = \"sphere\", radius = 1.0, resolution = 8 }\n\
-         material = { model = \"lambert\", albedo = [0.5, 0.5, 0.5] }\n",
-    )
-    .unwrap();
-    path
-}
-
 #[test]
 fn the_truth_with_one_sample_says_it_cannot_estimate_its_error() {
     let dir = out_dir("truth-spp1");
-    let scene = small_scene(&dir);
+    let scene = common::small_scene(&dir);
     let args = |spp: &str, out: &str| {
         let (scene, out) = (scene.to_str().unwrap().to_string(), dir.join(out).to_str().unwrap().to_string());
         [
@@ -407,7 +396,7 @@ fn a_run_that_works_prints_no_error_without_a_runtime_dir() {
     // Probing for a GPU loads the Vulkan driver, which complains on stderr when
     // XDG_RUNTIME_DIR is missing; a successful run must not show the word "error".
     let dir = out_dir("no-runtime-dir");
-    let scene = small_scene(&dir);
+    let scene = common::small_scene(&dir);
     let out = dir.join("x.png");
     let (ok, _, err) = run(rsl().env_remove("XDG_RUNTIME_DIR").args([
         "render",
@@ -460,7 +449,7 @@ fn explain_says_how_each_object_is_drawn_and_why_for_every_per_object_method() {
 #[test]
 fn size_replaces_the_cameras_and_bad_sizes_are_refused_by_name() {
     let dir = out_dir("size");
-    let scene = small_scene(&dir);
+    let scene = common::small_scene(&dir);
     let png = dir.join("s.png");
     let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--size", "40x30", "--out"]).arg(&png));
     assert!(ok, "{err}");
@@ -470,4 +459,32 @@ fn size_replaces_the_cameras_and_bad_sizes_are_refused_by_name() {
         let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--size", bad, "--out"]).arg(&png));
         assert!(!ok && err.contains("--size") && err.contains(says), "{bad}: {err}");
     }
+}
+
+#[test]
+fn no_output_overwrites_an_input_or_another_output() {
+    let dir = out_dir("inputs");
+    let map = dir.join("m.exr");
+    std::fs::copy("data/hdri/sky.exr", &map).unwrap();
+    let before = std::fs::read(&map).unwrap();
+    let scene = common::ball_scene(&dir, "s.toml", "map = \"m.exr\"");
+    let refused = |c: &mut Command, says: &[&str]| {
+        let (ok, _, err) = run(c);
+        assert!(!ok, "accepted: {c:?}");
+        for s in says {
+            assert!(err.contains(s), "{c:?}: no \"{s}\" in {err}");
+        }
+    };
+    // The scene's own map as the image, by another spelling of its path.
+    let over = dir.join(".").join("m.exr");
+    refused(rsl().arg("render").arg(&scene).arg("--out").arg(&over), &["--out", "does not write over its inputs"]);
+    refused(rsl().arg("decompose").arg(&map).arg("--json").arg(&map), &["--json", "the map to decompose"]);
+    let f = dir.join("f.png");
+    refused(rsl().arg("decompose").arg(&map).arg("--json").arg(&f).arg("--png").arg(&f), &["both name"]);
+    assert_eq!(std::fs::read(&map).unwrap(), before, "the map is untouched");
+    assert!(!f.exists());
+    // A screenshot into a folder that does not exist is refused as an image is, not made.
+    let missing = dir.join("missing");
+    refused(rsl().arg("view").arg(&scene).arg("--screenshot").arg(missing.join("v.png")), &["does not exist"]);
+    assert!(!missing.exists());
 }

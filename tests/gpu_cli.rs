@@ -4,6 +4,8 @@
 
 use std::path::PathBuf;
 
+mod common;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -55,4 +57,27 @@ fn render_on_the_gpu_writes_the_same_outputs() {
     let e = run(&["render", scene, "--method", "truth", "--device", "gpu", "--out", &out("t.png")]).unwrap_err();
     assert!(e.to_string().contains("CPU only"), "{e}");
     assert!(!dir.join("t.png").exists());
+}
+
+#[test]
+fn the_largest_exposures_saturate_to_white_on_both_devices() {
+    if rsl_gpu::testing::context_or_skip("the_largest_exposures_saturate_to_white_on_both_devices").is_none() {
+        return;
+    }
+    // A grey ball under a unit constant light: every pixel's radiance is at least 0.5.
+    let dir = std::env::temp_dir().join(format!("rsl-gpu-exposure-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = common::ball_scene(&dir, "s.toml", "constant = [1.0, 1.0, 1.0]");
+    let cache = dir.join("cache");
+    for device in ["cpu", "gpu"] {
+        for exposure in ["1e20", "1e38"] {
+            let png = dir.join(format!("{device}-{exposure}.png"));
+            let args = ["render", scene.to_str().unwrap(), "--device", device, "--exposure", exposure, "--out"];
+            run(&[&args[..], &[png.to_str().unwrap(), "--cache", cache.to_str().unwrap()]].concat()).unwrap();
+            let img = image::open(&png).unwrap().to_rgb8();
+            let dark = img.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+            assert_eq!(dark, 0, "{device}, exposure {exposure}: {dark} pixels not white");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

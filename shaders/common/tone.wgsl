@@ -11,7 +11,8 @@ struct ToneParams {
 }
 
 fn filmic(v: f32) -> f32 {
-    let x = max(v, 0.0);
+    // The curve reaches 1 at x ≈ 7.24: x limited to 8 keeps x² finite at huge exposures.
+    let x = clamp(v, 0.0, 8.0);
     return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
 }
 

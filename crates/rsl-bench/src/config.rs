@@ -104,6 +104,21 @@ pub const MAX_CONFIGS: usize = 10_000;
 /// Every combination of the sweeps (the last sweep varies fastest), each checked: unknown
 /// values, RSL counts of 0 and knobs out of range are errors that name the sweep.
 pub fn configs(sweeps: &[Sweep]) -> Result<Vec<Config>> {
+    for (k, s) in sweeps.iter().enumerate() {
+        if let Some(first) = sweeps[..k].iter().find(|t| t.key == s.key) {
+            bail!(
+                "--sweep {key} is given twice ({key}={} and {key}={}): give all its values in one, --sweep {key}={},{}",
+                first.values.join(","),
+                s.values.join(","),
+                first.values.join(","),
+                s.values.join(","),
+                key = s.key
+            );
+        }
+        if let Some((i, v)) = s.values.iter().enumerate().find(|(i, v)| s.values[..*i].contains(v)) {
+            bail!("--sweep {}: `{v}` is listed twice (value {} of {})", s.key, i + 1, s.values.len());
+        }
+    }
     let count = sweeps.iter().try_fold(1usize, |n, s| n.checked_mul(s.values.len()));
     match count {
         Some(n) if n <= MAX_CONFIGS => {}
@@ -181,6 +196,10 @@ mod tests {
         assert!("colour=1".parse::<Sweep>().unwrap_err().contains("known: rsl"));
         let err = |s: &str| format!("{:#}", configs(&[s.parse().unwrap()]).unwrap_err());
         assert!(err("rsl=0").contains("positive"));
+        assert!(err("rsl=5,10,5").contains("`5` is listed twice"));
+        let twice: Vec<Sweep> = ["rsl=5,10", "quality=draft", "rsl=7"].iter().map(|s| s.parse().unwrap()).collect();
+        let e = format!("{:#}", configs(&twice).unwrap_err());
+        assert!(e.contains("--sweep rsl is given twice") && e.contains("--sweep rsl=5,10,7"), "{e}");
         assert!(err("quality=ultra").contains("preset"));
         assert!(err("method=tpu").contains("method"));
         assert!(err("table_resolution=4096").contains("table_resolution"));

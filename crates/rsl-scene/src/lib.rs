@@ -243,6 +243,23 @@ impl Scene {
         self.environment.spin.is_some() || self.objects.iter().any(|o| !o.motion.is_static())
     }
 
+    /// The files the scene was read from: the scene file, its environment map and its
+    /// meshes (each once).
+    pub fn input_files(&self) -> Vec<&Path> {
+        let mut files = vec![self.path.as_path()];
+        if let EnvironmentSource::Map { path, .. } = &self.environment.source {
+            files.push(path);
+        }
+        for o in &self.objects {
+            if let MeshSource::File { path, .. } = &o.source
+                && !files.contains(&path.as_path())
+            {
+                files.push(path);
+            }
+        }
+        files
+    }
+
     /// Total vertex and triangle counts.
     pub fn counts(&self) -> (usize, usize) {
         self.objects.iter().fold((0, 0), |(v, t), o| (v + o.mesh.vertex_count(), t + o.mesh.triangle_count()))

@@ -8,7 +8,9 @@ use rsl_sphere::sampling::luminance;
 
 /// The filmic curve (ACES fit): 0 → 0, monotone, saturates toward 1.
 pub fn filmic(x: f32) -> f32 {
-    let x = x.max(0.0);
+    // The curve reaches 1 at x ≈ 7.24: limiting x to 8 first changes nothing and keeps x²
+    // finite (at x ≈ 2e19 it overflowed, inf/inf, and showed black).
+    let x = x.clamp(0.0, 8.0);
     ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
 }
 
@@ -65,6 +67,13 @@ mod tests {
         // A non-finite pixel shows black; a huge one saturates.
         assert_eq!(encode(Vec3::new(f32::NAN, 0.0, 1.0), 1.0), [0, 0, 0]);
         assert_eq!(encode(Vec3::new(0.0, 0.0, 1e9), 1.0), [0, 0, 255]);
+        // So does a pixel under an exposure that overflows x² (the largest `--exposure`s).
+        for e in [1e20, 1e38, f32::MAX] {
+            assert_eq!(encode(Vec3::new(0.0, 0.5, 3e38), e), [0, 255, 255], "exposure {e}");
+        }
+        // Up to where it saturates the curve is the formula unclamped.
+        let x = 7.0f32;
+        assert_eq!(filmic(x), (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14));
     }
 
     #[test]
