@@ -135,8 +135,13 @@ impl Material {
     /// Checks ranges; returns `(field, problem)` for the first bad parameter.
     pub fn validate(&self) -> Result<(), (String, String)> {
         let colour = |name: &str, c: &[f32; 3]| -> Result<(), (String, String)> {
-            if c.iter().any(|v| !v.is_finite() || *v < 0.0) {
-                return Err((name.into(), format!("must be finite and ≥ 0, got {c:?}")));
+            if c.iter().any(|v| !(0.0..=1.0).contains(v)) {
+                return Err((
+                    name.into(),
+                    format!(
+                        "must be in [0, 1] per channel (above 1 a surface reflects more light than it receives), got {c:?}"
+                    ),
+                ));
             }
             Ok(())
         };

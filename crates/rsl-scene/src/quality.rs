@@ -176,7 +176,12 @@ impl QualitySettings {
                 _ => Err(format!("`auto` is only for brdf_resolution, not {name}")),
             };
         }
-        t.parse().map_err(|_| format!("`{t}` is not a whole number"))
+        let n: i64 = t.parse().map_err(|_| format!("`{t}` is not a whole number"))?;
+        if name == "brdf_resolution" && n == i64::from(AUTO) {
+            // 0 stands for "auto" inside rsl; written, it is out of range.
+            return Err(format!("must be in 2..=512 or \"auto\", got {n}"));
+        }
+        Ok(n)
     }
 
     /// A knob's value as a scene file writes it (`"auto"` for an automatic BRDF resolution).

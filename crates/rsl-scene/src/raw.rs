@@ -193,7 +193,10 @@ impl Ctx<'_> {
 
     fn axis(&self, field: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
         let a = self.vec3(field, v)?;
-        rsl_sphere::frame::try_normalize(a).ok_or_else(|| self.err(field, "axis is zero; it needs a direction"))
+        // Scaled first: the squared length of [1e30, 1e30, 0] overflows.
+        let m = a.abs().max_element();
+        rsl_sphere::frame::try_normalize(if m > 0.0 { a / m } else { a })
+            .ok_or_else(|| self.err(field, "axis is zero; it needs a direction"))
     }
 
     fn rotation(&self, field: &str, r: RawRotation) -> Result<Quat, SceneError> {
@@ -354,7 +357,11 @@ fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
                 Some(other) => return Err(cx.err("quality.preset", format!("must be a preset name, got {other}"))),
             };
             let mut q = Quality::from_preset(preset);
-            for (k, v) in &t {
+            // table_resolution first: it sets both table knobs, and a knob given beside it by
+            // name wins (the table's keys come sorted, which put it last).
+            let mut knobs: Vec<_> = t.iter().collect();
+            knobs.sort_by_key(|(k, _)| *k != "table_resolution");
+            for (k, v) in knobs {
                 if k == "preset" {
                     continue;
                 }
@@ -369,7 +376,8 @@ fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
                     ));
                 }
                 let n = match v {
-                    toml::Value::Integer(n) => *n,
+                    toml::Value::Integer(n) => crate::quality::QualitySettings::parse_value(k, &n.to_string())
+                        .map_err(|m| cx.err(&field, m))?,
                     toml::Value::String(t) => {
                         crate::quality::QualitySettings::parse_value(k, t).map_err(|m| cx.err(&field, m))?
                     }
@@ -386,6 +394,12 @@ fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
 fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<TriMesh>>) -> Result<Object, SceneError> {
     let name = match o.name {
         Some(n) if n.trim().is_empty() => return Err(cx.err(&format!("objects[{i}].name"), "is empty")),
+        Some(n) if n.chars().any(char::is_control) => {
+            return Err(cx.err(
+                &format!("objects[{i}].name"),
+                format!("{n:?} holds a control character (a line break, a tab…): names go into reports and CSV files"),
+            ));
+        }
         Some(n) => n,
         None => format!("object{i}"),
     };

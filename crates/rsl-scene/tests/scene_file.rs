@@ -178,6 +178,15 @@ fn bad_material_parameters_name_the_parameter() {
         ),
         &["alpha_x` and `alpha_y"],
     );
+    // An albedo above 1 creates light (1e38 rendered inf pixels with exit code 0).
+    let ball = |material: &str| {
+        parse(&format!(
+            "[[objects]]\nname = \"a\"\nprimitive = {{ kind = \"sphere\", radius = 1.0 }}\nmaterial = {material}\n"
+        ))
+    };
+    expect_err(ball("{ model = \"lambert\", albedo = [1e38, 0.5, 0.5] }"), &["material.albedo", "[0, 1]"]);
+    expect_err(ball("{ model = \"ggx\", alpha = 0.2, specular = [1.2, 0.5, 0.5] }"), &["material.specular"]);
+    ball("{ model = \"lambert\", albedo = [1.0, 0.0, 1.0] }").unwrap();
     let s = parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"ward\", alpha_x = 0.1, alpha_y = 0.3 }\n").unwrap();
     assert!(s.objects[0].material.is_anisotropic());
     // Anisotropic materials get tangents.
@@ -316,7 +325,7 @@ fn quality_presets_and_overrides() {
     assert_eq!((q.brdf_resolution, q.visibility_resolution), (128, 24));
     let text = format!("{HEAD}[quality]\ntable_resolution = 64\nbrdf_resolution = \"auto\"\n");
     let q = Scene::from_toml_str(&text, Path::new("s.toml")).unwrap().quality.settings;
-    assert_eq!(q.visibility_resolution, 64);
+    assert_eq!((q.brdf_resolution, q.visibility_resolution), (rsl_scene::quality::AUTO, 64));
     for (bad, words) in [
         ("table_rez = 64", &["quality.table_rez", "table_resolution"][..]),
         ("visibility_resolution = \"auto\"", &["quality.visibility_resolution", "only for brdf_resolution"][..]),
@@ -444,4 +453,24 @@ fn an_objects_method_is_read_written_and_checked() {
         std::fs::remove_dir_all(&dir).unwrap();
     }
     expect_err(object("method = \"fancy\""), &["method", "fancy"]);
+}
+
+#[test]
+fn names_quality_knobs_and_axes_that_would_mislead_are_refused_or_read_right() {
+    let sphere = "primitive = { kind = \"sphere\", radius = 1.0 }";
+    // A line break in a name broke the bench's CSV.
+    expect_err(parse(&format!("[[objects]]\nname = \"a\\nb\"\n{sphere}\n")), &["objects[0].name", "control character"]);
+    // 0 is not "auto", and a table knob given by name wins over table_resolution (which
+    // overrode it, being read last).
+    expect_err(parse("[quality]\nbrdf_resolution = 0\n"), &["quality.brdf_resolution", "2..=512"]);
+    let q = parse("[quality]\ntable_resolution = 32\nbrdf_resolution = 64\n").unwrap().quality.settings;
+    assert_eq!((q.brdf_resolution, q.visibility_resolution), (64, 32));
+    assert_eq!(parse("[quality]\nbrdf_resolution = \"auto\"\n").unwrap().quality.settings.brdf_resolution, 0);
+    // A huge axis is a direction, not zero.
+    let s = parse(&format!(
+        "[[objects]]\nname = \"a\"\n{sphere}\nrotation = {{ axis = [1e30, 1e30, 0.0], degrees = 90.0 }}\n"
+    ))
+    .unwrap();
+    let turned = s.objects[0].transform.rotation * glam::Vec3::Z;
+    assert!((turned - glam::Vec3::new(0.5f32.sqrt(), -(0.5f32.sqrt()), 0.0)).length() < 1e-5, "{turned}");
 }
