@@ -3,7 +3,7 @@
 //! time and all together — which term costs how much. `budget.csv` holds one row per oracle
 //! (read back to resume); `report.md` shows a table per configuration.
 
-use crate::report::{field, malformed, read_csv};
+use crate::report::{field, malformed, measure, read_csv};
 use anyhow::Result;
 use rsl_engine::output::write_atomic;
 use rsl_shade::Oracles;
@@ -71,19 +71,22 @@ pub fn read_rows(path: &Path) -> Result<Vec<BudgetRow>> {
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
-            let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
+            let num = |i: usize| measure(path, n, HEADER, &f, i, false);
             let objects = f[8]
                 .split(';')
                 .filter(|s| !s.is_empty())
                 .map(|o| {
                     let (name, e) = o.split_once('=').ok_or_else(bad)?;
-                    Ok((name.to_string(), e.parse().map_err(|_| bad())?))
+                    Ok((
+                        name.to_string(),
+                        measure(path, n, &format!("{name} relative_l2"), &[e.to_string()], 0, false)?,
+                    ))
                 })
                 .collect::<Result<Vec<_>>>()?;
             Ok(BudgetRow {
                 scene: f[0].clone(),
                 config: f[1].clone(),
-                time: f[2].parse().map_err(|_| bad())?,
+                time: measure(path, n, HEADER, &f, 2, true)? as f32,
                 oracle: f[3].clone(),
                 relative_l2: num(4)?,
                 truth_noise: num(5)?,

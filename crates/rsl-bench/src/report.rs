@@ -110,20 +110,43 @@ pub(crate) fn malformed(path: &Path, n: usize) -> anyhow::Error {
     anyhow::anyhow!("{}: line {n}: malformed row", path.display())
 }
 
+/// Field `i` of a row read from line `n` of `path` (its columns named by `header`) as a
+/// measure: a finite number, ≥ 0 unless `signed`. A saved row holding NaN, an infinity or a
+/// negative time is refused by name (one panicked the report, and others ranked first).
+pub(crate) fn measure(path: &Path, n: usize, header: &str, f: &[String], i: usize, signed: bool) -> Result<f64> {
+    let name = header.split(',').nth(i).unwrap_or("a field");
+    let v: f64 =
+        f[i].parse().map_err(|_| anyhow::anyhow!("{}: line {n}: {name} `{}` is not a number", path.display(), f[i]))?;
+    if !(v.is_finite() && (signed || v >= 0.0)) {
+        bail!(
+            "{}: line {n}: {name} is {v}, not a measure rsl writes (finite{}); move the file away to measure afresh",
+            path.display(),
+            if signed { "" } else { ", ≥ 0" }
+        );
+    }
+    Ok(v)
+}
+
 /// Reads `results.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
     read_csv(path, HEADER, "results", 20)?
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
-            let num = |i: usize| f[i].parse::<f64>().map_err(|_| bad());
+            let num = |i: usize| measure(path, n, HEADER, &f, i, false);
             let objects = f[19]
                 .split(';')
                 .filter(|s| !s.is_empty())
                 .map(|o| {
                     let (name, rest) = o.split_once('=').ok_or_else(bad)?;
-                    let (e, n) = rest.split_once('/').ok_or_else(bad)?;
-                    Ok((name.to_string(), e.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?))
+                    let (e, s) = rest.split_once('/').ok_or_else(bad)?;
+                    let pair = [e.to_string(), s.to_string()];
+                    let header = format!("{name} relative_l2,{name} truth_noise");
+                    Ok((
+                        name.to_string(),
+                        measure(path, n, &header, &pair, 0, false)?,
+                        measure(path, n, &header, &pair, 1, false)?,
+                    ))
                 })
                 .collect::<Result<Vec<_>>>()?;
             Ok(Row {
@@ -132,7 +155,7 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
                 method: f[2].clone(),
                 quality: f[3].clone(),
                 rsl: f[4].parse().map_err(|_| bad())?,
-                time: f[5].parse().map_err(|_| bad())?,
+                time: measure(path, n, HEADER, &f, 5, true)? as f32,
                 prepare_ms: num(6)?,
                 prepare_bytes: f[7].parse().map_err(|_| bad())?,
                 prepare_built: f[8].parse().map_err(|_| bad())?,
@@ -364,6 +387,19 @@ mod tests {
             "{:?}",
             std::fs::read_dir(&dir).unwrap().collect::<Vec<_>>()
         );
+        // A saved row with a value no bench writes is refused by its column's name.
+        let good = std::fs::read_to_string(&path).unwrap();
+        for (from, to, says) in [
+            (",5,0.25,", ",NaN,0.25,", "ms_per_frame is NaN"),
+            (",5,0.25,", ",-5,0.25,", "ms_per_frame is -5"),
+            (",1.5,12.5,", ",inf,12.5,", "time is inf"),
+            ("floor=0.05/", "floor=NaN/", "floor relative_l2 is NaN"),
+        ] {
+            assert!(good.contains(from), "{good}");
+            std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
+            let e = read_rows(&path).unwrap_err().to_string();
+            assert!(e.contains(says) && e.contains("line 2"), "{e}");
+        }
         std::fs::write(&path, "something else\n").unwrap();
         assert!(read_rows(&path).unwrap_err().to_string().contains("header"));
         assert!(read_rows(&dir.join("missing.csv")).unwrap().is_empty());
