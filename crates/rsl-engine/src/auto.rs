@@ -3,7 +3,7 @@
 //! ([`PerObject::auto_choice`]).
 
 use crate::engine::Engine;
-use crate::lobe::{Drawn, Hybrid, LAMBERTIAN};
+use crate::lobe::{ANISOTROPIC, Drawn, Hybrid, LAMBERTIAN};
 use crate::method::{Frame, Method, Preparation, Prepared, Request};
 use anyhow::Result;
 use rsl_scene::{ObjectMethod, Scene};
@@ -37,7 +37,7 @@ impl PerObject {
     /// and gaps, and else the RSL sum per pixel.
     pub fn auto_choice(&mut self, engine: &Engine, i: usize) -> Result<Drawn> {
         let brdf = engine.brdf(i);
-        if brdf.is_lambertian() {
+        if brdf.is_lambertian() || brdf.is_anisotropic() {
             return Ok(Drawn::of(ObjectMethod::Auto, brdf));
         }
         let kappa = self.hybrid.lobes(brdf)?.single_kappa_max();
@@ -97,6 +97,8 @@ impl Method for PerObject {
             let how = drawn.describe(brdf);
             let why = if brdf.is_lambertian() {
                 LAMBERTIAN.to_string()
+            } else if brdf.is_anisotropic() && o.method != ObjectMethod::Rsl {
+                ANISOTROPIC.to_string()
             } else if o.method == ObjectMethod::Auto {
                 let width = 1.0 / self.hybrid.lobes(brdf)?.single_kappa_max().max(1e-6).sqrt();
                 let ratio = square / width;

@@ -420,6 +420,10 @@ pub(crate) fn check_covers_size(engine: &Engine, setup: &rsl_shade::FrameSetup<'
 }
 
 /// Why a Lambertian object is drawn from its vertices (`rsl render --explain`).
+/// Why an anisotropic object is drawn with the RSL sum per pixel by the lobe methods.
+pub(crate) const ANISOTROPIC: &str =
+    "anisotropic: the lobes fit isotropic BRDFs only, so the RSL sum per pixel draws it";
+
 pub(crate) const LAMBERTIAN: &str = "Lambertian: its radiance varies no faster than its visibility and its BRDF \
      term is exact (per pixel only where a traced light's shadow falls)";
 
@@ -438,11 +442,15 @@ impl Drawn {
     /// What an object of `brdf` asking for `method` gets: `auto` draws a glossy object per
     /// pixel; a Lambertian object never gets lobes (the RSL path's Lambertian term is exact
     /// where a cosine-fitted lobe is not), and is drawn per pixel only where that changes
-    /// something, for the shadows of traced lights ([`rsl_shade::drawn_per_pixel`]).
+    /// something, for the shadows of traced lights ([`rsl_shade::drawn_per_pixel`]); an
+    /// anisotropic one, which the lobes cannot fit, gets the RSL sum per pixel.
     pub fn of(method: ObjectMethod, brdf: &Brdf) -> Self {
         if brdf.is_lambertian() {
             // Per pixel only for the shadows of traced lights ([`Hybrid::render_drawn`]).
             return if method == ObjectMethod::Rsl { Drawn::Vertex } else { Drawn::Pixel };
+        }
+        if brdf.is_anisotropic() && matches!(method, ObjectMethod::Hybrid | ObjectMethod::Lobe) {
+            return Drawn::Pixel;
         }
         match method {
             ObjectMethod::Auto | ObjectMethod::RslPixel => Drawn::Pixel,
@@ -781,7 +789,13 @@ impl Method for Hybrid {
             .enumerate()
             .map(|(i, o)| {
                 let brdf = engine.brdf(i);
-                let why = if brdf.is_lambertian() { LAMBERTIAN } else { "glossy: the method's lobes" };
+                let why = if brdf.is_lambertian() {
+                    LAMBERTIAN
+                } else if brdf.is_anisotropic() {
+                    ANISOTROPIC
+                } else {
+                    "glossy: the method's lobes"
+                };
                 format!("{}: {} — {why}", o.name, drawn[i].describe(brdf))
             })
             .collect())

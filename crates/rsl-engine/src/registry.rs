@@ -87,7 +87,8 @@ pub struct Capabilities {
     /// It is a Monte Carlo estimate: it takes samples per point and a seed, and reports its
     /// own error.
     pub monte_carlo: bool,
-    /// It draws anisotropic materials (the lobe methods fit isotropic BRDFs only).
+    /// It draws anisotropic materials (the lobe methods draw them with the RSL sum per pixel,
+    /// as their lobes fit isotropic BRDFs only).
     pub anisotropic: bool,
     /// Scene files may ask for it per object (`method = "…"`).
     pub per_object: bool,
@@ -422,14 +423,10 @@ const CPU_RSL: Capabilities = Capabilities {
     error: ErrorModel::Tables,
 };
 
-/// The lobe methods': per pixel, isotropic materials only, whole frames.
-const LOBES: Capabilities = Capabilities {
-    image: ImageKind::PerPixel,
-    anisotropic: false,
-    oracles: false,
-    incremental: Incremental::Frames,
-    ..CPU_RSL
-};
+/// The lobe methods': per pixel, whole frames (an anisotropic object drawn by the RSL sum per
+/// pixel, which they fall back to).
+const LOBES: Capabilities =
+    Capabilities { image: ImageKind::PerPixel, oracles: false, incremental: Incremental::Frames, ..CPU_RSL };
 
 fn make_rsl(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
     Ok(match gpu_context(o)? {
@@ -520,7 +517,6 @@ static BUILT_IN: [Registration; 7] = [
             image: ImageKind::PerPixel,
             gpu: false,
             oracles: false,
-            anisotropic: false,
             incremental: Incremental::Frames,
             ..CPU_RSL
         },
