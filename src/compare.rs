@@ -55,6 +55,44 @@ fn finite(file: &Path, values: &[Vec3], what: &dyn Fn(usize) -> String) -> Resul
     Ok(())
 }
 
+/// Fails, naming the reference, when every value compared (those `mask` keeps) is black: an
+/// error relative to it has no meaning (it printed "inf dB" and exited 0).
+fn not_black(file: &Path, values: &[Vec3], mask: Option<&[bool]>) -> Result<()> {
+    let kept = |k: &usize| mask.is_none_or(|m| m[*k]);
+    if (0..values.len()).filter(kept).all(|k| values[k] == Vec3::ZERO) {
+        bail!("{}: every value compared is black: an error relative to it has no meaning", file.display());
+    }
+    Ok(())
+}
+
+/// Fails unless the PLY file `ply` (`data`) holds `scene`'s vertices: as many in all and per
+/// object (another scene's per-object figures were printed with exit code 0).
+fn same_scene(scene_file: &Path, scene: &Scene, ply_file: &Path, data: &ply::PlyData) -> Result<()> {
+    let per_object: Vec<usize> = scene.objects.iter().map(|o| o.mesh.vertex_count()).collect();
+    let mut counted = vec![0usize; per_object.len()];
+    for &o in &data.objects {
+        match usize::try_from(o).ok().and_then(|o| counted.get_mut(o)) {
+            Some(c) => *c += 1,
+            None => bail!(
+                "{}: a vertex of object {o}, but {} has {} objects: not this scene's vertices",
+                ply_file.display(),
+                scene_file.display(),
+                per_object.len()
+            ),
+        }
+    }
+    if counted != per_object {
+        bail!(
+            "{} holds {} vertices ({counted:?} per object), {} has {} ({per_object:?}): not this scene's vertices",
+            ply_file.display(),
+            data.vertices.len(),
+            scene_file.display(),
+            per_object.iter().sum::<usize>()
+        );
+    }
+    Ok(())
+}
+
 /// Runs `rsl compare`.
 pub fn run(args: &CompareArgs) -> Result<()> {
     let (ka, kb) = (kind(&args.a), kind(&args.b));
@@ -86,16 +124,23 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         let (ra, rb) = (rad(&a), rad(&b));
         finite(&args.a, &ra, &|k| format!("vertex {k}'s radiance"))?;
         finite(&args.b, &rb, &|k| format!("vertex {k}'s radiance"))?;
+        not_black(&args.b, &rb, None)?;
+        let scene = match &args.scene {
+            Some(path) => {
+                let scene = Scene::load(path)?;
+                same_scene(path, &scene, &args.b, &b)?;
+                Some(scene)
+            }
+            None => None,
+        };
         let m = metrics::compare(&ra, &rb, None)?;
         println!("vertices: {m}");
         if args.breakdown {
-            let Some(scene) = &args.scene else { bail!("--breakdown needs --scene for the camera eye") };
-            let scene = Scene::load(scene)?;
-            print_breakdown(&scene, &b, &ra, &rb)?;
+            let Some(scene) = &scene else { bail!("--breakdown needs --scene for the camera eye") };
+            print_breakdown(scene, &b, &ra, &rb)?;
         }
         if let Some(h) = &args.heatmap {
-            let Some(scene) = &args.scene else { bail!("--heatmap with PLY inputs needs --scene for the camera") };
-            let scene = Scene::load(scene)?;
+            let Some(scene) = &scene else { bail!("--heatmap with PLY inputs needs --scene for the camera") };
             let err = luminance_errors(&ra, &rb);
             let max = err.iter().cloned().fold(0.0f32, f32::max).max(1e-30);
             let colours: Vec<Vec3> = err.iter().map(|e| false_colour(e / max)).collect();
@@ -115,6 +160,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         let pixel = |k: usize| format!("pixel ({}, {})", k % wa as usize, k / wa as usize);
         finite(&args.a, &pa, &pixel)?;
         finite(&args.b, &pb, &pixel)?;
+        not_black(&args.b, &pb, mask.as_deref())?;
         let m = metrics::compare(&pa, &pb, mask.as_deref())?;
         println!("{}: {m}", if mask.is_some() { "covered pixels" } else { "pixels" });
         if let Some(h) = &args.heatmap {

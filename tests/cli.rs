@@ -133,6 +133,22 @@ fn compare_names_the_file_and_vertex_that_is_not_finite() {
     assert!(!ok && err.contains("bad.ply") && err.contains("vertex 1") && err.contains("not finite"), "{err}");
     let (ok, _, err) = run(rsl().arg("compare").arg(&good).arg(&bad));
     assert!(!ok && err.contains("bad.ply") && err.contains("vertex 1"), "{err}");
+    // A black reference has no relative error (it printed "inf dB" and exited 0).
+    let black = dir.join("black.ply");
+    let radiance = [glam::Vec3::ZERO; 3];
+    let object = rsl_engine::ply::PlyObject {
+        positions: &positions,
+        normals: &normals,
+        radiance: &radiance,
+        indices: &[0, 1, 2],
+    };
+    rsl_engine::ply::write(&black, &[object]).unwrap();
+    let (ok, _, err) = run(rsl().arg("compare").arg(&good).arg(&black));
+    assert!(!ok && err.contains("black.ply") && err.contains("black"), "{err}");
+    // Another scene's vertices are refused, not broken down by its objects.
+    let scene = common::small_scene(&dir);
+    let (ok, _, err) = run(rsl().arg("compare").arg(&good).arg(&good).arg("--breakdown").arg("--scene").arg(&scene));
+    assert!(!ok && err.contains("not this scene's vertices") && err.contains("small.toml"), "{err}");
 }
 
 #[test]

@@ -78,8 +78,41 @@ pub struct PlyData {
     pub faces: Vec<[u32; 3]>,
 }
 
-/// Reads a file written by [`write`] (exactly this layout; anything else is an error that
-/// says what differs).
+/// The vertex properties rsl reads, in [`PlyData::vertices`]' order then the object: each a
+/// 4-byte float but `object`, a 4-byte int.
+const VERTEX_PROPERTIES: [&str; 10] = ["x", "y", "z", "nx", "ny", "nz", "r", "g", "b", "object"];
+
+/// Where each of [`VERTEX_PROPERTIES`] lies in a vertex's 40 bytes, as the header declares
+/// them: any order, every one exactly once, nothing else (a file declaring `b g r` was read as
+/// `r g b`, and unknown names as radiance).
+fn vertex_layout(header: &str) -> Result<[usize; 10]> {
+    let mut lines = header.lines().skip_while(|l| !l.starts_with("element vertex "));
+    lines.next();
+    let mut at = [usize::MAX; 10];
+    for (k, line) in lines.take_while(|l| l.starts_with("property ")).enumerate() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let [_, ty, name] = words[..] else { bail!("PLY vertex property `{line}` is not `property TYPE NAME`") };
+        let Some(j) = VERTEX_PROPERTIES.iter().position(|p| *p == name) else {
+            bail!("PLY vertex property `{name}` is not one rsl reads (float x y z nx ny nz r g b, int object)");
+        };
+        let want: &[&str] = if name == "object" { &["int", "int32"] } else { &["float", "float32"] };
+        if !want.contains(&ty) {
+            bail!("PLY vertex property `{name}` is {ty}; rsl reads it as {}", want[0]);
+        }
+        if at[j] != usize::MAX {
+            bail!("PLY vertex property `{name}` is declared twice");
+        }
+        at[j] = 4 * k;
+    }
+    if let Some(j) = at.iter().position(|&a| a == usize::MAX) {
+        bail!("PLY vertex has no property `{}`", VERTEX_PROPERTIES[j]);
+    }
+    Ok(at)
+}
+
+/// Reads a file written by [`write`]: binary little-endian, the vertex properties in any
+/// order the header declares ([`vertex_layout`]), triangles as written; anything else is an
+/// error that says what differs.
 pub fn read(bytes: &[u8]) -> Result<PlyData> {
     let end = bytes.windows(11).position(|w| w == b"end_header\n").map(|p| p + 11);
     let Some(end) = end else { bail!("not a PLY file: no end_header") };
@@ -95,14 +128,15 @@ pub fn read(bytes: &[u8]) -> Result<PlyData> {
         line.rsplit(' ').next().unwrap_or("").parse().map_err(|_| anyhow::anyhow!("bad count in `{line}`"))
     };
     let (nv, nf) = (count("vertex")?, count("face")?);
+    let at = vertex_layout(header)?;
     let body = &bytes[end..];
     if body.len() != nv * 40 + nf * 13 {
         bail!("PLY body is {} bytes, expected {} for {nv} vertices and {nf} triangles", body.len(), nv * 40 + nf * 13);
     }
     let f = |k: usize| f32::from_le_bytes(body[k..k + 4].try_into().expect("4 bytes"));
     let i = |k: usize| i32::from_le_bytes(body[k..k + 4].try_into().expect("4 bytes"));
-    let vertices = (0..nv).map(|v| std::array::from_fn(|c| f(v * 40 + c * 4))).collect();
-    let objects = (0..nv).map(|v| i(v * 40 + 36)).collect();
+    let vertices = (0..nv).map(|v| std::array::from_fn(|c| f(v * 40 + at[c]))).collect();
+    let objects = (0..nv).map(|v| i(v * 40 + at[9])).collect();
     let mut faces = Vec::with_capacity(nf);
     for t in 0..nf {
         let o = nv * 40 + t * 13;
@@ -135,5 +169,24 @@ mod tests {
         assert_eq!(d.faces, vec![[0, 1, 2], [3, 4, 5]]);
         assert_eq!(d.vertices[4], [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 2.0, 3.0]);
         assert!(read(&bytes[..bytes.len() - 1]).is_err());
+        // Read by its header: a file declaring its colours `b g r` has them swapped.
+        let header = |from: &str, to: &str| {
+            let text = String::from_utf8_lossy(&bytes).replacen(from, to, 1);
+            let mut b = bytes.clone();
+            b[..text.find("end_header").unwrap()].copy_from_slice(&text.as_bytes()[..text.find("end_header").unwrap()]);
+            b
+        };
+        let swapped =
+            header("float r\nproperty float g\nproperty float b", "float b\nproperty float g\nproperty float r");
+        assert_eq!(read(&swapped).unwrap().vertices[4][6..], [3.0, 2.0, 1.0]);
+        for (from, to, says) in [
+            ("float b\n", "float q\n", "`q` is not one rsl reads"),
+            ("float g\n", "float r\n", "`r` is declared twice"),
+            ("int object", "short objx", "`objx`"),
+            ("float x\n", "uchar x\n", "`x` is uchar"),
+        ] {
+            let e = read(&header(from, to)).unwrap_err().to_string();
+            assert!(e.contains(says), "{to}: {e}");
+        }
     }
 }
