@@ -138,8 +138,17 @@ fn parse_range(s: &str) -> Result<(u32, u32), String> {
     if b <= a {
         return Err(format!("the range {a}..{b} holds no frame (B is excluded)"));
     }
+    if b - a > MAX_ANIMATION_FRAMES {
+        return Err(format!(
+            "{a}..{b} is {} frames, more than {MAX_ANIMATION_FRAMES} (over an hour at 24 fps) in one run; render it in parts",
+            b - a
+        ));
+    }
     Ok((a, b))
 }
+
+/// Most frames one `rsl render --frames` draws (`0..4294967295` ran on for ever, unannounced).
+const MAX_ANIMATION_FRAMES: u32 = 100_000;
 
 /// Image formats by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -267,10 +267,15 @@ fn inputs_that_would_run_away_are_refused_before_any_work() {
     let anim = dir.join("anim");
     std::fs::create_dir_all(anim.join("f.gif")).unwrap();
     fails(
-        rsl().arg("render").arg(&scene).args(["--frames", "0..4294967295", "--out"]).arg(anim.join("f.png")),
+        rsl().arg("render").arg(&scene).args(["--frames", "0..100000", "--out"]).arg(anim.join("f.png")),
         &["f.gif", "folder is in the way"],
     );
     assert_eq!(std::fs::read_dir(&anim).unwrap().count(), 1, "only the folder in the way");
+    // An animation of billions of frames.
+    fails(
+        rsl().arg("render").arg(&scene).args(["--frames", "0..4294967295", "--out"]).arg(dir.join("g.png")),
+        &["--frames", "4294967295 frames", "100000"],
+    );
     // Outputs that would carry PNG bytes under another format's name.
     fails(
         rsl().args(["compare", "a.exr", "b.exr", "--heatmap"]).arg(dir.join("h.jpg")),

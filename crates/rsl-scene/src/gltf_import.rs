@@ -223,6 +223,16 @@ pub fn import_bytes(bytes: &[u8], base: &Path) -> Result<(TriMesh, ImportReport)
             if let Some(bad) = part.indices.iter().find(|&&i| i as usize >= part.positions.len()) {
                 return Err(format!("{}: index {bad} out of range ({} vertices)", where_(), part.positions.len()));
             }
+            // Checked per primitive: two ragged ones summing to a multiple of 3 made a
+            // triangle of two primitives' vertices.
+            if !part.indices.len().is_multiple_of(3) {
+                return Err(format!(
+                    "{}: {} {} is not a multiple of 3 (triangles)",
+                    where_(),
+                    part.indices.len(),
+                    if prim.indices().is_some() { "indices" } else { "vertices (no index accessor)" }
+                ));
+            }
             if part.normals.len() != part.positions.len() {
                 report.computed_normals += 1;
                 part.normals.clear();

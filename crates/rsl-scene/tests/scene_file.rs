@@ -474,3 +474,26 @@ fn names_quality_knobs_and_axes_that_would_mislead_are_refused_or_read_right() {
     let turned = s.objects[0].transform.rotation * glam::Vec3::Z;
     assert!((turned - glam::Vec3::new(0.5f32.sqrt(), -(0.5f32.sqrt()), 0.0)).length() < 1e-5, "{turned}");
 }
+
+#[test]
+fn a_triangle_split_across_primitives_or_a_mesh_without_area_is_refused() {
+    let dir = temp_dir("ragged-primitives");
+    // Two primitives without indices, of 2 and 4 vertices: together 6, but neither triangles.
+    let bin: Vec<u8> =
+        (0..6).flat_map(|k| [k as f32, (k % 2) as f32, 0.0]).flat_map(|c: f32| c.to_le_bytes()).collect();
+    std::fs::write(dir.join("p.bin"), &bin).unwrap();
+    let json = r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"p.bin","byteLength":72}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":72}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":2,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":0,"byteOffset":24,"componentType":5126,"count":4,"type":"VEC3","min":[2,0,0],"max":[5,1,0]}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0},"mode":4},{"attributes":{"POSITION":1},"mode":4}]}],
+"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#;
+    std::fs::write(dir.join("p.gltf"), json).unwrap();
+    expect_err(
+        parse_in(&dir, "[[objects]]\nname = \"p\"\nmesh = \"p.gltf\"\n"),
+        &["p.gltf", "primitive 0", "2 vertices", "not a multiple of 3"],
+    );
+    // A triangle whose corners lie on a line: nothing to shade (every method failed on it).
+    write_gltf(&dir, [[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], 4);
+    expect_err(parse_in(&dir, "[[objects]]\nname = \"p\"\nmesh = \"tri.gltf\"\n"), &["tri.gltf", "zero area"]);
+}

@@ -58,6 +58,9 @@ pub enum MeshError {
     /// No triangles at all.
     #[error("mesh has no triangles")]
     NoTriangles,
+    /// Every triangle has zero area: nothing to shade, and every method fails on it.
+    #[error("all {0} triangles have zero area: the mesh has no surface")]
+    NoArea(usize),
     /// The index count is not a multiple of three.
     #[error("index count {0} is not a multiple of 3")]
     RaggedIndices(usize),
@@ -128,6 +131,11 @@ impl TriMesh {
         }
         if let Some((vertex, &position)) = self.positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
             return Err(MeshError::NonFinitePosition { vertex, position });
+        }
+        // In f64: a speck 1e-30 across still has area there.
+        let p = |i: u32| self.positions[i as usize].as_dvec3();
+        if !self.indices.chunks_exact(3).any(|t| (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0])) != glam::DVec3::ZERO) {
+            return Err(MeshError::NoArea(self.triangle_count()));
         }
         if let Some((vertex, &position)) =
             self.positions.iter().enumerate().find(|(_, p)| p.abs().max_element() > MAX_COORDINATE)
@@ -356,6 +364,13 @@ mod tests {
         assert!(matches!(m.validate(), Err(MeshError::IndexOutOfRange { triangle: 2, index: 9, .. })));
         let e = TriMesh::default();
         assert_eq!(e.validate(), Err(MeshError::NoTriangles));
+        // Triangles all of zero area (points and lines), but one of a speck's area is enough.
+        let mut m = quad();
+        m.compute_normals();
+        m.positions = vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X, 3.0 * Vec3::X];
+        assert_eq!(m.validate(), Err(MeshError::NoArea(2)));
+        m.positions[3] = Vec3::new(1e-30, 1e-30, 0.0);
+        assert_eq!(m.validate(), Ok(()));
     }
 
     #[test]
