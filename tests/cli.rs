@@ -534,3 +534,37 @@ fn an_anisotropic_object_is_drawn_by_every_per_pixel_method_which_says_how() {
         assert!(err.contains("brushed: the RSL sum per pixel (pixel) — anisotropic"), "{method}: {err}");
     }
 }
+
+#[test]
+fn a_mesh_whose_normals_point_against_its_winding_is_a_warning() {
+    // One triangle winding toward +z whose file normals point to −z (a ball of such
+    // triangles rendered 470 % off its own truth, and black, with no word said).
+    let dir = out_dir("inward");
+    let mut bin = Vec::new();
+    for v in
+        [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0]]
+    {
+        bin.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    std::fs::write(dir.join("t.bin"), &bin).unwrap();
+    std::fs::write(
+        dir.join("t.gltf"),
+        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"t.bin","byteLength":72}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":72}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":0,"byteOffset":36,"componentType":5126,"count":3,"type":"VEC3"}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0,"NORMAL":1},"mode":4}]}],
+"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
+    )
+    .unwrap();
+    let scene = dir.join("s.toml");
+    std::fs::write(
+        &scene,
+        "[environment]\nconstant = [1.0, 1.0, 1.0]\n[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
+         [[objects]]\nname = \"t\"\nmesh = \"t.gltf\"\n",
+    )
+    .unwrap();
+    let (ok, _, err) = run(rsl().env_remove("RUST_LOG").arg("scene").arg(&scene));
+    assert!(ok, "{err}");
+    assert!(err.contains("t.gltf") && err.contains("1 of its 1 triangles point against their winding"), "{err}");
+}

@@ -419,8 +419,24 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<Tr
             let mesh = match meshes.get(&path) {
                 Some(m) => Arc::clone(m),
                 None => {
-                    let (m, _) = crate::gltf_import::import(&path).map_err(|msg| SceneError::file(&path, msg))?;
+                    let (m, report) = crate::gltf_import::import(&path).map_err(|msg| SceneError::file(&path, msg))?;
                     m.validate().map_err(|e| SceneError::file(&path, e.to_string()))?;
+                    let (against, faces) = m.faces_against_normals();
+                    if 2 * against > faces {
+                        tracing::warn!(
+                            "{}: the normals of {against} of its {faces} triangles point against their winding: they \
+                             are shaded from one side and shadowed from the other (flip the file's normals or its \
+                             winding)",
+                            path.display()
+                        );
+                    }
+                    if report.skipped_non_triangle > 0 {
+                        tracing::warn!(
+                            "{}: {} primitive(s) are not triangle lists (points, lines, strips or fans) and were left out",
+                            path.display(),
+                            report.skipped_non_triangle
+                        );
+                    }
                     let m = Arc::new(m);
                     meshes.insert(path.clone(), Arc::clone(&m));
                     m

@@ -203,6 +203,26 @@ impl TriMesh {
         0
     }
 
+    /// Of the triangles with area, how many have vertex normals pointing on the whole against
+    /// their winding's normal `(b − a)×(c − a)` (the normals' sum below its plane), and how
+    /// many there are. A file whose normals point inward while its triangles wind outward (or
+    /// the reverse) is shaded from one side and shadowed from the other.
+    pub fn faces_against_normals(&self) -> (usize, usize) {
+        let (mut against, mut faces) = (0, 0);
+        for t in self.indices.chunks_exact(3) {
+            let [a, b, c] = [0, 1, 2].map(|k| t[k] as usize);
+            let face = (self.positions[b] - self.positions[a]).cross(self.positions[c] - self.positions[a]);
+            if face == Vec3::ZERO || self.normals.len() != self.positions.len() {
+                continue;
+            }
+            faces += 1;
+            if face.dot(self.normals[a] + self.normals[b] + self.normals[c]) < 0.0 {
+                against += 1;
+            }
+        }
+        (against, faces)
+    }
+
     /// Tangents from a fixed object-space direction: `+X` projected onto each vertex's
     /// tangent plane (`+Z` where the normal is nearly ±X). The field is smooth wherever the
     /// normal is, which is what an anisotropic BRDF without texture coordinates needs.
@@ -371,6 +391,17 @@ mod tests {
         assert_eq!(m.validate(), Err(MeshError::NoArea(2)));
         m.positions[3] = Vec3::new(1e-30, 1e-30, 0.0);
         assert_eq!(m.validate(), Ok(()));
+    }
+
+    #[test]
+    fn normals_against_the_winding_are_counted() {
+        let mut m = quad();
+        m.compute_normals();
+        assert_eq!(m.faces_against_normals(), (0, 2));
+        for n in &mut m.normals {
+            *n = -*n;
+        }
+        assert_eq!(m.faces_against_normals(), (2, 2));
     }
 
     #[test]
