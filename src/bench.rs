@@ -138,7 +138,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         progress: crate::progress::bars(),
         budget_rsl: (!args.no_budget).then_some(args.budget),
     };
-    eprintln!(
+    crate::status!(
         "bench: {} scene(s) × {} configuration(s) × {} time(s); truth at {} spp",
         options.scenes.len(),
         options.configs.len(),
@@ -146,7 +146,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         options.truth_spp
     );
     let s = run(&options)?;
-    eprintln!(
+    crate::status!(
         "bench: {} measured, {} already in {}; truths: {} estimated, {} from the cache",
         s.measured,
         s.reused,
@@ -155,7 +155,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         s.truths_reused
     );
     if !args.no_budget {
-        eprintln!("bench: {} oracle setting(s) measured for error budgets", s.budget_measured);
+        crate::status!("bench: {} oracle setting(s) measured for error budgets", s.budget_measured);
     }
     println!("{}", std::fs::read_to_string(args.out.join("report.md"))?);
     if let Some(x) = args.target_error {

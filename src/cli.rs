@@ -8,7 +8,8 @@ use std::path::PathBuf;
 #[derive(Debug, Parser)]
 #[command(name = "rsl", version, about)]
 pub struct Cli {
-    /// Print errors only: no warnings (RUST_LOG, when set, decides instead).
+    /// Print errors only: no warnings, status lines or progress (RUST_LOG, when set, decides
+    /// on warnings instead); `--timings` and `--explain` still print.
     #[arg(long, short, global = true)]
     pub quiet: bool,
     /// What to do.
@@ -86,6 +87,7 @@ pub struct DecomposeArgs {
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
+    crate::progress::set_quiet(cli.quiet);
     match cli.command {
         Command::Scene { scene, time } => scene_summary(&scene, time),
         Command::Decompose(args) => crate::decompose::run(&args),

@@ -7,9 +7,35 @@ use rsl_engine::{Event, Progress};
 use std::collections::HashMap;
 use std::sync::Mutex;
 
+/// Whether `--quiet` asked for errors only: no status lines, no progress.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Sets `--quiet` for the process.
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether `--quiet` is set.
+pub fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// Prints a status line on standard error unless `--quiet` is set.
+#[macro_export]
+macro_rules! status {
+    ($($arg:tt)*) => {
+        if !$crate::progress::quiet() {
+            eprintln!($($arg)*);
+        }
+    };
+}
+
 /// A [`Progress`] that draws one bar per running task on standard error (nested tasks,
-/// such as a field build inside a bench, stack below the outer one).
+/// such as a field build inside a bench, stack below the outer one); none under `--quiet`.
 pub fn bars() -> Progress {
+    if quiet() {
+        return Progress::none();
+    }
     use std::io::IsTerminal;
     if !std::io::stderr().is_terminal() {
         return lines(std::time::Duration::from_secs(2), std::time::Duration::from_secs(10));

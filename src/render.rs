@@ -213,7 +213,7 @@ fn print_preparation(engine: &Engine) {
     let (preset, q) = engine.settings();
     let m = engine.memory();
     use rsl_engine::engine::stage;
-    eprintln!(
+    crate::status!(
         "prepared ({} quality, {} RSLs, BRDF tables {}, visibility {}×{}): environment {:.0} ms, BRDF tables {:.0} ms, \
          self-visibility {:.0} ms, occluder fields {:.0} ms; cache: {} hits ({} from disk), {} computed, {} rejected; \
          {:.1} MB in memory",
@@ -243,27 +243,27 @@ fn print_preparation(engine: &Engine) {
 fn method_for(id: MethodId, device: Device, engine: &Engine, spp: u32, seed: u64) -> Result<Box<dyn Method>> {
     let options = MethodOptions { device, spp, seed, progress: crate::progress::bars(), gpu: None };
     let method = id.create(engine, &options)?;
-    eprintln!("drawing with {}", method.describe());
+    crate::status!("drawing with {}", method.describe());
     Ok(method)
 }
 
 /// Says what a Monte Carlo frame's own error is, or that one sample cannot tell.
 fn print_self_error(frame: &Frame, spp: u32, secs: f64) {
     let rays = frame.shadow_rays;
-    eprintln!("truth: {spp} spp, {rays} shadow rays in {secs:.1} s ({:.2} M rays/s)", rays as f64 / secs / 1e6);
+    crate::status!("truth: {spp} spp, {rays} shadow rays in {secs:.1} s ({:.2} M rays/s)", rays as f64 / secs / 1e6);
     match frame.self_error {
         Some(e) => {
             if let Some(p) = e.pixels {
-                eprintln!(
+                crate::status!(
                     "truth: per-pixel standard error {:.3}% of the covered pixels' radiance (relative L2)",
                     100.0 * p
                 );
             }
             if let Some(v) = e.vertices {
-                eprintln!("truth: per-vertex standard error {:.3}% of the radiance (relative L2)", 100.0 * v);
+                crate::status!("truth: per-vertex standard error {:.3}% of the radiance (relative L2)", 100.0 * v);
             }
         }
-        None => eprintln!(
+        None => crate::status!(
             "truth: standard error not estimated: one sample per point cannot measure its own spread (use --spp 2 or more)"
         ),
     }
@@ -358,7 +358,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         let path = out.with_extension("gif");
         check_writable(&path, "the animation's GIF")?;
         if count > 1000 {
-            eprintln!(
+            crate::status!(
                 "rendering {count} frames (about {:.0} s of animation at {fps} fps)",
                 count as f64 / f64::from(fps)
             );
@@ -449,16 +449,16 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             written.push(p);
         }
         let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-        eprintln!("wrote {} (t = {t:.3} s, {:.1} ms)", names.join(", "), start.elapsed().as_secs_f64() * 1e3);
+        crate::status!("wrote {} (t = {t:.3} s, {:.1} ms)", names.join(", "), start.elapsed().as_secs_f64() * 1e3);
     }
     if let (Some(g), Some(out)) = (gif, &args.out) {
         g.finish()?;
-        eprintln!("wrote {}", out.with_extension("gif").display());
+        crate::status!("wrote {}", out.with_extension("gif").display());
     }
     let n = count as f64;
     let per_frame: Vec<String> =
         spent.stages.iter().map(|s| format!("{} {:.1} ms/frame", s.name, s.ms() / n)).collect();
-    eprintln!("{count} frame(s) by {}: {}", session.method(&engine, id)?.describe(), per_frame.join(", "));
+    crate::status!("{count} frame(s) by {}: {}", session.method(&engine, id)?.describe(), per_frame.join(", "));
     Ok(())
 }
 

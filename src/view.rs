@@ -66,7 +66,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             let img = rsl_view::screenshot(viewer, args.frames)?;
             rsl_engine::output::write_png(png, img.width, img.height, img.rgb())
                 .with_context(|| format!("cannot write {}", png.display()))?;
-            eprintln!("wrote {} ({}×{})", png.display(), img.width, img.height);
+            crate::status!("wrote {} ({}×{})", png.display(), img.width, img.height);
             Ok(())
         }
         None => rsl_view::run(viewer, &format!("rsl view — {}", args.scene.display())),

@@ -568,3 +568,14 @@ fn a_mesh_whose_normals_point_against_its_winding_is_a_warning() {
     assert!(ok, "{err}");
     assert!(err.contains("t.gltf") && err.contains("1 of its 1 triangles point against their winding"), "{err}");
 }
+
+#[test]
+fn quiet_prints_nothing_but_errors() {
+    let dir = out_dir("quiet");
+    let scene = common::small_scene(&dir);
+    let (ok, _, err) = run(rsl().arg("-q").arg("render").arg(&scene).arg("--out").arg(dir.join("q.png")));
+    assert!(ok, "{err}");
+    assert!(err.trim().is_empty(), "--quiet printed: {err}");
+    let (ok, _, err) = run(rsl().arg("render").arg(&scene).arg("--out").arg(dir.join("q.png")));
+    assert!(ok && err.contains("wrote"), "{err}");
+}

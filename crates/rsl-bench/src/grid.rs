@@ -56,8 +56,8 @@ pub fn truth_image(
             {
                 return Ok((Image { width: w, height: h, pixels, covered }, noise, true));
             }
-            (Err(e), _) => eprintln!("warning: {e:#}; estimating again"),
-            _ => eprintln!("warning: {}: not the truth this scene needs; estimating again", f.display()),
+            (Err(e), _) => tracing::warn!("{e:#}; estimating again"),
+            _ => tracing::warn!("{}: not the truth this scene needs; estimating again", f.display()),
         }
     }
     let mut method = Truth::new(engine, spp, seed)?;

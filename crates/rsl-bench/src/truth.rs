@@ -91,8 +91,8 @@ pub fn truth(
     {
         match from_bytes(&bytes, key, spp) {
             Ok(t) if t.mean.iter().map(Vec::len).eq(engine_counts(engine)) => return Ok((t, true)),
-            Ok(_) => eprintln!("warning: {}: vertex counts differ from the scene; estimating again", f.display()),
-            Err(e) => eprintln!("warning: {}: {e}; estimating again", f.display()),
+            Ok(_) => tracing::warn!("{}: vertex counts differ from the scene; estimating again", f.display()),
+            Err(e) => tracing::warn!("{}: {e}; estimating again", f.display()),
         }
     }
     let mut method = Truth::new(engine, spp, seed)?;
