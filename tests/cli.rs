@@ -579,3 +579,27 @@ fn quiet_prints_nothing_but_errors() {
     let (ok, _, err) = run(rsl().arg("render").arg(&scene).arg("--out").arg(dir.join("q.png")));
     assert!(ok && err.contains("wrote"), "{err}");
 }
+
+#[test]
+fn flat_occluders_are_not_held_to_the_size_of_a_field_they_never_build() {
+    // Two planes, one above the other, with occluder fields of 3.2 GB each as tables: a
+    // flat occluder is its closed form, so the limit (here 64 MB) does not apply to it.
+    let dir = out_dir("flat-ovdf");
+    let scene = dir.join("f.toml");
+    std::fs::write(
+        &scene,
+        "[quality]\npreset = \"draft\"\novdf_directions = 256\n[environment]\nconstant = [1.0, 1.0, 1.0]\n\
+         [camera]\neye = [0.0, 3.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nwidth = 32\nheight = 24\n\
+         [[objects]]\nname = \"floor\"\nprimitive = { kind = \"plane\", size = 4.0, resolution = 4 }\n\
+         [[objects]]\nname = \"roof\"\nprimitive = { kind = \"plane\", size = 1.0, resolution = 2 }\ntranslation = [0.0, 1.0, 0.0]\n",
+    )
+    .unwrap();
+    let (ok, _, err) = run(rsl()
+        .env("RSL_MAX_PREPARE_BYTES", "64000000")
+        .arg("render")
+        .arg(&scene)
+        .arg("--no-cache")
+        .arg("--out")
+        .arg(dir.join("f.png")));
+    assert!(ok, "{err}");
+}
