@@ -71,9 +71,28 @@ pub fn bars() -> Progress {
 }
 
 /// A [`Progress`] that writes plain lines on standard error: the first once a task has run
-/// for `first`, then one every `every`, and a last line when a task that printed one ends.
+/// for `first`, then one every `every`, and a last line when a task that printed one ends. A
+/// task that reports no fraction done (an environment decomposed in one piece) is said to be
+/// running all the same, by a thread that looks at the running tasks.
 pub fn lines(first: std::time::Duration, every: std::time::Duration) -> Progress {
     lines_to(first, every, |line| eprintln!("{line}"))
+}
+
+/// A running task, for [`lines_to`]: when it started, when a line was last printed, whether it
+/// reported a fraction done.
+struct Running {
+    start: std::time::Instant,
+    last: Option<std::time::Instant>,
+    advanced: bool,
+}
+
+impl Running {
+    fn due(&self, first: std::time::Duration, every: std::time::Duration) -> bool {
+        match self.last {
+            None => self.start.elapsed() >= first,
+            Some(t) => t.elapsed() >= every,
+        }
+    }
 }
 
 /// [`lines`] into `out`.
@@ -82,30 +101,47 @@ pub fn lines_to(
     every: std::time::Duration,
     out: impl Fn(String) + Send + Sync + 'static,
 ) -> Progress {
-    use std::time::Instant;
-    // Per task: when it started, when a line was last printed.
-    let running: Mutex<HashMap<String, (Instant, Option<Instant>)>> = Mutex::new(HashMap::new());
+    use std::sync::Arc;
+    use std::time::{Duration, Instant};
+    let out = Arc::new(out);
+    let running: Arc<Mutex<HashMap<String, Running>>> = Arc::new(Mutex::new(HashMap::new()));
+    // The watcher ends with the last clone of the Progress (it holds the tasks weakly).
+    let (weak, say) = (Arc::downgrade(&running), out.clone());
+    let tick = first.min(every).clamp(Duration::from_millis(50), Duration::from_secs(1));
+    std::thread::spawn(move || {
+        loop {
+            std::thread::sleep(tick);
+            let Some(running) = weak.upgrade() else { return };
+            let Ok(mut running) = running.lock() else { return };
+            for (task, r) in running.iter_mut().filter(|(_, r)| !r.advanced) {
+                if r.due(first, every) {
+                    say(format!("{task}: running, {:.0} s so far", r.start.elapsed().as_secs_f64()));
+                    r.last = Some(Instant::now());
+                }
+            }
+        }
+    });
     Progress::new(move |e| {
         let Ok(mut running) = running.lock() else { return };
         match *e {
             Event::Started { task } => {
-                running.insert(task.to_string(), (Instant::now(), None));
+                running.insert(task.to_string(), Running { start: Instant::now(), last: None, advanced: false });
             }
             Event::Advanced { task, done, total } => {
-                if let Some((start, last)) = running.get_mut(task) {
-                    let due = match last {
-                        None => start.elapsed() >= first,
-                        Some(t) => t.elapsed() >= every,
-                    };
-                    if due && total > 0 {
+                if let Some(r) = running.get_mut(task) {
+                    r.advanced = true;
+                    if r.due(first, every) && total > 0 {
                         let pct = 100.0 * done as f64 / total as f64;
-                        out(format!("{task}: {pct:.0}% ({done}/{total}) after {:.0} s", start.elapsed().as_secs_f64()));
-                        *last = Some(Instant::now());
+                        out(format!(
+                            "{task}: {pct:.0}% ({done}/{total}) after {:.0} s",
+                            r.start.elapsed().as_secs_f64()
+                        ));
+                        r.last = Some(Instant::now());
                     }
                 }
             }
             Event::Finished { task } => {
-                if let Some((start, Some(_))) = running.remove(task) {
+                if let Some(Running { start, last: Some(_), .. }) = running.remove(task) {
                     out(format!("{task}: done in {:.1} s", start.elapsed().as_secs_f64()));
                 }
             }
@@ -138,5 +174,13 @@ mod tests {
         let p = lines_to(Duration::from_secs(3600), Duration::ZERO, move |l| sink.lock().unwrap().push(l));
         p.task("quick", |advance| advance(1, 1));
         assert!(quiet.lock().unwrap().is_empty());
+        // A long task that reports no fraction is said to be running, and done.
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let sink = seen.clone();
+        let p = lines_to(Duration::from_millis(100), Duration::from_secs(3600), move |l| sink.lock().unwrap().push(l));
+        p.task("decomposing", |_| std::thread::sleep(Duration::from_millis(600)));
+        let got = seen.lock().unwrap().clone();
+        assert_eq!(got.len(), 2, "{got:?}");
+        assert!(got[0].starts_with("decomposing: running") && got[1].starts_with("decomposing: done in"), "{got:?}");
     }
 }
