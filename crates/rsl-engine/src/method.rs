@@ -532,6 +532,10 @@ pub struct Truth {
     pub seed: u64,
     /// Where the estimation reports its progress.
     pub progress: Progress,
+    /// Where a pixel's samples lie: over its square (the default, rsl's definition of a
+    /// pixel), or at its centre (to measure an image drawn one point per pixel apart from its
+    /// aliasing).
+    pub filter: rsl_truth::PixelFilter,
     env: EnvLight,
     env_key: u64,
 }
@@ -542,7 +546,14 @@ impl Truth {
         if spp == 0 {
             bail!("--spp must be at least 1");
         }
-        Ok(Self { spp, seed, progress: Progress::none(), env: env_light(engine), env_key: engine.environment_key() })
+        Ok(Self {
+            spp,
+            seed,
+            progress: Progress::none(),
+            filter: rsl_truth::PixelFilter::Box,
+            env: env_light(engine),
+            env_key: engine.environment_key(),
+        })
     }
 
     /// The truth scene (one BVH over every triangle) of `scene` at `state`.
@@ -594,7 +605,9 @@ impl Method for Truth {
         }
         let state = scene.at(request.time);
         let mut timings = Timings::default();
-        let ts = timings.time("scene", || Self::scene(engine, scene, &state, self.env.clone()))?;
+        let ts = timings
+            .time("scene", || Self::scene(engine, scene, &state, self.env.clone()))?
+            .with_pixel_filter(self.filter);
         let estimable = self.spp >= 2;
         let mut self_error = SelfError::default();
         let mut stats = FrameStats::default();

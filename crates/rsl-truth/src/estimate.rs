@@ -19,7 +19,7 @@
 //! ([`rsl_sphere::faces`]), so that a vertex's value is the angle-weighted mean of what
 //! each incident face sees there. At a pixel, the mask is the hit face's: `[ω·n_f > 0]`.
 
-use glam::{Quat, Vec2, Vec3, Vec3A};
+use glam::{DVec3, Quat, Vec2, Vec3, Vec3A};
 use obvhs::{
     BvhBuildParams, cwbvh::CwBvh, cwbvh::builder::build_cwbvh_from_tris, ray::Ray, ray::RayHit, triangle::Triangle,
 };
@@ -131,17 +131,18 @@ impl Estimate {
     /// The estimate from `n` samples split into equal replicates whose means are `means`,
     /// with the samples' sum and sum of squares: the standard error from the replicates'
     /// spread, or with one replicate from the samples' (conservative under stratification).
-    fn of_replicates(means: &[Vec3], sum: Vec3, sum2: Vec3, n: usize) -> Self {
-        let mean = sum / n as f32;
+    /// In f64: the square of a sample of a sun at 1e23 overflows f32 (the error was NaN).
+    fn of_replicates(means: &[DVec3], sum: DVec3, sum2: DVec3, n: usize) -> Self {
+        let mean = sum / n as f64;
         let std_error = if means.len() > 1 {
-            let b = means.len() as f32;
-            let var = means.iter().map(|m| (*m - mean) * (*m - mean)).sum::<Vec3>() / (b - 1.0);
+            let b = means.len() as f64;
+            let var = means.iter().map(|m| (*m - mean) * (*m - mean)).sum::<DVec3>() / (b - 1.0);
             (var / b).sqrt()
         } else {
-            let var = (sum2 / n as f32 - mean * mean).max(Vec3::ZERO) * (n as f32 / (n as f32 - 1.0).max(1.0));
-            (var / n as f32).sqrt()
+            let var = (sum2 / n as f64 - mean * mean).max(DVec3::ZERO) * (n as f64 / (n as f64 - 1.0).max(1.0));
+            (var / n as f64).sqrt()
         };
-        Estimate { mean, std_error }
+        Estimate { mean: mean.as_vec3(), std_error: std_error.as_vec3() }
     }
 }
 
@@ -174,6 +175,19 @@ pub struct TruthScene {
     /// The BVH's triangles are world positions times this power of two
     /// (`rsl_sphere::mesh::ray_scale`); ray origins are scaled alike.
     scale: f32,
+    /// Where a pixel's samples lie ([`TruthScene::with_pixel_filter`]).
+    filter: PixelFilter,
+}
+
+/// Where [`TruthScene::pixel`] takes a pixel's samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PixelFilter {
+    /// Over its square, stratified: the pixel's value as rsl defines it (a box filter).
+    #[default]
+    Box,
+    /// All at its centre: what an image drawn with one point per pixel (aliased) should be,
+    /// for measuring shading apart from aliasing.
+    Centre,
 }
 
 /// Which directions count at a point, besides the shadow ray.
@@ -314,6 +328,7 @@ impl TruthScene {
             world_from_env,
             offset: 1e-4 * radius.max(f32::MIN_POSITIVE),
             scale,
+            filter: PixelFilter::Box,
         })
     }
 
@@ -389,19 +404,19 @@ impl TruthScene {
         let replicates = replicates(n);
         let per = n / replicates;
         let mut means = Vec::with_capacity(replicates);
-        let (mut sum_all, mut sum2_all) = (Vec3::ZERO, Vec3::ZERO);
+        let (mut sum_all, mut sum2_all) = (DVec3::ZERO, DVec3::ZERO);
         let mut rays = 0u64;
         for _ in 0..replicates {
             let (ul, ub) = (latin_hypercube(per, rng), latin_hypercube(per, rng));
-            let mut sum = Vec3::ZERO;
+            let mut sum = DVec3::ZERO;
             for k in 0..per {
                 let (y, r) = self.sample(receiver, origin, frame, wo, mask, [ul[k], ub[k]], rng.next_f32());
                 rays += r;
-                sum += y;
-                sum_all += y;
-                sum2_all += y * y;
+                sum += y.as_dvec3();
+                sum_all += y.as_dvec3();
+                sum2_all += y.as_dvec3() * y.as_dvec3();
             }
-            means.push(sum / per as f32);
+            means.push(sum / per as f64);
         }
         (Estimate::of_replicates(&means, sum_all, sum2_all, n), rays)
     }
@@ -547,29 +562,39 @@ impl TruthScene {
         Some((i, p, frame, if face.dot(frame.n) < 0.0 { -face } else { face }))
     }
 
+    /// The same scene, its pixels sampled as `filter` says (the box filter by default).
+    pub fn with_pixel_filter(mut self, filter: PixelFilter) -> Self {
+        self.filter = filter;
+        self
+    }
+
     /// Pixel `(x, y)`'s value, the mean radiance over its square, from `spp` samples at
     /// stratified positions inside it (a Latin hypercube per replicate, as the BRDF's and the
-    /// light's directions are): each sample follows its own primary ray to the object it
-    /// meets — one sample of each strategy there, as [`TruthScene::estimate`] — or to the
-    /// environment. Returns the estimate (its standard error from independent replicates),
-    /// whether objects cover at least half the samples, and the shadow rays traced.
+    /// light's directions are; all at its centre under [`PixelFilter::Centre`]): each sample
+    /// follows its own primary ray to the object it meets — one sample of each strategy
+    /// there, as [`TruthScene::estimate`] — or to the environment. Returns the estimate (its
+    /// standard error from independent replicates), whether an object covers the pixel's
+    /// centre (as in the methods' images), and the shadow rays traced.
     pub fn pixel(&self, camera: &Camera, x: u32, y: u32, spp: u32, rng: &mut Pcg32) -> (Estimate, bool, u64) {
         let n = spp.max(1) as usize;
         let replicates = replicates(n);
         let per = n / replicates;
         let mut means = Vec::with_capacity(replicates);
-        let (mut sum_all, mut sum2_all) = (Vec3::ZERO, Vec3::ZERO);
-        let (mut rays, mut hits) = (0u64, 0usize);
+        let (mut sum_all, mut sum2_all) = (DVec3::ZERO, DVec3::ZERO);
+        let mut rays = 0u64;
         for _ in 0..replicates {
             let at = latin_hypercube(per, rng);
             let (ul, ub) = (latin_hypercube(per, rng), latin_hypercube(per, rng));
-            let mut sum = Vec3::ZERO;
+            let mut sum = DVec3::ZERO;
             for k in 0..per {
-                let dir = rsl_frame::image_ray(camera, x as f32 + at[k].x, y as f32 + at[k].y);
+                let at = match self.filter {
+                    PixelFilter::Box => at[k],
+                    PixelFilter::Centre => Vec2::splat(0.5),
+                };
+                let dir = rsl_frame::image_ray(camera, x as f32 + at.x, y as f32 + at.y);
                 let value = match self.hit(camera.eye, dir) {
                     None => self.background(dir),
                     Some((i, p, frame, face)) => {
-                        hits += 1;
                         let wo = frame.to_local(-dir);
                         if wo.z <= 0.0 {
                             Vec3::ZERO
@@ -582,18 +607,19 @@ impl TruthScene {
                         }
                     }
                 };
-                sum += value;
-                sum_all += value;
-                sum2_all += value * value;
+                sum += value.as_dvec3();
+                sum_all += value.as_dvec3();
+                sum2_all += value.as_dvec3() * value.as_dvec3();
             }
-            means.push(sum / per as f32);
+            means.push(sum / per as f64);
         }
-        (Estimate::of_replicates(&means, sum_all, sum2_all, n), 2 * hits >= n, rays)
+        let covered = self.hit(camera.eye, rsl_frame::pixel_ray(camera, x, y)).is_some();
+        (Estimate::of_replicates(&means, sum_all, sum2_all, n), covered, rays)
     }
 
     /// Per pixel (row-major, row 0 at the top): the estimate of the pixel's value — the mean
     /// radiance over its square (a box filter), objects and environment alike
-    /// ([`TruthScene::pixel`]) — and whether objects cover most of it.
+    /// ([`TruthScene::pixel`]) — and whether an object covers its centre.
     pub fn pixels(
         &self,
         camera: &Camera,

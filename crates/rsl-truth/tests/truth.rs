@@ -341,3 +341,28 @@ fn a_pixel_is_the_mean_over_its_square_as_the_same_image_drawn_finer_and_average
     eprintln!("coarse against the finer image averaged: difference {diff:.4}, noise {noise:.4}");
     assert!(diff < 2.0 * noise, "difference {diff} against noise {noise}");
 }
+
+#[test]
+fn a_sun_of_1e23_gives_a_finite_standard_error() {
+    // One texel at 1e23 (inside the loader's bound of 1e30) on a map of ones: the squares of
+    // its samples overflow f32, and the standard error was NaN.
+    let (w, h) = (64, 32);
+    let mut texels = vec![Vec3::ONE; w * h];
+    texels[8 * w + 20] = Vec3::splat(1e23);
+    let map = Arc::new(LatLongMap::new(w, h, texels).unwrap());
+    let pm = plane(2.0);
+    let pf = VertexFrames::new(&pm, false);
+    let scene = TruthScene::new(
+        &[object(&pm, &pf, Brdf::Lambert { albedo: Vec3::splat(0.5) }, Vec3::ZERO)],
+        EnvLight::map(map, 1.0),
+        Quat::IDENTITY,
+    )
+    .unwrap();
+    // One replicate (7 samples) and sixteen (64).
+    for spp in [7, 64] {
+        let mut rng = Pcg32::new(5);
+        let (e, _) = scene.estimate(0, Vec3::ZERO, &Frame::from_normal(Vec3::Y), Vec3::Y, spp, &mut rng);
+        assert!(e.mean.is_finite() && e.std_error.is_finite(), "{spp} spp: {} ± {}", e.mean, e.std_error);
+        assert!(e.mean.x > 1e18, "the sun lights the plane: {}", e.mean);
+    }
+}
