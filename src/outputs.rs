@@ -48,14 +48,14 @@ impl<'a> Outputs<'a> {
         for (path, what) in &self.outputs {
             crate::render::check_writable(path, what)?;
         }
-        let id = |p: &Path| identity(p);
-        for (k, (path, what)) in self.outputs.iter().enumerate() {
-            let me = id(path);
-            if let Some((_, other)) = self.outputs[..k].iter().find(|(q, _)| id(q) == me) {
-                bail!("{other} and {what} both name {}: one would overwrite the other", path.display());
+        let outputs: Vec<PathBuf> = self.outputs.iter().map(|(p, _)| identity(p)).collect();
+        let inputs: Vec<PathBuf> = self.inputs.iter().map(|(p, _)| identity(p)).collect();
+        for (k, ((path, what), me)) in self.outputs.iter().zip(&outputs).enumerate() {
+            if let Some(j) = outputs[..k].iter().position(|o| o == me) {
+                bail!("{} and {what} both name {}: one would overwrite the other", self.outputs[j].1, path.display());
             }
-            if let Some((_, input)) = self.inputs.iter().find(|(q, _)| id(q) == me) {
-                bail!("{what} {} is {input}: rsl does not write over its inputs", path.display());
+            if let Some(j) = inputs.iter().position(|i| i == me) {
+                bail!("{what} {} is {}: rsl does not write over its inputs", path.display(), self.inputs[j].1);
             }
         }
         Ok(())

@@ -127,20 +127,63 @@ pub struct Estimate {
     pub std_error: Vec3,
 }
 
-impl Estimate {
-    /// The estimate from `n` samples split into equal replicates whose means are `means`,
-    /// with the samples' sum and sum of squares: the standard error from the replicates'
-    /// spread, or with one replicate from the samples' (conservative under stratification).
-    /// In f64: the square of a sample of a sun at 1e23 overflows f32 (the error was NaN).
-    fn of_replicates(means: &[DVec3], sum: DVec3, sum2: DVec3, n: usize) -> Self {
-        let mean = sum / n as f64;
-        let std_error = if means.len() > 1 {
-            let b = means.len() as f64;
-            let var = means.iter().map(|m| (*m - mean) * (*m - mean)).sum::<DVec3>() / (b - 1.0);
+/// Samples gathered in independent replicates, each stratified on its own: the spread of the
+/// replicates' means is an honest standard error for the stratified estimate. Sums in f64:
+/// the square of a sample of a sun at 1e23 overflows f32 (the error was NaN).
+struct Replicates {
+    /// Samples in all, and per replicate.
+    n: usize,
+    per: usize,
+    means: Vec<DVec3>,
+    /// This replicate's sum; all samples' sum and sum of squares.
+    current: DVec3,
+    sum: DVec3,
+    sum2: DVec3,
+}
+
+impl Replicates {
+    /// `n` samples (at least 1) in 16, 8, 4 or 2 equal replicates, or one.
+    fn new(n: usize) -> Self {
+        let n = n.max(1);
+        let count = [16, 8, 4, 2].into_iter().find(|&b| n >= b && n.is_multiple_of(b)).unwrap_or(1);
+        Self {
+            n,
+            per: n / count,
+            means: Vec::with_capacity(count),
+            current: DVec3::ZERO,
+            sum: DVec3::ZERO,
+            sum2: DVec3::ZERO,
+        }
+    }
+
+    fn count(&self) -> usize {
+        self.n / self.per
+    }
+
+    fn add(&mut self, v: Vec3) {
+        let v = v.as_dvec3();
+        self.current += v;
+        self.sum += v;
+        self.sum2 += v * v;
+    }
+
+    /// Closes the replicate whose samples were added since the last.
+    fn end_replicate(&mut self) {
+        self.means.push(std::mem::take(&mut self.current) / self.per as f64);
+    }
+
+    /// The mean and its standard error: from the replicates' spread, or with one replicate
+    /// from the samples' (conservative under stratification).
+    fn estimate(&self) -> Estimate {
+        let n = self.n as f64;
+        let mean = self.sum / n;
+        let std_error = if self.means.len() > 1 {
+            let b = self.means.len() as f64;
+            let var = self.means.iter().map(|m| (*m - mean) * (*m - mean)).sum::<DVec3>() / (b - 1.0);
             (var / b).sqrt()
         } else {
-            let var = (sum2 / n as f64 - mean * mean).max(DVec3::ZERO) * (n as f64 / (n as f64 - 1.0).max(1.0));
-            (var / n as f64).sqrt()
+            let var = (self.sum2 / n - mean * mean).max(DVec3::ZERO) * (n / (n - 1.0).max(1.0));
+            (var / n).sqrt()
         };
         Estimate { mean: mean.as_vec3(), std_error: std_error.as_vec3() }
     }
@@ -203,12 +246,6 @@ enum Mask {
 
 /// `n` points stratified in each coordinate (a Latin hypercube: one per row and column
 /// stratum, in random pairings).
-/// How many independent replicates `n` samples are split into (each stratified on its own):
-/// the spread of their means is an honest standard error for the stratified estimate.
-fn replicates(n: usize) -> usize {
-    [16, 8, 4, 2].into_iter().find(|&b| n >= b && n.is_multiple_of(b)).unwrap_or(1)
-}
-
 fn latin_hypercube(n: usize, rng: &mut Pcg32) -> Vec<Vec2> {
     let mut px: Vec<usize> = (0..n).collect();
     let mut py: Vec<usize> = (0..n).collect();
@@ -400,25 +437,18 @@ impl TruthScene {
             return (Estimate::default(), 0);
         }
         let origin = x + frame.n * self.offset;
-        let n = spp as usize;
-        let replicates = replicates(n);
-        let per = n / replicates;
-        let mut means = Vec::with_capacity(replicates);
-        let (mut sum_all, mut sum2_all) = (DVec3::ZERO, DVec3::ZERO);
+        let mut samples = Replicates::new(spp as usize);
         let mut rays = 0u64;
-        for _ in 0..replicates {
-            let (ul, ub) = (latin_hypercube(per, rng), latin_hypercube(per, rng));
-            let mut sum = DVec3::ZERO;
-            for k in 0..per {
+        for _ in 0..samples.count() {
+            let (ul, ub) = (latin_hypercube(samples.per, rng), latin_hypercube(samples.per, rng));
+            for k in 0..samples.per {
                 let (y, r) = self.sample(receiver, origin, frame, wo, mask, [ul[k], ub[k]], rng.next_f32());
                 rays += r;
-                sum += y.as_dvec3();
-                sum_all += y.as_dvec3();
-                sum2_all += y.as_dvec3() * y.as_dvec3();
+                samples.add(y);
             }
-            means.push(sum / per as f64);
+            samples.end_replicate();
         }
-        (Estimate::of_replicates(&means, sum_all, sum2_all, n), rays)
+        (samples.estimate(), rays)
     }
 
     /// One sample of each strategy, MIS-weighted (power heuristic): the sum, and the shadow
@@ -576,16 +606,12 @@ impl TruthScene {
     /// standard error from independent replicates), whether an object covers the pixel's
     /// centre (as in the methods' images), and the shadow rays traced.
     pub fn pixel(&self, camera: &Camera, x: u32, y: u32, spp: u32, rng: &mut Pcg32) -> (Estimate, bool, u64) {
-        let n = spp.max(1) as usize;
-        let replicates = replicates(n);
-        let per = n / replicates;
-        let mut means = Vec::with_capacity(replicates);
-        let (mut sum_all, mut sum2_all) = (DVec3::ZERO, DVec3::ZERO);
+        let mut samples = Replicates::new(spp as usize);
+        let per = samples.per;
         let mut rays = 0u64;
-        for _ in 0..replicates {
+        for _ in 0..samples.count() {
             let at = latin_hypercube(per, rng);
             let (ul, ub) = (latin_hypercube(per, rng), latin_hypercube(per, rng));
-            let mut sum = DVec3::ZERO;
             for k in 0..per {
                 let at = match self.filter {
                     PixelFilter::Box => at[k],
@@ -607,14 +633,12 @@ impl TruthScene {
                         }
                     }
                 };
-                sum += value.as_dvec3();
-                sum_all += value.as_dvec3();
-                sum2_all += value.as_dvec3() * value.as_dvec3();
+                samples.add(value);
             }
-            means.push(sum / per as f64);
+            samples.end_replicate();
         }
         let covered = self.hit(camera.eye, rsl_frame::pixel_ray(camera, x, y)).is_some();
-        (Estimate::of_replicates(&means, sum_all, sum2_all, n), covered, rays)
+        (samples.estimate(), covered, rays)
     }
 
     /// Per pixel (row-major, row 0 at the top): the estimate of the pixel's value — the mean
