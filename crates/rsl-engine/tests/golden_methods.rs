@@ -131,6 +131,30 @@ fn golden(name: &str) {
     check(name, output(m.as_mut(), &engine, &scene));
 }
 
+/// The RSL path with the oracles `list` (rsl-shade's `oracle`, as the bench's error budget
+/// runs it), per vertex and rasterised; golden file `oracle-<list>` (`+` for commas).
+fn golden_oracle(list: &str) {
+    let scene = golden_scene();
+    let engine = engine(&scene, true, &format!("oracle-{list}"));
+    let mut m = rsl_engine::method::Oracle::new(rsl_shade::Oracles::parse(list).expect("oracle names"));
+    check(&format!("oracle-{}", list.replace(',', "+")), output(&mut m, &engine, &scene));
+}
+
+#[test]
+fn oracle_brdf_self() {
+    golden_oracle("brdf,self");
+}
+
+#[test]
+fn oracle_occluders() {
+    golden_oracle("occluders");
+}
+
+#[test]
+fn oracle_product() {
+    golden_oracle("product");
+}
+
 #[test]
 fn rsl() {
     golden("rsl");

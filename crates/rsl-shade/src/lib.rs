@@ -2,12 +2,16 @@
 //! (Xu et al. 2006, eq. 5 and fig. 8): a plain reference loop and a rayon fast path, the CPU
 //! rasteriser that draws the shaded vertices, and display encoding.
 
+mod covers;
 pub mod frame;
 pub mod oracle;
 pub mod pixel;
 pub mod raster;
+mod reference;
 pub mod shade;
+mod sum;
 pub mod tonemap;
+mod traced;
 
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
 pub use pixel::{

@@ -25,13 +25,14 @@
 //! oracle on, what remains is the environment grid's resampling and the squares' shape
 //! within a texel.
 
-use crate::shade::{FrameSetup, FrameStats, Lazy, Near};
+use crate::covers::self_cover;
+use crate::shade::{FrameSetup, FrameStats};
+use crate::sum::{Nears, Order};
 use glam::{Vec2, Vec3};
-use rayon::prelude::*;
 use rsl_brdf::{ViewLookup, square_exact, square_exact_at};
 pub use rsl_frame::{Blockers, Rays};
 use rsl_sphere::Frame;
-use rsl_sphere::hemi::{dir_from_hemi, hemi_from_dir};
+use rsl_sphere::hemi::dir_from_hemi;
 use rsl_sphere::sampling::Pcg32;
 use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -140,6 +141,13 @@ pub struct OracleStats {
     pub rays: u64,
 }
 
+impl OracleStats {
+    /// The sum of two parts' costs.
+    pub fn plus(self, o: Self) -> Self {
+        Self { lookups: self.lookups.plus(o.lookups), rays: self.rays + o.rays }
+    }
+}
+
 /// Vertices per parallel work item.
 const BLOCK: usize = 64;
 
@@ -152,32 +160,18 @@ pub fn shade_oracle(
     rays: &dyn Rays,
     report: &(dyn Fn(usize, usize) + Sync),
 ) -> (Vec<Vec<Vec3>>, OracleStats) {
-    let blocks = setup.blocks(BLOCK);
     // The objects that cast shadows (have occluder fields), found once.
     let casters: Vec<usize> = (0..setup.placed.len()).filter(|&j| setup.placed[j].object.ovdf.is_some()).collect();
     let total: usize = setup.placed.iter().map(|p| p.object.mesh.vertex_count()).sum();
     let done = AtomicUsize::new(0);
-    let results: Vec<(usize, Vec<Vec3>, OracleStats)> = blocks
-        .par_iter()
-        .map_init(Vec::new, |nears, &(i, b)| {
-            let n = setup.placed[i].object.mesh.vertex_count();
-            let mut stats = OracleStats::default();
-            let range = b * BLOCK..((b + 1) * BLOCK).min(n);
-            let count = range.len();
-            let out = range.map(|v| vertex(setup, oracles, params, rays, &casters, i, v, nears, &mut stats)).collect();
-            report(done.fetch_add(count, Ordering::Relaxed) + count, total);
-            (i, out, stats)
-        })
-        .collect();
-    let mut radiance: Vec<Vec<Vec3>> =
-        setup.placed.iter().map(|p| Vec::with_capacity(p.object.mesh.vertex_count())).collect();
-    let mut stats = OracleStats::default();
-    for (i, out, s) in results {
-        radiance[i].extend(out);
-        stats.rays += s.rays;
-        stats.lookups = stats.lookups.plus(s.lookups);
-    }
-    (radiance, stats)
+    let (blocks, stats) = setup.par_blocks(None, BLOCK, OracleStats::plus, |nears, stats, i, vertices| {
+        let count = vertices.len();
+        let out: Vec<Vec3> =
+            vertices.map(|v| vertex(setup, oracles, params, rays, &casters, (i, v), nears, stats)).collect();
+        report(done.fetch_add(count, Ordering::Relaxed) + count, total);
+        out
+    });
+    (setup.per_object(blocks), stats)
 }
 
 /// Rotates `p` by `angle`.
@@ -207,6 +201,8 @@ fn rotated_points(k: usize, rng: &mut Pcg32) -> Vec<Vec2> {
         .collect()
 }
 
+/// The RSL sum at vertex `v` of object `i` with the oracles' factors in place of the
+/// approximations they replace.
 #[allow(clippy::too_many_arguments)]
 fn vertex<'a>(
     setup: &FrameSetup<'a>,
@@ -214,41 +210,36 @@ fn vertex<'a>(
     params: &OracleParams,
     rays: &dyn Rays,
     casters: &[usize],
-    i: usize,
-    v: usize,
-    nears: &mut Vec<(Near, Lazy<'a>)>,
+    (i, v): (usize, usize),
+    nears: &mut Nears<'a>,
     stats: &mut OracleStats,
 ) -> Vec3 {
-    let p = &setup.placed[i];
-    let o = &p.object;
     stats.lookups.vertices += 1;
-    let x = p.position(v);
-    let frame = p.shading_frame(v);
-    let view = frame.to_local((setup.eye - x).normalize_or_zero());
-    let lookup = o.table.view_lookup(view);
-    if lookup == ViewLookup::Below {
+    let at = setup.at_vertex(i, v);
+    if at.lookup == ViewLookup::Below {
         stats.lookups.back_facing += 1;
         return Vec3::ZERO;
     }
+    let (p, o, frame, view) = (at.placed, &at.placed.object, at.frame, at.view);
     let terms = setup.terms;
     let brdf = o.table.brdf();
-    nears.clear();
-    if terms.occluders && !oracles.occluders && !oracles.product {
-        setup.nears(i, x, nears);
+    if oracles.occluders || oracles.product {
+        nears.clear();
+    } else {
+        setup.nears(i, at.x, nears);
     }
     let traced = Cell::new(0u64);
     let trace = |dir: Vec3, by: Blockers| {
         traced.set(traced.get() + 1);
         rays.visible(i, v, dir, by)
     };
-    let vis_frame = &o.frames.visibility[v];
-    let self_vis = o.svdf.vertex(v);
-    let mut sum = Vec3::ZERO;
-    for (l, light) in setup.lights.iter().enumerate() {
-        let r = light.half_diagonal;
-        let s = r / std::f32::consts::SQRT_2;
-        let local = frame.to_local(light.dir);
-        let mut rng = Pcg32::with_stream(params.seed ^ ((i as u64) << 40 | v as u64), l as u64);
+    let fields = setup.vertex_fields(i, v);
+    // The BRDF's integral over light `l`'s square: the product oracle's whole term (the
+    // BRDF times the rays' visibility, covered by nothing else), the BRDF oracle's
+    // quadrature, or the table.
+    let integral = |(_, stats): &mut (&mut Nears<'a>, &mut OracleStats), l: usize| {
+        let light = &setup.lights[l];
+        let (local, r) = (frame.to_local(light.dir), light.half_diagonal);
         if oracles.product {
             let by = Blockers::All { own: terms.self_visibility, others: terms.occluders };
             let w = |d: Vec3| {
@@ -256,21 +247,25 @@ fn vertex<'a>(
                 let h = if terms.self_visibility { rays.mask(i, v, d) } else { 1.0 };
                 if h > 0.0 && trace(d, by) { h } else { 0.0 }
             };
-            sum += light.radiance * square_exact_at(brdf, local, r, view, params.product_base, &w);
-            continue;
-        }
-        let b = if oracles.brdf {
+            square_exact_at(brdf, local, r, view, params.product_base, &w)
+        } else if oracles.brdf {
             square_exact(brdf, local, r, view, &|_| 1.0)
         } else {
             stats.lookups.brdf_lookups += 1;
-            o.table.integral_for(&lookup, local, r)
-        };
-        if b == Vec3::ZERO {
-            continue;
+            o.table.integral_for(&at.lookup, local, r)
         }
+    };
+    let cover = |(nears, stats): &mut (&mut Nears<'a>, &mut OracleStats), l: usize| {
+        if oracles.product {
+            return 1.0;
+        }
+        let light = &setup.lights[l];
+        let r = light.half_diagonal;
+        let s = r / std::f32::consts::SQRT_2;
+        let mut rng = Pcg32::with_stream(params.seed ^ ((i as u64) << 40 | v as u64), l as u64);
         let mut cover = 1.0;
         if terms.self_visibility {
-            let c = hemi_from_dir(vis_frame.to_local(p.light_dirs[l]));
+            let c = setup.light_on_hemi(i, &fields, l);
             cover = if oracles.self_visibility {
                 // The fraction of the square's points above the horizon that the object
                 // leaves visible (the BRDF integral already leaves out the rest).
@@ -279,7 +274,7 @@ fn vertex<'a>(
                 let seen: f32 = above
                     .iter()
                     .map(|q| {
-                        let d = (p.pose.linear_to_world * vis_frame.to_world(dir_from_hemi(*q))).normalize_or_zero();
+                        let d = (p.pose.linear_to_world * fields.frame.to_world(dir_from_hemi(*q))).normalize_or_zero();
                         let h = rays.mask(i, v, d);
                         if h > 0.0 && trace(d, Blockers::Own) { h } else { 0.0 }
                     })
@@ -287,7 +282,7 @@ fn vertex<'a>(
                 if above.is_empty() { 0.0 } else { seen / above.len() as f32 }
             } else {
                 stats.lookups.self_lookups += 1;
-                self_vis.coverage_above_horizon(c, r) * o.mask.vertex(v).share_above_horizon(c, r)
+                self_cover((&fields.own, &fields.mask), c, r, rsl_vis::mask::reach(r))
             };
         }
         if terms.occluders && cover > 0.0 {
@@ -306,8 +301,9 @@ fn vertex<'a>(
                 cover = setup.others_cover(nears, i, v, l, cover, &mut stats.lookups);
             }
         }
-        sum += light.radiance * b * cover;
-    }
+        cover
+    };
+    let sum = setup.rsl_sum(&mut (nears, &mut *stats), Order::BrdfFirst, integral, cover, None);
     stats.rays += traced.get();
-    sum
+    sum.radiance
 }

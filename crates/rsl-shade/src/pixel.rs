@@ -17,7 +17,8 @@
 //! silhouette is not darkened by a corner that cannot see it at all.
 
 use crate::raster::{Fragment, Image, fragments, pixel_ray};
-use crate::shade::{BLOCK, FrameSetup, FrameStats, Lazy};
+use crate::shade::{BLOCK, FrameSetup, FrameStats};
+use crate::sum::Sum;
 use glam::Vec3;
 use rayon::prelude::*;
 use rsl_scene::Camera;
@@ -60,48 +61,31 @@ impl Covers {
     }
 }
 
-/// One block of vertices shaded: object, radiance, covers and untraced radiance, costs.
-type ShadedBlock = (usize, Vec<Vec3>, (Vec<f32>, Vec<Vec3>), FrameStats);
-
 /// Shades the objects `which` selects at their vertices, keeping every light's cover there:
 /// per object, the vertices' radiance (as [`crate::shade`] gives it, to float rounding) and
 /// the covers (`None` for the objects not selected, whose radiance comes back empty).
 pub fn shade_covers(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, Vec<Option<Covers>>, FrameStats) {
     let lights = setup.lights.len();
-    let mut blocks = setup.blocks(BLOCK);
-    blocks.retain(|&(i, _)| which.get(i).copied().unwrap_or(false));
-    let done: Vec<ShadedBlock> = blocks
-        .par_iter()
-        .map_init(Vec::<(_, Lazy<'_>)>::new, |nears, &(i, b)| {
-            let n = setup.placed[i].object.mesh.vertex_count();
-            let range = b * BLOCK..((b + 1) * BLOCK).min(n);
-            let mut stats = FrameStats::default();
-            let mut covers = vec![0.0; range.len() * lights];
-            let mut untraced = vec![Vec3::ZERO; range.len()];
-            let radiance = range
-                .clone()
-                .zip(covers.chunks_exact_mut(lights.max(1)))
-                .zip(&mut untraced)
-                .map(|((v, out), u)| setup.vertex_covers(i, v, nears, &mut stats, out, u))
-                .collect();
-            (i, radiance, (covers, untraced), stats)
-        })
-        .collect();
-    let mut radiance: Vec<Vec<Vec3>> = vec![Vec::new(); setup.placed.len()];
+    let (blocks, stats) = setup.par_blocks(Some(which), BLOCK, FrameStats::plus, |nears, stats, i, vertices| {
+        let mut covers = vec![0.0; vertices.len() * lights];
+        let sums: Vec<Sum> = vertices
+            .zip(covers.chunks_exact_mut(lights.max(1)))
+            .map(|(v, out)| setup.vertex_covers(i, v, nears, stats, out))
+            .collect();
+        (sums, covers)
+    });
     let mut covers: Vec<Option<Covers>> = (0..setup.placed.len())
         .map(|i| {
             which.get(i).copied().unwrap_or(false).then(|| Covers { lights, values: Vec::new(), untraced: Vec::new() })
         })
         .collect();
-    let mut stats = FrameStats::default();
-    // Blocks come back in order (rayon's collect keeps it).
-    for (i, r, c, s) in done {
-        radiance[i].extend(r);
-        if let Some(cv) = &mut covers[i] {
-            cv.values.extend(c.0);
-            cv.untraced.extend(c.1);
+    let mut radiance: Vec<Vec<Vec3>> = vec![Vec::new(); setup.placed.len()];
+    for (i, (sums, values)) in blocks {
+        radiance[i].extend(sums.iter().map(|s| s.radiance));
+        if let Some(c) = &mut covers[i] {
+            c.values.extend(values);
+            c.untraced.extend(sums.iter().map(|s| s.untraced));
         }
-        stats = stats.plus(s);
     }
     (radiance, covers, stats)
 }

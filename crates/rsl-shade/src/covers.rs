@@ -1,0 +1,166 @@
+//! A light's cover at a vertex from the visibility fields: the self-visibility field above
+//! the vertex's horizon times its face mask's share, times every other object's occluder
+//! field (located at the vertex on first use, culled by the light's cone), or the traced
+//! rays for a traced light's shadows from other objects.
+
+use crate::frame::{Near, culled, near};
+use crate::shade::{FrameSetup, FrameStats};
+use glam::{Vec2, Vec3};
+use rsl_sphere::hemi::hemi_from_dir;
+use rsl_vis::OvdfLookup;
+use rsl_vis::mask::VertexMask;
+use rsl_vis::svdf::SvdfVertex;
+
+impl<'a> FrameSetup<'a> {
+    /// `cover` times what the other objects leave of light `l` at vertex `v` of object `i`
+    /// (world point `x`): traced rays for a traced light, else the occluder fields at `nears`.
+    pub(crate) fn others_cover(
+        &self,
+        nears: &mut [(Near, Lazy<'a>)],
+        i: usize,
+        v: usize,
+        l: usize,
+        cover: f32,
+        stats: &mut FrameStats,
+    ) -> f32 {
+        if self.is_traced(l) {
+            if cover <= 0.0 {
+                return cover;
+            }
+            cover * self.traced_cover_with(i, v, l, false, true, &mut stats.traced_rays)
+        } else {
+            self.occluder_cover(nears, l, cover, stats)
+        }
+    }
+
+    /// Light `l`'s cover at vertex `v` of object `i` from the visibility fields (a light that
+    /// is not traced): self-visibility at hemisphere point `q` of the vertex's visibility
+    /// frame (with its face mask), times the occluder fields at `nears`, as the terms ask.
+    pub(crate) fn fields_cover(
+        &self,
+        nears: &mut [(Near, Lazy<'a>)],
+        (i, v, l): (usize, usize, usize),
+        q: Vec2,
+        (self_vis, mask): (&SvdfVertex<'_>, &VertexMask<'_>),
+        stats: &mut FrameStats,
+    ) -> f32 {
+        let r = self.lights[l].half_diagonal;
+        let mut cover = 1.0;
+        if self.terms.self_visibility {
+            stats.self_lookups += 1;
+            cover = self_cover((self_vis, mask), q, r, self.reaches[l]);
+        }
+        if self.terms.occluders {
+            cover = self.others_cover(nears, i, v, l, cover, stats);
+        }
+        cover
+    }
+
+    /// `cover` times the occluder fields' coverages of light `l` at a vertex whose occluders
+    /// are `nears` (located on first use); nothing is looked up once it is zero.
+    pub(crate) fn occluder_cover(
+        &self,
+        nears: &mut [(Near, Lazy<'a>)],
+        l: usize,
+        mut cover: f32,
+        stats: &mut FrameStats,
+    ) -> f32 {
+        let light = &self.lights[l];
+        for (n, at) in nears.iter_mut() {
+            if cover <= 0.0 {
+                break;
+            }
+            if culled(n, light.dir, self.cones[l]) {
+                stats.occluders_culled += 1;
+                continue;
+            }
+            if let Some(at) = self.located(n, at) {
+                stats.occluder_lookups += 1;
+                cover *= at.coverage(self.placed[n.j].light_dirs[l], light.half_diagonal);
+            }
+        }
+        cover
+    }
+
+    /// Occluder `n`'s field prepared at the vertex (located on first use), or `None` where
+    /// the vertex is beyond it.
+    fn located<'s>(&self, n: &Near, at: &'s mut Lazy<'a>) -> Option<&'s OvdfLookup<'a>> {
+        if let Lazy::Unknown = at {
+            let field = self.placed[n.j].object.ovdf;
+            *at = match field.and_then(|f| Some(f.prepare(&f.locate(n.x_object)?))) {
+                Some(prepared) => Lazy::Ready(prepared),
+                None => Lazy::Outside,
+            };
+        }
+        match at {
+            Lazy::Ready(at) => Some(at),
+            _ => None,
+        }
+    }
+
+    /// The covers at vertex `v` of object `i` of square lights toward world directions
+    /// `squares[k].0` with half-diagonals `squares[k].1` (solid angle `4r²`), into `out`: the
+    /// self-visibility field's coverage above the horizon times the face mask's share, times
+    /// every other object's occluder field, as the terms ask — the fields only, nothing
+    /// traced. The lobe path's own shadows (`rsl_engine::lobe`, `method = "lobe"`) read it
+    /// with one square per lobe, matched to the lobe's width.
+    pub fn square_covers(&self, i: usize, v: usize, squares: &[(Vec3, f32)], out: &mut [f32], stats: &mut FrameStats) {
+        let p = &self.placed[i];
+        let o = &p.object;
+        let mut nears = Vec::new();
+        self.nears(i, p.position(v), &mut nears);
+        for (&(dir, r), cover) in squares.iter().zip(out.iter_mut()) {
+            *cover = 1.0;
+            if self.terms.self_visibility {
+                let q = hemi_from_dir(o.frames.visibility[v].to_local(p.pose.direction_to_object(dir)));
+                stats.self_lookups += 1;
+                *cover = self_cover((&o.svdf.vertex(v), &o.mask.vertex(v)), q, r, rsl_vis::mask::reach(r));
+            }
+            for (n, at) in nears.iter_mut() {
+                if *cover <= 0.0 {
+                    break;
+                }
+                if let Some(at) = self.located(n, at) {
+                    stats.occluder_lookups += 1;
+                    *cover *= at.coverage(self.placed[n.j].pose.direction_to_object(dir), r);
+                }
+            }
+        }
+    }
+
+    /// The occluders near world point `x` on object `i` (every other object whose field
+    /// reaches `x`), not yet located in their fields, into `out`; none when the terms leave
+    /// occluders out.
+    pub(crate) fn nears(&self, i: usize, x: Vec3, out: &mut Vec<(Near, Lazy<'a>)>) {
+        out.clear();
+        if !self.terms.occluders {
+            return;
+        }
+        out.extend(
+            (0..self.placed.len())
+                .filter(|&j| j != i)
+                .filter_map(|j| Some((near(&self.placed[j], j, x)?, Lazy::Unknown))),
+        );
+    }
+}
+
+/// What an object leaves of a square of half-diagonal `r` centred at hemisphere point `q` of
+/// a vertex's visibility frame: its self-visibility field's coverage above the horizon (the
+/// BRDF's integral already leaves out the part below), times the share of it the vertex's
+/// faces see (`reach`: [`rsl_vis::mask::reach`] of `r`).
+pub(crate) fn self_cover((own, mask): (&SvdfVertex<'_>, &VertexMask<'_>), q: Vec2, r: f32, reach: (f32, f32)) -> f32 {
+    let cover = own.coverage_above_horizon(q, r);
+    if cover > 0.0 { cover * mask.share_above_horizon_with(q, r, reach) } else { cover }
+}
+
+/// An occluder field's lookup at a vertex, prepared when first needed.
+// Held in a reused per-thread list (a box each would allocate per vertex and occluder).
+#[allow(clippy::large_enum_variant)]
+pub(crate) enum Lazy<'a> {
+    /// Not located yet.
+    Unknown,
+    /// Beyond the field: nothing occluded.
+    Outside,
+    /// Located and prepared.
+    Ready(OvdfLookup<'a>),
+}

@@ -1,0 +1,59 @@
+//! The RSL sum written out as the formula: the independent answer the fast paths
+//! ([`crate::sum`]) are tested against.
+
+use crate::frame::{culled, near};
+use crate::shade::FrameSetup;
+use glam::{Vec2, Vec3};
+use rsl_sphere::Frame;
+use rsl_sphere::hemi::hemi_from_dir;
+
+/// The reference: the formula as written, one vertex, RSL and occluder at a time, through
+/// the public lookups of rsl-brdf and rsl-vis, with nothing hoisted. It culls as the fast
+/// path does (an occluder outside its field's reach, or whose bounding sphere the light's
+/// cone misses, covers nothing), so the two agree on which lookups are made; the culling
+/// of an occluder beyond its field is checked to change nothing in rsl-engine's tests.
+pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
+    let mut out = Vec::new();
+    for (i, p) in setup.placed.iter().enumerate() {
+        let o = &p.object;
+        let mut radiance = Vec::with_capacity(o.mesh.vertex_count());
+        for v in 0..o.mesh.vertex_count() {
+            let x = p.position(v);
+            let frame = p.shading_frame(v);
+            let view = frame.to_local((setup.eye - x).normalize_or_zero());
+            let vis_frame = Frame::from_normal(o.mesh.normals[v]);
+            let mut sum = Vec3::ZERO;
+            for (l, light) in setup.lights.iter().enumerate() {
+                let r = light.half_diagonal;
+                let brdf = o.table.square(frame.to_local(light.dir), r, view).integral;
+                if setup.is_traced(l) {
+                    sum += light.radiance * brdf * setup.traced_cover(i, v, l, &mut 0);
+                    continue;
+                }
+                let mut cover = 1.0;
+                if setup.terms.self_visibility {
+                    let d = p.pose.direction_to_object(light.dir);
+                    let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
+                    cover = o.svdf.coverage_above_horizon(v, q, r) * o.mask.vertex(v).share_above_horizon(q, r);
+                }
+                if setup.terms.occluders {
+                    for (j, q) in setup.placed.iter().enumerate() {
+                        if j == i {
+                            continue;
+                        }
+                        let Some(n) = near(q, j, x) else { continue };
+                        if culled(&n, light.dir, setup.cones[l]) {
+                            continue;
+                        }
+                        let d = q.pose.direction_to_object(light.dir);
+                        cover *= q.object.ovdf.expect("near() needs a field").coverage(n.x_object, d, r);
+                    }
+                }
+                sum += light.radiance * brdf * cover;
+            }
+            radiance.push(sum);
+        }
+        out.push(radiance);
+    }
+    out
+}
