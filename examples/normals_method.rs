@@ -1,7 +1,9 @@
 //! A method added from outside rsl: a normals view (each vertex's world normal as a colour,
-//! `0.5 + 0.5·n`), made by implementing `rsl_engine::Method` and registering it. The program
-//! is then the `rsl` command line with one more method: `normals` appears in
-//! `rsl render --method`, the bench's `--sweep method=` and the viewer's drawing drop-down,
+//! `0.5 + 0.5·n`), made by implementing `rsl_engine::Method` (whole frames) and
+//! `rsl_engine::compose::ObjectDrawing` (single objects) and registering it. The program is
+//! then the `rsl` command line with one more method: `normals` appears in
+//! `rsl render --method`, the bench's `--sweep method=`, the viewer's drawing drop-down, and
+//! scene files may give it to single objects (`method = "normals"`, drawn so by `auto`),
 //! none of which was edited for it.
 //!
 //! ```text
@@ -12,10 +14,13 @@
 use anyhow::Result;
 use clap::Parser;
 use glam::Vec3;
+use rsl_engine::compose::{FrameContext, ObjectDrawing, Part};
 use rsl_engine::method::{Frame, Method, Request};
 use rsl_engine::registry::{Capabilities, ErrorModel, ImageKind, Incremental};
+use rsl_engine::scene::Brdf;
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, Layers, MethodOptions, Registration, Timings};
+use rsl_shade::FrameStats;
 
 /// Each vertex's world normal as a colour.
 struct Normals;
@@ -40,6 +45,25 @@ impl Method for Normals {
     }
 }
 
+impl ObjectDrawing for Normals {
+    fn describe(&self, _: &Brdf) -> String {
+        "its world normals as colours".into()
+    }
+
+    fn shade<'f>(
+        &mut self,
+        ctx: &FrameContext<'f>,
+        which: &[bool],
+        _: &mut FrameStats,
+    ) -> Result<Vec<Option<Part<'f>>>> {
+        Ok((0..which.len())
+            .map(|i| {
+                which[i].then(|| Part::vertices(ctx.normals(i).iter().map(|n| Vec3::splat(0.5) + 0.5 * *n).collect()))
+            })
+            .collect())
+    }
+}
+
 fn normals(_: &Engine, _: &MethodOptions) -> Result<Box<dyn Method>> {
     Ok(Box::new(Normals))
 }
@@ -57,13 +81,14 @@ fn main() -> std::process::ExitCode {
             layers: Layers { rsl: false },
             monte_carlo: false,
             anisotropic: true,
-            per_object: false,
+            per_object: true,
             oracles: false,
             interactive: true,
             incremental: Incremental::Frames,
             error: ErrorModel::Unbounded,
         },
         constructor: normals,
+        drawing: Some(|| Box::new(Normals)),
     });
     if let Err(e) = registered {
         eprintln!("error: {e:#}");

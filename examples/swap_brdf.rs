@@ -7,7 +7,7 @@
 
 use anyhow::{Context, Result, ensure};
 use rsl_engine::method::{CpuRsl, Method, Request, exposure_for};
-use rsl_engine::scene::{Material, Scene};
+use rsl_engine::scene::{Brdf, Scene};
 use rsl_engine::{Engine, EngineOptions, output};
 use std::path::Path;
 use std::time::Instant;
@@ -25,8 +25,11 @@ fn main() -> Result<()> {
         if k == frames / 2 {
             let misses = engine.cache_stats().misses;
             let start = Instant::now();
-            scene.objects[1].material =
-                Material::Phong { exponent: 200.0, specular: [0.6, 0.6, 0.6], diffuse: [0.1, 0.3, 0.6] };
+            scene.objects[1].material = Brdf::Phong {
+                exponent: 200.0,
+                specular: glam::Vec3::new(0.6, 0.6, 0.6),
+                diffuse: glam::Vec3::new(0.1, 0.3, 0.6),
+            };
             engine.sync(&scene)?;
             let built = engine.cache_stats().misses - misses;
             ensure!(built == 1, "the swap built {built} items; one table was expected");

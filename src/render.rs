@@ -4,7 +4,7 @@ use anyhow::{Context, Result, bail};
 use rsl_engine::method::{Frame, Method, Oracle, Request, exposure_for};
 use rsl_engine::registry::ImageKind;
 use rsl_engine::{Device, Engine, EngineOptions, MethodId, MethodOptions, Session, output, ply};
-use rsl_scene::{Material, Preset, Scene};
+use rsl_scene::{Brdf, Preset, Scene};
 use rsl_shade::{Oracles, tonemap};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -490,8 +490,12 @@ pub struct DemoArgs {
 pub const DEFAULT_SCENE: &str = "data/scenes/default.toml";
 
 /// The material the demo swaps in halfway: brushed copper.
-fn swapped_material() -> Material {
-    Material::CookTorrance { alpha: 0.3, specular: [0.95, 0.64, 0.54], diffuse: [0.02, 0.01, 0.01] }
+fn swapped_material() -> Brdf {
+    Brdf::CookTorrance {
+        alpha: 0.3,
+        specular: glam::Vec3::new(0.95, 0.64, 0.54),
+        diffuse: glam::Vec3::new(0.02, 0.01, 0.01),
+    }
 }
 
 /// `rsl demo`: the default scene as an animation, the objects moving, the environment turning,

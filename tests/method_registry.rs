@@ -102,6 +102,54 @@ fn an_example_method_is_measured_by_the_bench() {
 }
 
 #[test]
+fn a_scene_file_gives_an_example_method_to_one_object() {
+    let dir = out_dir("per-object");
+    let scene = dir.join("two.toml");
+    let ball = |name: &str, x: f32, method: &str| {
+        format!(
+            "[[objects]]\nname = \"{name}\"\ntranslation = [{x}, 0.0, 0.0]\n{method}\n\
+             primitive = {{ kind = \"sphere\", radius = 0.5, resolution = 16 }}\n\
+             material = {{ model = \"ggx\", alpha = 0.3 }}\n"
+        )
+    };
+    std::fs::write(
+        &scene,
+        format!(
+            "[environment]\nconstant = [1.0, 1.0, 1.0]\n[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
+             width = 64\nheight = 48\n{}{}",
+            ball("shown", 0.0, "method = \"normals\""),
+            ball("other", 1.2, "")
+        ),
+    )
+    .unwrap();
+    let exr = dir.join("two.exr");
+    let (ok, log) = run(example()
+        .arg("render")
+        .arg(&scene)
+        .args(["--method", "auto", "--explain", "--quality", "draft", "--out"])
+        .arg(&exr));
+    assert!(ok, "{log}");
+    assert!(log.contains("shown: its world normals as colours (normals)"), "{log}");
+    assert!(log.contains("other: the RSL sum per pixel (pixel)"), "{log}");
+    // The ball given `normals` faces the camera at the image's centre: its normal there is +Z.
+    let (w, _, pixels, _) = rsl_engine::output::read_exr(&exr).unwrap();
+    let centre = pixels[(24 * w + 32) as usize];
+    assert!((centre - glam::Vec3::new(0.5, 0.5, 1.0)).length() < 0.05, "centre {centre}");
+    // The plain `rsl` does not know the name: the scene file is refused, naming it.
+    let o = Command::new(env!("CARGO_BIN_EXE_rsl"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .arg("render")
+        .arg(&scene)
+        .arg("--out")
+        .arg(dir.join("plain.exr"))
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && log.contains("unknown method `normals`"), "{log}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn an_example_method_is_a_drawing_of_the_viewer() {
     if rsl_gpu::testing::context_or_skip("an_example_method_is_a_drawing_of_the_viewer").is_none() {
         return;

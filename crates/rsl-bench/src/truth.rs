@@ -5,7 +5,6 @@
 use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use rsl_engine::cache::KeyHasher;
-use rsl_engine::engine::brdf_key;
 use rsl_engine::method::{Method, Request, Truth};
 use rsl_engine::{Engine, Progress};
 use rsl_scene::Scene;
@@ -64,7 +63,7 @@ pub fn key(engine: &Engine, scene: &Scene, time: f32, spp: u32, seed: u64) -> u6
         let t = &state.objects[i];
         h = h
             .u64(engine.keys(i).mesh)
-            .u64(brdf_key(engine.brdf(i)))
+            .u64(engine.brdf(i).key())
             .f32s(&t.translation.to_array())
             .f32s(&t.rotation.to_array())
             .f32s(&t.scale.to_array())

@@ -3,6 +3,7 @@
 //! at or below the horizon. [`Brdf::eval`] is `ρ` (sr⁻¹, RGB); tables hold `ρ·cos θ_i`.
 
 use glam::Vec3;
+use rsl_sphere::key::KeyHasher;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// A BRDF with its parameters. Colours are linear RGB weights.
@@ -112,16 +113,22 @@ impl Brdf {
         }
     }
 
-    /// Checks every parameter: finite, colours ≥ 0, roughness in `[1e-4, 1]`, exponents in
-    /// `(0, 1e6]`.
+    /// Checks every parameter: colours in `[0, 1]` per channel, roughness in `[1e-4, 1]`,
+    /// exponents in `(0, 1e6]` (the one validation of a material, wherever it comes from).
     pub fn validate(&self) -> Result<(), ParamError> {
         let model = self.name();
         let err = |parameter, problem: String| Err(ParamError { model, parameter, problem });
         let colour = |parameter, c: Vec3| {
-            if c.is_finite() && c.min_element() >= 0.0 {
+            if c.to_array().iter().all(|v| (0.0..=1.0).contains(v)) {
                 Ok(())
             } else {
-                err(parameter, format!("must be finite and ≥ 0, got {c:?}"))
+                err(
+                    parameter,
+                    format!(
+                        "must be in [0, 1] per channel (above 1 a surface reflects more light than it receives), got {:?}",
+                        c.to_array()
+                    ),
+                )
             }
         };
         let alpha = |parameter, a: f32| {
@@ -159,6 +166,25 @@ impl Brdf {
                 colour("diffuse", diffuse)
             }
         }
+    }
+
+    /// The content key: the model and every parameter, bit for bit.
+    pub fn key(&self) -> u64 {
+        let h = KeyHasher::default().str("brdf").str(self.name());
+        let v = |v: &Vec3| v.to_array();
+        match self {
+            Brdf::Lambert { albedo } => h.f32s(&v(albedo)),
+            Brdf::Phong { exponent: p, specular, diffuse } | Brdf::BlinnPhong { exponent: p, specular, diffuse } => {
+                h.f32s(&[*p]).f32s(&v(specular)).f32s(&v(diffuse))
+            }
+            Brdf::CookTorrance { alpha: p, specular, diffuse }
+            | Brdf::Ggx { alpha: p, specular, diffuse }
+            | Brdf::Beckmann { alpha: p, specular, diffuse } => h.f32s(&[*p]).f32s(&v(specular)).f32s(&v(diffuse)),
+            Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
+                h.f32s(&[*alpha_x, *alpha_y]).f32s(&v(specular)).f32s(&v(diffuse))
+            }
+        }
+        .finish()
     }
 
     /// Whether the BRDF depends on the azimuth about the normal.
@@ -351,4 +377,33 @@ fn beckmann_g1(v: Vec3, m: Vec3, alpha: f32) -> f32 {
     }
     let a = 1.0 / (alpha * tan);
     if a >= 1.6 { 1.0 } else { (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a) }
+}
+
+impl std::fmt::Display for Brdf {
+    /// The model and its parameters as a scene file names them (`ggx alpha 0.2 specular
+    /// [1.0, 1.0, 1.0] diffuse [0.0, 0.0, 0.0]`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = self.name();
+        let rgb = |c: &Vec3| c.to_array();
+        match self {
+            Brdf::Lambert { albedo } => write!(f, "lambert albedo {:?}", rgb(albedo)),
+            Brdf::Phong { exponent, specular, diffuse } | Brdf::BlinnPhong { exponent, specular, diffuse } => {
+                write!(f, "{name} exponent {exponent} specular {:?} diffuse {:?}", rgb(specular), rgb(diffuse))
+            }
+            Brdf::CookTorrance { alpha, specular, diffuse }
+            | Brdf::Ggx { alpha, specular, diffuse }
+            | Brdf::Beckmann { alpha, specular, diffuse } => {
+                write!(f, "{name} alpha {alpha} specular {:?} diffuse {:?}", rgb(specular), rgb(diffuse))
+            }
+            Brdf::Ward { alpha_x, alpha_y, specular, diffuse } if alpha_x == alpha_y => {
+                write!(f, "ward alpha {alpha_x} specular {:?} diffuse {:?}", rgb(specular), rgb(diffuse))
+            }
+            Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => write!(
+                f,
+                "ward alpha_x {alpha_x} alpha_y {alpha_y} specular {:?} diffuse {:?}",
+                rgb(specular),
+                rgb(diffuse)
+            ),
+        }
+    }
 }

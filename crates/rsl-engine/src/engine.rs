@@ -24,7 +24,7 @@ use anyhow::{Context, Result, bail};
 use glam::Vec3;
 use rsl_brdf::{Brdf, BrdfTable, Resolution};
 use rsl_env::{CubeEnv, Decomposition, Rsl};
-use rsl_scene::{EnvironmentSource, Material, Preset, QualitySettings, Scene, SceneState};
+use rsl_scene::{EnvironmentSource, Preset, QualitySettings, Scene, SceneState};
 use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, Traced, VertexFrames};
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
@@ -38,8 +38,8 @@ mod items;
 use crate::field_io::{FieldIo, field_key, field_vertices, frames_bytes, reject, rsl_bytes};
 pub(crate) use crate::options::check_size;
 pub use crate::options::{
-    DEFAULT_PREPARE_LIMIT, EngineOptions, Layers, PREPARE_LIMIT_ENV, PREVIEW_RESOLUTION, brdf_key, brdf_of,
-    ovdf_params, prepare_limit, svdf_params, table_resolution,
+    DEFAULT_PREPARE_LIMIT, EngineOptions, Layers, PREPARE_LIMIT_ENV, PREVIEW_RESOLUTION, ovdf_params, prepare_limit,
+    svdf_params, table_resolution,
 };
 
 /// The environment's radiance, before its intensity.
@@ -83,7 +83,6 @@ struct PreparedObject {
     mesh_key: u64,
     frames: Arc<VertexFrames>,
     frames_key: u64,
-    material: Material,
     brdf: Brdf,
     rsl: Option<RslObject>,
 }
@@ -460,7 +459,7 @@ impl Engine {
                 Some(p) => p.mesh_key,
                 None => cache::mesh_key(&o.mesh),
             };
-            let brdf = brdf_of(&o.material);
+            let brdf = o.material;
             let anisotropic = brdf.is_anisotropic();
             let frames_key = KeyHasher::default().str("frames").u64(mesh_key).u64(u64::from(anisotropic)).finish();
             let frames = match self.store.get::<VertexFrames>(frames_key) {
@@ -493,15 +492,7 @@ impl Engine {
             } else {
                 None
             };
-            objects.push(PreparedObject {
-                mesh: o.mesh.clone(),
-                mesh_key,
-                frames,
-                frames_key,
-                material: o.material.clone(),
-                brdf,
-                rsl,
-            });
+            objects.push(PreparedObject { mesh: o.mesh.clone(), mesh_key, frames, frames_key, brdf, rsl });
         }
         self.objects = objects;
         self.pin_in_use();
@@ -543,7 +534,7 @@ impl Engine {
                 .objects
                 .iter()
                 .zip(&self.objects)
-                .any(|(o, p)| !(Arc::ptr_eq(&o.mesh, &p.mesh) || *o.mesh == *p.mesh) || o.material != p.material)
+                .any(|(o, p)| !(Arc::ptr_eq(&o.mesh, &p.mesh) || *o.mesh == *p.mesh) || o.material != p.brdf)
         {
             bail!("the scene changed since it was prepared: call Engine::sync first");
         }

@@ -14,6 +14,7 @@
 
 mod auto;
 pub mod cache;
+pub mod compose;
 pub mod engine;
 mod field_io;
 pub mod gpu;

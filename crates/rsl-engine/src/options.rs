@@ -2,12 +2,10 @@
 //! names and its content key, the visibility fields' and tables' parameters for a quality,
 //! and the bound on what one preparation may allocate.
 
-use crate::cache::KeyHasher;
 use crate::progress::Progress;
 use anyhow::{Result, bail};
-use glam::Vec3;
 use rsl_brdf::{Brdf, Resolution};
-use rsl_scene::{Material, Preset, QualitySettings};
+use rsl_scene::{Preset, QualitySettings};
 use rsl_vis::{OvdfParams, SvdfParams};
 use std::path::PathBuf;
 
@@ -41,63 +39,6 @@ pub struct EngineOptions {
     pub memory_budget: Option<usize>,
     /// The layers to prepare.
     pub layers: Layers,
-}
-
-/// The scene material as the BRDF model it names.
-pub fn brdf_of(m: &Material) -> Brdf {
-    let v = Vec3::from_array;
-    match *m {
-        Material::Lambert { albedo } => Brdf::Lambert { albedo: v(albedo) },
-        Material::Phong { exponent, specular, diffuse } => {
-            Brdf::Phong { exponent, specular: v(specular), diffuse: v(diffuse) }
-        }
-        Material::BlinnPhong { exponent, specular, diffuse } => {
-            Brdf::BlinnPhong { exponent, specular: v(specular), diffuse: v(diffuse) }
-        }
-        Material::CookTorrance { alpha, specular, diffuse } => {
-            Brdf::CookTorrance { alpha, specular: v(specular), diffuse: v(diffuse) }
-        }
-        Material::Ward { alpha, alpha_x, alpha_y, specular, diffuse } => {
-            // The scene file holds `alpha` or both of `alpha_x`, `alpha_y`; a missing value
-            // would fail the table's parameter check by name.
-            Brdf::Ward {
-                alpha_x: alpha_x.or(alpha).unwrap_or(f32::NAN),
-                alpha_y: alpha_y.or(alpha).unwrap_or(f32::NAN),
-                specular: v(specular),
-                diffuse: v(diffuse),
-            }
-        }
-        Material::Ggx { alpha, specular, diffuse } => Brdf::Ggx { alpha, specular: v(specular), diffuse: v(diffuse) },
-        Material::Beckmann { alpha, specular, diffuse } => {
-            Brdf::Beckmann { alpha, specular: v(specular), diffuse: v(diffuse) }
-        }
-    }
-}
-
-/// The content key of a BRDF: its model and every parameter, bit for bit.
-pub fn brdf_key(b: &Brdf) -> u64 {
-    let h = KeyHasher::default().str("brdf");
-    let v = |v: &Vec3| v.to_array();
-    match b {
-        Brdf::Lambert { albedo } => h.str("lambert").f32s(&v(albedo)),
-        Brdf::Phong { exponent, specular, diffuse } => {
-            h.str("phong").f32s(&[*exponent]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::BlinnPhong { exponent, specular, diffuse } => {
-            h.str("blinn_phong").f32s(&[*exponent]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::CookTorrance { alpha, specular, diffuse } => {
-            h.str("cook_torrance").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
-            h.str("ward").f32s(&[*alpha_x, *alpha_y]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-        Brdf::Ggx { alpha, specular, diffuse } => h.str("ggx").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse)),
-        Brdf::Beckmann { alpha, specular, diffuse } => {
-            h.str("beckmann").f32s(&[*alpha]).f32s(&v(specular)).f32s(&v(diffuse))
-        }
-    }
-    .finish()
 }
 
 /// The self-visibility resolution of a quality setting.

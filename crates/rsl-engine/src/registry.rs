@@ -8,9 +8,10 @@
 //! others. Front ends ask the registry what a method can do; they never branch on which
 //! method it is.
 
+use crate::compose::{ObjectDrawing, PixelDrawing, VertexDrawing};
 use crate::engine::{Engine, Layers};
 use crate::gpu::GpuRenderer;
-use crate::lobe::{Hybrid, PerObject};
+use crate::lobe::{Composite, LobeDrawing};
 use crate::method::{CpuRsl, CpuRslPixels, GpuRsl, Method, Truth};
 use crate::progress::Progress;
 use anyhow::{Context, Result, bail};
@@ -176,7 +177,14 @@ pub struct Registration {
     pub capabilities: Capabilities,
     /// How it is built.
     pub constructor: Constructor,
+    /// How it draws the objects a scene file or a per-object method assigns it (one
+    /// [`ObjectDrawing`] per per-object method, `Capabilities::per_object`; `None` for the
+    /// others and for `auto`, a rule rather than a drawing).
+    pub drawing: Option<DrawingConstructor>,
 }
+
+/// Builds a per-object method's drawing.
+pub type DrawingConstructor = fn() -> Box<dyn ObjectDrawing>;
 
 /// A registered method, by its one name.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -204,6 +212,12 @@ pub fn register(method: Registration) -> Result<MethodId> {
             bail!("method name `{name}` is already registered");
         }
     }
+    if method.capabilities.per_object != method.drawing.is_some() {
+        bail!("method `{}`: a per-object method needs a drawing, and only one has it", method.name);
+    }
+    if method.capabilities.per_object {
+        rsl_scene::register_method_name(method.name);
+    }
     let mut w = REGISTRY.write().unwrap_or_else(|e| e.into_inner());
     w.push(Box::leak(Box::new(method)));
     Ok(MethodId(method.name))
@@ -223,6 +237,12 @@ impl MethodId {
     pub const RSL: MethodId = MethodId("rsl");
     /// The Monte Carlo ground truth.
     pub const TRUTH: MethodId = MethodId("truth");
+    /// The RSL sum per pixel.
+    pub const PIXEL: MethodId = MethodId("pixel");
+    /// vMF lobes × the RSL path's visibility ratio.
+    pub const HYBRID: MethodId = MethodId("hybrid");
+    /// Transport lobes shadowed by the other objects' fields.
+    pub const LOBE: MethodId = MethodId("lobe");
 
     /// Every registered method, built-in ones first.
     pub fn all() -> Vec<MethodId> {
@@ -439,10 +459,10 @@ fn make_pixel(_: &Engine, _: &MethodOptions) -> Result<Box<dyn Method>> {
     Ok(Box::new(CpuRslPixels))
 }
 
-fn lobes_on(o: &MethodOptions) -> Result<Hybrid> {
+fn lobes_on(o: &MethodOptions) -> Result<Composite> {
     Ok(match gpu_context(o)? {
-        Some(ctx) => Hybrid::on_gpu(ctx)?,
-        None => Hybrid::new(),
+        Some(ctx) => Composite::on_gpu(ctx)?,
+        None => Composite::hybrid(),
     })
 }
 
@@ -455,7 +475,7 @@ fn make_lobe(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
 }
 
 fn make_auto(_: &Engine, _: &MethodOptions) -> Result<Box<dyn Method>> {
-    Ok(Box::new(PerObject::new()))
+    Ok(Box::new(Composite::auto()))
 }
 
 fn make_truth(engine: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
@@ -477,6 +497,7 @@ static BUILT_IN: [Registration; 7] = [
         when: "previews, animations and sweeps: the fastest; a highlight or a shadow edge smaller than a triangle is smeared across it",
         capabilities: CPU_RSL,
         constructor: make_rsl,
+        drawing: Some(|| Box::new(VertexDrawing)),
     },
     Registration {
         name: "pixel",
@@ -491,6 +512,7 @@ static BUILT_IN: [Registration; 7] = [
             ..CPU_RSL
         },
         constructor: make_pixel,
+        drawing: Some(|| Box::new(PixelDrawing)),
     },
     Registration {
         name: "hybrid",
@@ -499,6 +521,7 @@ static BUILT_IN: [Registration; 7] = [
         when: "near-mirrors reflecting large uniform regions (a horizon), where the squares' outlines would show",
         capabilities: LOBES,
         constructor: make_hybrid,
+        drawing: Some(|| Box::new(LobeDrawing::new(false))),
     },
     Registration {
         name: "lobe",
@@ -507,6 +530,7 @@ static BUILT_IN: [Registration; 7] = [
         when: "sharp lobes reflecting nearby objects with nothing traced per frame; its lobes take about 22 s per 10,000 vertices to fit",
         capabilities: LOBES,
         constructor: make_lobe,
+        drawing: Some(|| Box::new(LobeDrawing::new(true))),
     },
     Registration {
         name: "auto",
@@ -521,6 +545,7 @@ static BUILT_IN: [Registration; 7] = [
             ..CPU_RSL
         },
         constructor: make_auto,
+        drawing: None,
     },
     Registration {
         name: "truth",
@@ -540,6 +565,7 @@ static BUILT_IN: [Registration; 7] = [
             ..CPU_RSL
         },
         constructor: make_truth,
+        drawing: None,
     },
     Registration {
         name: "wavelet",
@@ -557,6 +583,7 @@ static BUILT_IN: [Registration; 7] = [
             ..CPU_RSL
         },
         constructor: make_wavelet,
+        drawing: None,
     },
 ];
 

@@ -12,7 +12,7 @@
 //! told to the session and nothing is branched on by method: each method reuses what it
 //! kept for the objects that did not change, or draws the whole frame.
 
-use crate::engine::{Engine, ObjectKeys, brdf_key};
+use crate::engine::{Engine, ObjectKeys};
 use crate::method::{Changes, Frame, Kept, Method, Prepared, Request};
 use crate::registry::{MethodId, MethodOptions};
 use anyhow::{Context, Result, anyhow};
@@ -41,7 +41,7 @@ impl Seen {
             environment: (engine.environment_key(), engine.intensity().to_bits(), engine.rsl_count()),
             traced: engine.traced(),
             objects: (0..engine.object_count())
-                .map(|i| (engine.keys(i), brdf_key(engine.brdf(i)), scene.objects[i].casts_shadows))
+                .map(|i| (engine.keys(i), engine.brdf(i).key(), scene.objects[i].casts_shadows))
                 .collect(),
         }
     }

@@ -2,7 +2,6 @@
 //! same vertices, shading frames and views as the RSL path (for tests and scripts; the
 //! [`crate::method::Truth`] method shares the engine's prepared data instead).
 
-use crate::engine::brdf_of;
 use anyhow::{Context, Result};
 use rsl_scene::{EnvironmentSource, Scene};
 use rsl_shade::VertexFrames;
@@ -23,7 +22,7 @@ pub fn env_light(scene: &Scene) -> Result<EnvLight> {
 
 /// The vertex frames of every object (as the engine builds them).
 pub fn vertex_frames(scene: &Scene) -> Vec<VertexFrames> {
-    scene.objects.iter().map(|o| VertexFrames::new(&o.mesh, brdf_of(&o.material).is_anisotropic())).collect()
+    scene.objects.iter().map(|o| VertexFrames::new(&o.mesh, o.material.is_anisotropic())).collect()
 }
 
 /// The truth scene at time `t`.
@@ -37,7 +36,7 @@ pub fn truth_scene(scene: &Scene, frames: &[VertexFrames], env: EnvLight, t: f32
         .map(|((o, f), &transform)| TruthObject {
             mesh: &o.mesh,
             frames: f,
-            brdf: brdf_of(&o.material),
+            brdf: o.material,
             transform,
             casts_shadows: o.casts_shadows,
         })

@@ -251,7 +251,7 @@ impl Method for WaveletMethod {
         for (i, o) in scene.objects.iter().enumerate() {
             h = h
                 .u64(engine.keys(i).mesh)
-                .u64(crate::engine::brdf_key(engine.brdf(i)))
+                .u64(engine.brdf(i).key())
                 .u64(u64::from(o.casts_shadows))
                 .f32s(&state.world_from_object(i).to_cols_array());
         }

@@ -2,8 +2,8 @@
 //! values, and the GPU path renders the right table after it was evicted and rebuilt.
 
 use glam::Vec3;
-use rsl_engine::engine::{brdf_of, table_resolution};
-use rsl_engine::scene::{Material, Scene};
+use rsl_engine::engine::table_resolution;
+use rsl_engine::scene::{Brdf, Scene};
 use rsl_engine::{Engine, EngineOptions, GpuRenderer};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -13,8 +13,8 @@ fn default_scene() -> Scene {
     Scene::load(root.join("data/scenes/default.toml")).expect("the default scene loads")
 }
 
-fn ggx(alpha: f32) -> Material {
-    Material::Ggx { alpha, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] }
+fn ggx(alpha: f32) -> Brdf {
+    Brdf::Ggx { alpha, specular: glam::Vec3::new(0.95, 0.75, 0.4), diffuse: glam::Vec3::new(0.05, 0.04, 0.02) }
 }
 
 /// Every vertex of the GPU frame within 1e-3 relative (1e-5 absolute) of the CPU's.
@@ -35,7 +35,7 @@ fn dragging_a_material_through_200_values_stays_under_the_budget() {
     // What the scene itself holds, and one table of the dragged material.
     let probe = Engine::new(&s, options.clone()).unwrap();
     let in_use = probe.memory().resident_bytes;
-    let b = brdf_of(&ggx(0.3));
+    let b = ggx(0.3);
     let table = rsl_brdf::BrdfTable::build(&b, table_resolution(&probe.settings().1, &b)).unwrap().bytes();
     drop(probe);
     // Room for the scene and five more tables.

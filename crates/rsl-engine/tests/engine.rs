@@ -1,7 +1,7 @@
 //! End-to-end tests of the engine: scene → prepared data → shaded vertices.
 
 use glam::{Quat, Vec3};
-use rsl_engine::scene::{Material, Scene};
+use rsl_engine::scene::{Brdf, Scene};
 use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Terms;
 use std::path::{Path, PathBuf};
@@ -203,7 +203,8 @@ fn swapping_a_material_changes_only_that_object_and_builds_one_table() {
     let mut engine = Engine::new(&s, EngineOptions { cache_dir: Some(cache_dir("swap")), ..memory_only() }).unwrap();
     let before = engine.shade(&s, 1.5).unwrap();
     let misses = engine.cache_stats().misses;
-    s.objects[1].material = Material::CookTorrance { alpha: 0.3, specular: [0.9, 0.6, 0.5], diffuse: [0.0; 3] };
+    s.objects[1].material =
+        Brdf::CookTorrance { alpha: 0.3, specular: glam::Vec3::new(0.9, 0.6, 0.5), diffuse: glam::Vec3::splat(0.0) };
     engine.sync(&s).unwrap();
     assert_eq!(engine.cache_stats().misses, misses + 1, "one new table, nothing else");
     let after = engine.shade(&s, 1.5).unwrap();
@@ -215,7 +216,7 @@ fn swapping_a_material_changes_only_that_object_and_builds_one_table() {
         }
     }
     // Swapping back finds the old table in memory.
-    s.objects[1].material = Scene::load(&path).unwrap().objects[1].material.clone();
+    s.objects[1].material = Scene::load(&path).unwrap().objects[1].material;
     engine.sync(&s).unwrap();
     assert_eq!(engine.cache_stats().misses, misses + 1);
     assert_eq!(engine.shade(&s, 1.5).unwrap().radiance, before.radiance);

@@ -3,7 +3,7 @@
 //! tests print "skipped: no adapter", and fail under RSL_REQUIRE_GPU=1.
 
 use glam::{Quat, Vec3};
-use rsl_engine::scene::{Material, Scene};
+use rsl_engine::scene::{Brdf, Scene};
 use rsl_engine::{Engine, EngineOptions, GpuRenderer, ShadedFrame};
 use std::sync::Arc;
 
@@ -118,7 +118,8 @@ fn gpu_matches_cpu_after_a_brdf_edit_and_an_environment_rotation() {
     );
     let before = gpu.uploads();
     // A BRDF edit: the bunny becomes rougher and redder.
-    scene.objects[1].material = Material::Ggx { alpha: 0.4, specular: [0.9, 0.3, 0.2], diffuse: [0.1, 0.02, 0.02] };
+    scene.objects[1].material =
+        Brdf::Ggx { alpha: 0.4, specular: glam::Vec3::new(0.9, 0.3, 0.2), diffuse: glam::Vec3::new(0.1, 0.02, 0.02) };
     engine.sync(&scene).unwrap();
     check(
         "after a BRDF edit",

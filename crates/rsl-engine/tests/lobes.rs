@@ -1,11 +1,11 @@
-//! The lobe path with its own shadows (`method = "lobe"`, [`Hybrid::lobe`]): transport lobes
+//! The lobe path with its own shadows (`method = "lobe"`, [`Composite::lobe`]): transport lobes
 //! (the object's own shadows fitted in, per vertex and view), each shadowed by the other
 //! objects' occluder fields over a square of its width. Per vertex against the truth: a
 //! glossy floor under a ball (the ball's reflection, the environment it hides, must be
 //! there), and a glossy torus in a white furnace (its inner ring sees itself); each error is
 //! measured beside the hybrid's (the RSL visibility ratio).
 
-use rsl_engine::lobe::{Hybrid, lobe_half_diagonal};
+use rsl_engine::lobe::{Composite, lobe_half_diagonal};
 use rsl_engine::method::{Frame, Method, Request, Truth};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, Layers};
@@ -78,12 +78,12 @@ fn the_lobes_own_shadows_put_the_ball_on_a_glossy_floor() {
     let noise = truth.self_error.and_then(|e| e.vertices).expect("the truth's noise");
 
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
-    let lobe = vertices(&mut Hybrid::lobe(), &engine, &s);
-    let hybrid = vertices(&mut Hybrid::new(), &engine, &s);
+    let lobe = vertices(&mut Composite::lobe(), &engine, &s);
+    let hybrid = vertices(&mut Composite::hybrid(), &engine, &s);
     // The same lobes with the ball casting nothing: what the fields take away is the shadow.
     let unshadowed_scene = floor_scene(false);
     let unshadowed_engine = Engine::new(&unshadowed_scene, EngineOptions::default()).expect("engine");
-    let unshadowed = vertices(&mut Hybrid::lobe(), &unshadowed_engine, &unshadowed_scene);
+    let unshadowed = vertices(&mut Composite::lobe(), &unshadowed_engine, &unshadowed_scene);
 
     let (e_lobe, e_hybrid, e_none) = (l2(&lobe, &truth, 0), l2(&hybrid, &truth, 0), l2(&unshadowed, &truth, 0));
     println!(
@@ -127,10 +127,10 @@ fn the_transport_lobes_shadow_a_torus_by_itself() {
     let truth = vertices(&mut Truth::new(&neutral, 1024, 5).expect("truth"), &neutral, &s);
     let noise = truth.self_error.and_then(|e| e.vertices).expect("the truth's noise");
     let mut engine = Engine::new(&s, EngineOptions::default()).expect("engine");
-    let mut method = Hybrid::lobe();
+    let mut method = Composite::lobe();
     let lobe = vertices(&mut method, &engine, &s);
-    let hybrid = vertices(&mut Hybrid::new(), &engine, &s);
-    let unshadowed = vertices(&mut Hybrid::lobe().without_self_shadows(), &engine, &s);
+    let hybrid = vertices(&mut Composite::hybrid(), &engine, &s);
+    let unshadowed = vertices(&mut Composite::lobe().without_self_shadows(), &engine, &s);
     let (e_lobe, e_hybrid, e_none) = (l2(&lobe, &truth, 0), l2(&hybrid, &truth, 0), l2(&unshadowed, &truth, 0));
     println!(
         "torus per vertex against the truth (noise {noise:.4}): transport lobes {e_lobe:.4}, lobes × RSL ratio \
@@ -142,7 +142,7 @@ fn the_transport_lobes_shadow_a_torus_by_itself() {
     // A material edit fits the torus again and drops the old fit: edits do not pile up.
     let mut edited = s.clone();
     edited.objects[0].material =
-        rsl_engine::scene::Material::Ggx { alpha: 0.25, specular: [0.8; 3], diffuse: [0.2; 3] };
+        rsl_engine::scene::Brdf::Ggx { alpha: 0.25, specular: glam::Vec3::splat(0.8), diffuse: glam::Vec3::splat(0.2) };
     engine.sync(&edited).expect("sync");
     assert_eq!(method.transport_held(), 1);
     vertices(&mut method, &engine, &edited);
@@ -171,11 +171,11 @@ fn a_lobe_method_built_later_takes_the_environment_another_prefiltered() {
         "#,
     );
     let engine = Engine::new(&s, EngineOptions::default()).unwrap();
-    let mut first = Hybrid::new();
+    let mut first = Composite::hybrid();
     let job = first.environment_job(&engine).unwrap().expect("the first prefilters");
     first.install(job.run());
     // A second hybrid, and the lobe path, find it held: nothing to prefilter.
-    let mut second = Hybrid::new();
+    let mut second = Composite::hybrid();
     assert!(second.environment_job(&engine).unwrap().is_none(), "the second prefilters again");
     let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
     let (a, b) = (first.render(&engine, &s, &request).unwrap(), second.render(&engine, &s, &request).unwrap());
@@ -183,6 +183,6 @@ fn a_lobe_method_built_later_takes_the_environment_another_prefiltered() {
     assert_eq!(a.image.unwrap().pixels, b.image.unwrap().pixels);
     // Once no method holds it, it is freed: the next one prefilters.
     drop((first, second));
-    let mut third = Hybrid::new();
+    let mut third = Composite::hybrid();
     assert!(third.environment_job(&engine).unwrap().is_some(), "a freed environment was found");
 }

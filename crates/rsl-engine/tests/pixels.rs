@@ -5,7 +5,8 @@
 //! whose edge the lobes per pixel must put where the truth's is.
 
 use glam::Vec3;
-use rsl_engine::lobe::{Drawn, Hybrid, PerObject};
+use rsl_engine::MethodId;
+use rsl_engine::lobe::Composite;
 use rsl_engine::method::{CpuRsl, CpuRslPixels, Frame, Method, Request, Truth};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, Layers};
@@ -112,8 +113,8 @@ fn a_highlight_between_vertices_is_drawn_per_pixel() {
     assert!(e_pixel < 0.25 * e_vertex, "per pixel {e_pixel} against interpolated {e_vertex}");
 
     // The hybrid's lobes per pixel, against its vertices interpolated.
-    let mut lobes = Hybrid::new();
-    let mut lobes_interpolated = Hybrid::new();
+    let mut lobes = Composite::hybrid();
+    let mut lobes_interpolated = Composite::hybrid();
     lobes_interpolated.per_pixel = false;
     let h_pixel = pixel_l2(&render(&mut lobes, &engine, &s, true).image.expect("image"), &t);
     let h_vertex = pixel_l2(&render(&mut lobes_interpolated, &engine, &s, true).image.expect("image"), &t);
@@ -129,7 +130,7 @@ fn a_highlight_between_vertices_is_drawn_per_pixel() {
 fn lambertian_objects_are_drawn_per_pixel_for_traced_shadows_alone() {
     // Nothing traced: a Lambertian object's pixels are its vertices interpolated.
     let mut s = ball_scene();
-    s.objects[1].material = s.objects[0].material.clone();
+    s.objects[1].material = s.objects[0].material;
     s.quality.settings.traced_lights = 0;
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let interpolated = render(&mut CpuRsl, &engine, &s, true).image.expect("image");
@@ -217,10 +218,10 @@ fn a_mirror_ball_puts_a_sharp_horizon_where_the_truth_does() {
     ));
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let per_pixel = render(&mut CpuRslPixels, &engine, &s, true).image.expect("image");
-    let lobes = render(&mut Hybrid::new(), &engine, &s, true).image.expect("image");
+    let lobes = render(&mut Composite::hybrid(), &engine, &s, true).image.expect("image");
     // `auto` takes the lobes here: the squares carrying the uniform sky are wide.
     println!("typical square {:.4}", rsl_engine::lobe::typical_square(engine.rsls()));
-    assert_eq!(PerObject::new().auto_choice(&engine, 0).unwrap(), Drawn::Lobes);
+    assert_eq!(Composite::auto().auto_choice(&engine, 0).unwrap(), MethodId::HYBRID);
     let (t, _) = truth_image(&s, 5);
     std::fs::remove_dir_all(&dir).ok();
     let (e_rsl, e_lobes) = (pixel_l2(&per_pixel, &t), pixel_l2(&lobes, &t));
@@ -320,7 +321,7 @@ fn each_object_is_drawn_by_its_own_method() {
     {
         let s = mixed_scene_sized(rough, sharp, w, h);
         let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
-        let f = render(&mut PerObject::new(), &engine, &s, true);
+        let f = render(&mut Composite::auto(), &engine, &s, true);
         let image = f.image.clone().expect("image");
         let e = object_pixel_l2(&s, &f, &image, &t);
         println!(
@@ -356,15 +357,15 @@ fn the_gpu_draws_the_lobes_per_pixel_as_the_cpu_does() {
     // lobes per view), the floor from its vertices: the GPU draws what the CPU draws.
     let s = mixed_scene("hybrid", "hybrid");
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
-    let mut gpu = Hybrid::on_gpu(std::sync::Arc::new(ctx)).expect("the draw pass builds");
+    let mut gpu = Composite::on_gpu(std::sync::Arc::new(ctx)).expect("the draw pass builds");
     assert!(gpu.describe().contains("pixels on"), "{}", gpu.describe());
     let g = render(&mut gpu, &engine, &s, true);
     assert!(g.timings.stages.iter().any(|t| t.name == "draw per pixel (GPU)"), "drawn on the GPU");
     let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
     // The CPU with the ratio interpolated from the vertices, as the GPU has it.
-    let c = Hybrid::new()
+    let c = Composite::hybrid()
         .with_vertex_ratios()
-        .render_drawn(&engine, &s, &request, &[Drawn::Vertex, Drawn::Lobes, Drawn::Lobes], true)
+        .render_drawn(&engine, &s, &request, &[MethodId::RSL, MethodId::HYBRID, MethodId::HYBRID], true)
         .expect("CPU frame");
     let (gi, ci) = (g.image.expect("GPU image"), c.image.expect("CPU image"));
     assert_eq!(g.radiance, c.radiance, "the same vertices");
@@ -432,10 +433,10 @@ fn the_hybrids_ratio_at_each_pixel_keeps_the_suns_self_shadows() {
     let (t, noise) = truth_image_at(&s, 21, 512);
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
-    let drawn = [Drawn::Vertex, Drawn::Lobes];
-    let at_pixels = Hybrid::new().render_drawn(&engine, &s, &request, &drawn, true).expect("frame");
+    let drawn = [MethodId::RSL, MethodId::HYBRID];
+    let at_pixels = Composite::hybrid().render_drawn(&engine, &s, &request, &drawn, true).expect("frame");
     let at_vertices =
-        Hybrid::new().with_vertex_ratios().render_drawn(&engine, &s, &request, &drawn, true).expect("frame");
+        Composite::hybrid().with_vertex_ratios().render_drawn(&engine, &s, &request, &drawn, true).expect("frame");
     let e = |f: &Frame| object_pixel_l2(&s, f, f.image.as_ref().expect("image"), &t)[1];
     let (p, v) = (e(&at_pixels), e(&at_vertices));
     println!("Suzanne per pixel: ratio at each pixel {p:.4}, from the vertices {v:.4} (truth noise {noise:.4})");

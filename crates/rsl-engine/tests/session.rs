@@ -3,7 +3,7 @@
 
 use glam::{Quat, Vec3};
 use rsl_engine::method::Request;
-use rsl_engine::scene::{Material, Scene};
+use rsl_engine::scene::{Brdf, Scene};
 use rsl_engine::{Engine, EngineOptions, MethodId, MethodOptions, Session};
 
 mod common;
@@ -76,7 +76,7 @@ fn the_session_finds_what_changed_by_content() {
     assert!(!none.any(), "nothing changed: {none:?}");
 
     // A material: that object alone, and nothing moved.
-    s.objects[2].material = Material::Lambert { albedo: [0.9, 0.2, 0.2] };
+    s.objects[2].material = Brdf::Lambert { albedo: glam::Vec3::new(0.9, 0.2, 0.2) };
     engine.sync(&s).unwrap();
     let c = session.changes(&engine, &s, rsl, 0.0).unwrap();
     assert_eq!(c.objects, [false, false, true]);
@@ -118,7 +118,7 @@ fn frames_drawn_incrementally_are_the_frames_drawn_whole() {
     }
     // A material edit, then a move: each method draws again only what changed.
     let edits: [&dyn Fn(&mut Scene); 2] =
-        [&|s| s.objects[1].material = Material::Lambert { albedo: [0.2, 0.7, 0.3] }, &|s| {
+        [&|s| s.objects[1].material = Brdf::Lambert { albedo: glam::Vec3::new(0.2, 0.7, 0.3) }, &|s| {
             s.objects[0].transform.translation += Vec3::new(0.2, 0.0, 0.2)
         }];
     for (k, edit) in edits.iter().enumerate() {
@@ -153,7 +153,7 @@ fn a_front_end_that_drew_by_other_means_gets_whole_frames_after() {
     let mut engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let mut session = Session::new(MethodOptions::default());
     session.render(&engine, &s, MethodId::RSL, &request(false)).unwrap();
-    s.objects[1].material = Material::Lambert { albedo: [0.2, 0.2, 0.9] };
+    s.objects[1].material = Brdf::Lambert { albedo: glam::Vec3::new(0.2, 0.2, 0.9) };
     engine.sync(&s).unwrap();
     session.drawn_elsewhere(&engine, &s, MethodId::RSL, 0.0).unwrap();
     assert!(!session.changes(&engine, &s, MethodId::RSL, 0.0).unwrap().any());

@@ -76,7 +76,7 @@ pub const DRAW_OBJECTS: Shader = Shader {
 };
 
 /// The objects per pixel through the lobe path: vMF lobes over the prefiltered environment
-/// × the RSL visibility ratio (`rsl_engine::lobe::Hybrid` on the GPU).
+/// × the RSL visibility ratio (`rsl_engine::lobe::Composite::on_gpu`).
 pub const DRAW_LOBES: Shader = Shader {
     name: "draw/lobes",
     path: "draw/lobes.wgsl",

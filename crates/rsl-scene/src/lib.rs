@@ -35,10 +35,11 @@ mod raw;
 mod write;
 
 pub use error::SceneError;
-pub use material::Material;
+pub use material::default_material;
 pub use motion::{Keyframe, Motion, Orbit, Spin, Transform};
 pub use primitive::Primitive;
 pub use quality::{Preset, Quality, QualitySettings};
+pub use rsl_brdf::Brdf;
 
 /// The most pixels a camera may have (8192×4096): the renderers hold about 40 bytes per pixel
 /// (radiance, depth, coverage, display colour).
@@ -138,7 +139,7 @@ pub struct Object {
     /// Transform at time 0 (before motion).
     pub transform: Transform,
     /// The material.
-    pub material: Material,
+    pub material: Brdf,
     /// Motion over time.
     pub motion: Motion,
     /// Whether the object shadows others.
@@ -147,34 +148,97 @@ pub struct Object {
     pub method: ObjectMethod,
 }
 
-/// How an object's radiance reaches the image, per object (`method = "auto" | "rsl" |
-/// "pixel" | "hybrid" | "lobe"`, default `auto`; the names of `rsl_engine`'s method registry,
-/// `rsl_pixel` still taken for `pixel`). A Lambertian object is always shaded at its
-/// vertices by the RSL path and interpolated: its radiance varies no faster than its
-/// visibility, and its BRDF term is exact.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ObjectMethod {
-    /// For a glossy object, `rsl_pixel` (the most accurate per covered pixel on every bundled
-    /// accuracy scene, docs/history.md), or `hybrid` where its lobe is much narrower than the squares
-    /// that carry the light (a near-mirror under a smooth sky; `rsl_engine::lobe::PerObject`).
-    #[default]
-    Auto,
+/// How an object's radiance reaches the image, per object: `method = "auto"` (the default)
+/// or the name of a per-object method of `rsl_engine`'s registry — `rsl`, `pixel` (also read
+/// as `rsl_pixel`), `hybrid`, `lobe`, or one a program registered ([`register_method_name`]).
+/// For a glossy object `auto` takes `pixel` (the most accurate per covered pixel on every
+/// bundled accuracy scene, docs/history.md), or `hybrid` where its lobe is much narrower
+/// than the squares that carry the light (a near-mirror under a smooth sky;
+/// `rsl_engine::lobe::Composite::auto_choice`). A Lambertian object is shaded at its
+/// vertices by the RSL path and interpolated by the built-in methods: its radiance varies no
+/// faster than its visibility, and its BRDF term is exact.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ObjectMethod(&'static str);
+
+/// The per-object method names besides the built-in ones, as programs registered them.
+static REGISTERED_METHODS: std::sync::RwLock<Vec<&'static str>> = std::sync::RwLock::new(Vec::new());
+
+/// Lets scene files name the per-object method `name` (rsl-engine's registry calls it for a
+/// method registered with per-object use).
+pub fn register_method_name(name: &'static str) {
+    let mut w = REGISTERED_METHODS.write().unwrap_or_else(|e| e.into_inner());
+    if !w.contains(&name) {
+        w.push(name);
+    }
+}
+
+impl ObjectMethod {
+    /// `auto`'s rule (the default).
+    pub const AUTO: ObjectMethod = ObjectMethod("auto");
     /// The RSL path at the vertices, interpolated across triangles (the fastest).
-    Rsl,
-    /// The RSL sum per pixel, with the visibility interpolated from the vertices (`pixel`,
-    /// the method's name everywhere else, is taken too).
-    #[serde(alias = "pixel")]
-    RslPixel,
+    pub const RSL: ObjectMethod = ObjectMethod("rsl");
+    /// The RSL sum per pixel, with the visibility interpolated from the vertices.
+    pub const PIXEL: ObjectMethod = ObjectMethod("pixel");
     /// vMF lobes over the prefiltered environment per pixel, times the RSL path's visibility
     /// ratio (at each pixel on the CPU: the traced lights traced there, the others'
     /// interpolated from the vertices; on the GPU interpolated from the vertices).
-    Hybrid,
+    pub const HYBRID: ObjectMethod = ObjectMethod("hybrid");
     /// Transport lobes (the material's lobes shadowed by the object itself, per vertex and
     /// object-space view), each shadowed by the other objects' occluder fields over a square
     /// of its own width; drawn per pixel with the material lobes times that shadow as a ratio
     /// interpolated across the triangle.
-    Lobe,
+    pub const LOBE: ObjectMethod = ObjectMethod("lobe");
+    const BUILT_IN: [ObjectMethod; 5] = [Self::AUTO, Self::RSL, Self::PIXEL, Self::HYBRID, Self::LOBE];
+
+    /// The method named `name` (`rsl_pixel` is `pixel`), if scene files may name it.
+    pub fn named(name: &str) -> Option<Self> {
+        let name = if name == "rsl_pixel" { "pixel" } else { name };
+        Self::BUILT_IN.into_iter().find(|m| m.0 == name).or_else(|| {
+            let r = REGISTERED_METHODS.read().unwrap_or_else(|e| e.into_inner());
+            r.iter().find(|&&n| n == name).map(|&n| ObjectMethod(n))
+        })
+    }
+
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        self.0
+    }
+
+    /// Every name a scene file may give, built-in ones first.
+    pub fn names() -> Vec<&'static str> {
+        let r = REGISTERED_METHODS.read().unwrap_or_else(|e| e.into_inner());
+        Self::BUILT_IN.iter().map(|m| m.0).chain(r.iter().copied()).collect()
+    }
+}
+
+impl Default for ObjectMethod {
+    fn default() -> Self {
+        Self::AUTO
+    }
+}
+
+impl std::fmt::Display for ObjectMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.0)
+    }
+}
+
+impl serde::Serialize for ObjectMethod {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.0)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for ObjectMethod {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        ObjectMethod::named(&name).ok_or_else(|| {
+            serde::de::Error::custom(format!(
+                "unknown method `{name}`, expected one of {}",
+                ObjectMethod::names().iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+            ))
+        })
+    }
 }
 
 /// A loaded, validated scene.

@@ -1,17 +1,19 @@
-//! Material descriptions: which BRDF model and its parameters, as the scene file states them.
-//!
-//! This is description only; evaluation and tabulation live in `rsl-brdf`. Colours are
-//! linear RGB weights.
+//! Materials as the scene file writes them (`material = { model = "ggx", alpha = 0.2 }`):
+//! the file's shape of rsl-brdf's [`Brdf`], the one material type, read into it
+//! ([`MaterialFile::into_brdf`]: the file's defaults, Ward's `alpha` or `alpha_x` and
+//! `alpha_y`, then [`Brdf::validate`]) and written from it. Colours are linear RGB weights.
 
+use glam::Vec3;
+use rsl_brdf::Brdf;
 use serde::{Deserialize, Serialize};
 
 /// The BRDF models a scene may name (the `model` key of `material`).
 pub const MODEL_NAMES: [&str; 7] = ["lambert", "phong", "blinn_phong", "cook_torrance", "ward", "ggx", "beckmann"];
 
-/// A material: a BRDF model and its parameters.
+/// A material as the scene file writes it: a BRDF model and its parameters.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
-pub enum Material {
+pub(crate) enum MaterialFile {
     /// Lambertian: `ρ = albedo/π`.
     Lambert {
         /// Diffuse albedo in `[0, 1]` per channel.
@@ -103,82 +105,31 @@ fn white() -> [f32; 3] {
     [1.0; 3]
 }
 
-impl Default for Material {
-    fn default() -> Self {
-        Material::Lambert { albedo: default_albedo() }
-    }
+/// The material of an object whose scene gives none.
+pub fn default_material() -> Brdf {
+    Brdf::Lambert { albedo: Vec3::from_array(default_albedo()) }
 }
 
-/// Smallest roughness accepted: below it lobes are narrower than any table can hold.
-pub const MIN_ALPHA: f32 = 1e-4;
-
-impl Material {
-    /// The model's name as written in scene files.
-    pub fn model_name(&self) -> &'static str {
-        match self {
-            Material::Lambert { .. } => "lambert",
-            Material::Phong { .. } => "phong",
-            Material::BlinnPhong { .. } => "blinn_phong",
-            Material::CookTorrance { .. } => "cook_torrance",
-            Material::Ward { .. } => "ward",
-            Material::Ggx { .. } => "ggx",
-            Material::Beckmann { .. } => "beckmann",
-        }
-    }
-
-    /// Whether the BRDF depends on the azimuth around the normal (needs tangents and 4D
-    /// tables).
-    pub fn is_anisotropic(&self) -> bool {
-        matches!(self, Material::Ward { alpha_x: Some(x), alpha_y: Some(y), .. } if x != y)
-    }
-
-    /// Checks ranges; returns `(field, problem)` for the first bad parameter.
-    pub fn validate(&self) -> Result<(), (String, String)> {
-        let colour = |name: &str, c: &[f32; 3]| -> Result<(), (String, String)> {
-            if c.iter().any(|v| !(0.0..=1.0).contains(v)) {
-                return Err((
-                    name.into(),
-                    format!(
-                        "must be in [0, 1] per channel (above 1 a surface reflects more light than it receives), got {c:?}"
-                    ),
-                ));
+impl MaterialFile {
+    /// The material it describes, checked: `Err((field, problem))` for the first bad
+    /// parameter.
+    pub(crate) fn into_brdf(self) -> Result<Brdf, (String, String)> {
+        let v = Vec3::from_array;
+        let brdf = match self {
+            MaterialFile::Lambert { albedo } => Brdf::Lambert { albedo: v(albedo) },
+            MaterialFile::Phong { exponent, specular, diffuse } => {
+                Brdf::Phong { exponent, specular: v(specular), diffuse: v(diffuse) }
             }
-            Ok(())
-        };
-        let alpha = |name: &str, a: f32| -> Result<(), (String, String)> {
-            if !a.is_finite() || !(MIN_ALPHA..=1.0).contains(&a) {
-                return Err((name.into(), format!("must be in [{MIN_ALPHA}, 1], got {a}")));
+            MaterialFile::BlinnPhong { exponent, specular, diffuse } => {
+                Brdf::BlinnPhong { exponent, specular: v(specular), diffuse: v(diffuse) }
             }
-            Ok(())
-        };
-        let exponent = |e: f32| -> Result<(), (String, String)> {
-            if !(e.is_finite() && e > 0.0 && e <= 1e6) {
-                return Err(("exponent".into(), format!("must be in (0, 1e6], got {e}")));
+            MaterialFile::CookTorrance { alpha, specular, diffuse } => {
+                Brdf::CookTorrance { alpha, specular: v(specular), diffuse: v(diffuse) }
             }
-            Ok(())
-        };
-        match self {
-            Material::Lambert { albedo } => colour("albedo", albedo),
-            Material::Phong { exponent: e, specular, diffuse }
-            | Material::BlinnPhong { exponent: e, specular, diffuse } => {
-                exponent(*e)?;
-                colour("specular", specular)?;
-                colour("diffuse", diffuse)
-            }
-            Material::CookTorrance { alpha: a, specular, diffuse }
-            | Material::Ggx { alpha: a, specular, diffuse }
-            | Material::Beckmann { alpha: a, specular, diffuse } => {
-                alpha("alpha", *a)?;
-                colour("specular", specular)?;
-                colour("diffuse", diffuse)
-            }
-            Material::Ward { alpha: a, alpha_x, alpha_y, specular, diffuse } => {
-                match (a, alpha_x, alpha_y) {
-                    (Some(a), None, None) => alpha("alpha", *a)?,
-                    (None, Some(x), Some(y)) => {
-                        alpha("alpha_x", *x)?;
-                        alpha("alpha_y", *y)?;
-                    }
+            MaterialFile::Ward { alpha, alpha_x, alpha_y, specular, diffuse } => {
+                let (alpha_x, alpha_y) = match (alpha, alpha_x, alpha_y) {
+                    (Some(a), None, None) => (a, a),
+                    (None, Some(x), Some(y)) => (x, y),
                     _ => {
                         return Err((
                             "alpha".into(),
@@ -186,35 +137,48 @@ impl Material {
                                 .into(),
                         ));
                     }
-                }
-                colour("specular", specular)?;
-                colour("diffuse", diffuse)
+                };
+                Brdf::Ward { alpha_x, alpha_y, specular: v(specular), diffuse: v(diffuse) }
             }
-        }
+            MaterialFile::Ggx { alpha, specular, diffuse } => {
+                Brdf::Ggx { alpha, specular: v(specular), diffuse: v(diffuse) }
+            }
+            MaterialFile::Beckmann { alpha, specular, diffuse } => {
+                Brdf::Beckmann { alpha, specular: v(specular), diffuse: v(diffuse) }
+            }
+        };
+        brdf.validate().map_err(|e| (e.parameter.to_string(), e.problem))?;
+        Ok(brdf)
     }
-}
 
-impl std::fmt::Display for Material {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Material::Lambert { albedo } => write!(f, "lambert albedo {albedo:?}"),
-            Material::Phong { exponent, specular, diffuse } | Material::BlinnPhong { exponent, specular, diffuse } => {
-                write!(f, "{} exponent {exponent} specular {specular:?} diffuse {diffuse:?}", self.model_name())
+    /// `brdf` as the file writes it (an isotropic Ward with `alpha`).
+    pub(crate) fn of(brdf: &Brdf) -> Self {
+        let a = |c: &Vec3| c.to_array();
+        match brdf {
+            Brdf::Lambert { albedo } => MaterialFile::Lambert { albedo: a(albedo) },
+            Brdf::Phong { exponent, specular, diffuse } => {
+                MaterialFile::Phong { exponent: *exponent, specular: a(specular), diffuse: a(diffuse) }
             }
-            Material::CookTorrance { alpha, specular, diffuse }
-            | Material::Ggx { alpha, specular, diffuse }
-            | Material::Beckmann { alpha, specular, diffuse } => {
-                write!(f, "{} alpha {alpha} specular {specular:?} diffuse {diffuse:?}", self.model_name())
+            Brdf::BlinnPhong { exponent, specular, diffuse } => {
+                MaterialFile::BlinnPhong { exponent: *exponent, specular: a(specular), diffuse: a(diffuse) }
             }
-            Material::Ward { alpha, alpha_x, alpha_y, specular, diffuse } => match alpha {
-                Some(a) => write!(f, "ward alpha {a} specular {specular:?} diffuse {diffuse:?}"),
-                None => write!(
-                    f,
-                    "ward alpha_x {} alpha_y {} specular {specular:?} diffuse {diffuse:?}",
-                    alpha_x.unwrap_or(f32::NAN),
-                    alpha_y.unwrap_or(f32::NAN)
-                ),
-            },
+            Brdf::CookTorrance { alpha, specular, diffuse } => {
+                MaterialFile::CookTorrance { alpha: *alpha, specular: a(specular), diffuse: a(diffuse) }
+            }
+            Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
+                let (alpha, alpha_x, alpha_y) = if alpha_x == alpha_y {
+                    (Some(*alpha_x), None, None)
+                } else {
+                    (None, Some(*alpha_x), Some(*alpha_y))
+                };
+                MaterialFile::Ward { alpha, alpha_x, alpha_y, specular: a(specular), diffuse: a(diffuse) }
+            }
+            Brdf::Ggx { alpha, specular, diffuse } => {
+                MaterialFile::Ggx { alpha: *alpha, specular: a(specular), diffuse: a(diffuse) }
+            }
+            Brdf::Beckmann { alpha, specular, diffuse } => {
+                MaterialFile::Beckmann { alpha: *alpha, specular: a(specular), diffuse: a(diffuse) }
+            }
         }
     }
 }

@@ -1,6 +1,6 @@
 //! The scene file as written (serde structs) and its validation into a [`Scene`].
 
-use crate::material::Material;
+use crate::material::{MaterialFile, default_material};
 use crate::motion::{Keyframe, Motion, Orbit, Spin, Transform};
 use crate::primitive::Primitive;
 use crate::quality::{Preset, Quality};
@@ -124,7 +124,7 @@ struct RawObject {
     translation: [f32; 3],
     rotation: Option<RawRotation>,
     scale: Option<RawScale>,
-    material: Option<Material>,
+    material: Option<MaterialFile>,
     motion: Option<RawMotion>,
     #[serde(default = "yes")]
     casts_shadows: bool,
@@ -404,8 +404,10 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<Tr
         None => format!("object{i}"),
     };
     let f = |field: &str| format!("objects[{i}] \"{name}\".{field}");
-    let material = o.material.unwrap_or_default();
-    material.validate().map_err(|(field, msg)| cx.err(&f(&format!("material.{field}")), msg))?;
+    let material = match o.material {
+        Some(m) => m.into_brdf().map_err(|(field, msg)| cx.err(&f(&format!("material.{field}")), msg))?,
+        None => default_material(),
+    };
 
     let (source, mut mesh) = match (o.mesh, o.primitive) {
         (Some(_), Some(_)) => return Err(cx.err(&f("mesh"), "give either `mesh` or `primitive`, not both")),

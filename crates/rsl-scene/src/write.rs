@@ -115,7 +115,7 @@ impl Scene {
                 }
             }
             transform_into(&mut t, &o.transform);
-            t.insert("material".into(), Value::try_from(&o.material)?);
+            t.insert("material".into(), Value::try_from(crate::material::MaterialFile::of(&o.material))?);
             let m = &o.motion;
             if !m.is_static() {
                 let mut motion = Table::new();

@@ -1,7 +1,7 @@
 //! Scene-file parsing and validation: every class of user error gives its located message,
 //! and nothing a user writes makes the loader panic.
 
-use rsl_scene::{EnvironmentSource, Material, MeshSource, Preset, Scene, SceneError};
+use rsl_scene::{EnvironmentSource, MeshSource, Preset, Scene, SceneError};
 use std::path::{Path, PathBuf};
 
 fn data(rel: &str) -> PathBuf {
@@ -341,7 +341,7 @@ fn quality_presets_and_overrides() {
 #[test]
 fn materials_default_to_lambert() {
     let s = parse("[[objects]]\nprimitive = { kind = \"box\", size = [1.0, 1.0, 1.0] }\n").unwrap();
-    assert_eq!(s.objects[0].material, Material::default());
+    assert_eq!(s.objects[0].material, rsl_scene::default_material());
     assert_eq!(s.objects[0].name, "object0");
 }
 
@@ -437,12 +437,12 @@ fn an_objects_method_is_read_written_and_checked() {
     let object = |method: &str| {
         parse(&format!("[[objects]]\nname = \"a\"\nprimitive = {{ kind = \"sphere\", radius = 1.0 }}\n{method}\n"))
     };
-    assert_eq!(object("").unwrap().objects[0].method, ObjectMethod::Auto);
+    assert_eq!(object("").unwrap().objects[0].method, ObjectMethod::AUTO);
     for (text, m) in [
-        ("auto", ObjectMethod::Auto),
-        ("rsl", ObjectMethod::Rsl),
-        ("rsl_pixel", ObjectMethod::RslPixel),
-        ("hybrid", ObjectMethod::Hybrid),
+        ("auto", ObjectMethod::AUTO),
+        ("rsl", ObjectMethod::RSL),
+        ("rsl_pixel", ObjectMethod::PIXEL),
+        ("hybrid", ObjectMethod::HYBRID),
     ] {
         let s = object(&format!("method = \"{text}\"")).unwrap();
         assert_eq!(s.objects[0].method, m);

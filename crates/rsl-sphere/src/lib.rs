@@ -28,6 +28,7 @@ pub mod frame;
 pub mod framed;
 pub mod hemi;
 pub mod io;
+pub mod key;
 pub mod latlong;
 pub mod mesh;
 pub mod sampling;

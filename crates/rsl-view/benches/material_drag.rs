@@ -11,7 +11,7 @@
 //! cache, `$RSL_CACHE_DIR` or the default folder, and prints the stage breakdown).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use rsl_engine::scene::Material;
+use rsl_engine::scene::Brdf;
 use rsl_view::{Viewer, ViewerOptions};
 use std::path::PathBuf;
 
@@ -45,7 +45,11 @@ fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) {
             k += 1;
             // A new value every frame (a table already built would be found in memory).
             let alpha = 0.1 + 0.4 * ((f64::from(k) * 0.618_033_988_749_895).fract() as f32);
-            let m = Material::Ggx { alpha, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+            let m = Brdf::Ggx {
+                alpha,
+                specular: glam::Vec3::new(0.95, 0.75, 0.4),
+                diffuse: glam::Vec3::new(0.05, 0.04, 0.02),
+            };
             viewer.set_material(bunny, m).unwrap();
             viewer.refresh().unwrap()
         })
@@ -55,7 +59,11 @@ fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) {
         b.iter(|| {
             k += 1;
             let alpha = 0.1 + 0.4 * ((f64::from(k) * 0.618_033_988_749_895).fract() as f32);
-            let m = Material::Ggx { alpha, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+            let m = Brdf::Ggx {
+                alpha,
+                specular: glam::Vec3::new(0.95, 0.75, 0.4),
+                diffuse: glam::Vec3::new(0.05, 0.04, 0.02),
+            };
             viewer.set_material(bunny, m).unwrap();
             viewer.settle(true).unwrap();
             viewer.refresh().unwrap()

@@ -8,7 +8,7 @@ impl Viewer {
     /// alone is reshaded. While a slider moves (edits of the same object less than
     /// [`PREVIEW_REST`] apart) the table is a preview at `rsl_engine::engine::PREVIEW_RESOLUTION`;
     /// the real table is built when the slider rests ([`Viewer::settle`]).
-    pub fn set_material(&mut self, i: usize, material: Material) -> Result<()> {
+    pub fn set_material(&mut self, i: usize, material: Brdf) -> Result<()> {
         let o = self.scene.objects.get_mut(i).context("no such object")?;
         if o.material == material {
             return Ok(());

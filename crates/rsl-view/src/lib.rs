@@ -28,7 +28,7 @@ use egui::{Color32, ColorImage, TextureHandle, TextureOptions};
 use glam::{Quat, Vec3};
 use rayon::prelude::*;
 use rsl_engine::registry::ImageKind;
-use rsl_engine::scene::{Material, Preset, Quality, Scene};
+use rsl_engine::scene::{Brdf, Preset, Quality, Scene};
 use rsl_engine::{Engine, EngineOptions, Event, Incremental, MethodId, Progress, Session, method::exposure_for};
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};

@@ -212,7 +212,7 @@ impl Viewer {
             self.report(r);
         }
         ui.label("material");
-        let mut m = self.scene.objects[i].material.clone();
+        let mut m = self.scene.objects[i].material;
         material_controls(ui, &mut m);
         let r = self.set_material(i, m);
         self.report(r);
@@ -361,23 +361,23 @@ impl Viewer {
 }
 
 /// Sliders for a material's parameters (the model stays; its numbers change).
-pub(crate) fn material_controls(ui: &mut egui::Ui, m: &mut Material) {
-    fn rgb(ui: &mut egui::Ui, label: &str, c: &mut [f32; 3]) {
+pub(crate) fn material_controls(ui: &mut egui::Ui, m: &mut Brdf) {
+    fn rgb(ui: &mut egui::Ui, label: &str, c: &mut glam::Vec3) {
         ui.horizontal(|ui| {
             ui.label(label);
-            ui.color_edit_button_rgb(c);
+            ui.color_edit_button_rgb(c.as_mut());
         });
     }
     match m {
-        Material::Lambert { albedo } => rgb(ui, "albedo", albedo),
-        Material::Phong { exponent, specular, diffuse } | Material::BlinnPhong { exponent, specular, diffuse } => {
+        Brdf::Lambert { albedo } => rgb(ui, "albedo", albedo),
+        Brdf::Phong { exponent, specular, diffuse } | Brdf::BlinnPhong { exponent, specular, diffuse } => {
             ui.add(egui::Slider::new(exponent, 1.0..=2000.0).logarithmic(true).text("exponent"));
             rgb(ui, "specular", specular);
             rgb(ui, "diffuse", diffuse);
         }
-        Material::CookTorrance { alpha, specular, diffuse }
-        | Material::Ggx { alpha, specular, diffuse }
-        | Material::Beckmann { alpha, specular, diffuse } => {
+        Brdf::CookTorrance { alpha, specular, diffuse }
+        | Brdf::Ggx { alpha, specular, diffuse }
+        | Brdf::Beckmann { alpha, specular, diffuse } => {
             ui.add(egui::Slider::new(alpha, 0.02..=1.0).logarithmic(true).text("alpha"));
             rgb(ui, "specular", specular);
             rgb(ui, "diffuse", diffuse);

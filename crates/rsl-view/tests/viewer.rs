@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use egui_kittest::Harness;
 use glam::Vec3;
-use rsl_engine::scene::Material;
+use rsl_engine::scene::Brdf;
 use rsl_view::{GizmoPart, Viewer, ViewerOptions};
 
 #[test]
@@ -19,7 +19,11 @@ fn a_material_edit_reshades_that_object_alone() {
     let image = pixels(h.state());
     let counters = h.state().counters();
     let misses = h.state().engine().unwrap().cache_stats().misses;
-    let m = Material::Ggx { alpha: 0.5, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+    let m = Brdf::Ggx {
+        alpha: 0.5,
+        specular: glam::Vec3::new(0.95, 0.75, 0.4),
+        diffuse: glam::Vec3::new(0.05, 0.04, 0.02),
+    };
     h.state_mut().set_material(bunny, m).unwrap();
     h.step();
     let v = h.state();
@@ -181,8 +185,15 @@ fn a_saved_scene_renders_the_same_radiance() {
     let (bunny, sphere) = (index(h.state(), "bunny"), index(h.state(), "sphere"));
     {
         let v = h.state_mut();
-        v.set_material(bunny, Material::Beckmann { alpha: 0.2, specular: [0.7, 0.8, 0.9], diffuse: [0.1, 0.0, 0.0] })
-            .unwrap();
+        v.set_material(
+            bunny,
+            Brdf::Beckmann {
+                alpha: 0.2,
+                specular: glam::Vec3::new(0.7, 0.8, 0.9),
+                diffuse: glam::Vec3::new(0.1, 0.0, 0.0),
+            },
+        )
+        .unwrap();
         let p = v.scene().objects[sphere].transform.translation;
         v.set_translation(sphere, p + Vec3::new(0.3, 0.0, -0.2)).unwrap();
         v.set_yaw(sphere, 33.0).unwrap();
@@ -341,7 +352,11 @@ fn a_moving_slider_shows_a_preview_table_and_the_real_one_when_it_rests() {
     };
     ready(&mut h);
     let bunny = index(h.state(), "bunny");
-    let ggx = |alpha: f32| Material::Ggx { alpha, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+    let ggx = |alpha: f32| Brdf::Ggx {
+        alpha,
+        specular: glam::Vec3::new(0.95, 0.75, 0.4),
+        diffuse: glam::Vec3::new(0.05, 0.04, 0.02),
+    };
     h.state_mut().set_material(bunny, ggx(0.121)).unwrap();
     assert!(!h.state().is_previewing(), "a single edit builds the real table");
     h.state_mut().set_material(bunny, ggx(0.123)).unwrap();
@@ -380,7 +395,7 @@ fn the_ui_widgets_drive_the_edits() {
     h.step();
     h.step();
     match &h.state().scene().objects[bunny].material {
-        Material::Ggx { alpha, .. } => assert!((alpha - 0.5).abs() < 1e-3, "alpha {alpha}"),
+        Brdf::Ggx { alpha, .. } => assert!((alpha - 0.5).abs() < 1e-3, "alpha {alpha}"),
         m => panic!("the bunny's material became {m:?}"),
     }
     for (i, (a, b)) in before.iter().zip(h.state().radiance()).enumerate() {
@@ -426,8 +441,8 @@ fn the_per_pixel_drawing_draws_what_the_pixel_method_renders() {
     assert!(changed > 1000, "{changed} pixels changed");
     // An edit is drawn interpolated at once, and per pixel once the view rests.
     let bunny = index(h.state(), "bunny");
-    let mut m = h.state().scene().objects[bunny].material.clone();
-    if let Material::Ggx { alpha, .. } = &mut m {
+    let mut m = h.state().scene().objects[bunny].material;
+    if let Brdf::Ggx { alpha, .. } = &mut m {
         *alpha = 0.3;
     }
     h.state_mut().set_material(bunny, m).unwrap();
@@ -443,8 +458,8 @@ fn the_per_pixel_drawing_draws_what_the_pixel_method_renders() {
         assert!((*a - *b).abs().max_element() <= 1e-4 * b.max_element().max(1e-2), "rested, pixel {k}: {a} vs {b}");
     }
     // Off again: the interpolated image comes back (the edit undone first).
-    let mut m = h.state().scene().objects[bunny].material.clone();
-    if let Material::Ggx { alpha, .. } = &mut m {
+    let mut m = h.state().scene().objects[bunny].material;
+    if let Brdf::Ggx { alpha, .. } = &mut m {
         *alpha = 0.15;
     }
     h.state_mut().set_material(bunny, m).unwrap();
@@ -476,7 +491,7 @@ fn choose_drawing(h: &mut Harness<'static, Viewer>, drawing: rsl_engine::MethodI
 
 #[test]
 fn the_drawing_menu_draws_what_each_lobe_method_renders() {
-    use rsl_engine::lobe::{Hybrid, PerObject};
+    use rsl_engine::lobe::Composite;
     use rsl_engine::method::{Method, Request};
     let Some(mut h) = harness("the_drawing_menu_draws_what_each_lobe_method_renders", Some(cache())) else {
         return;
@@ -485,9 +500,9 @@ fn the_drawing_menu_draws_what_each_lobe_method_renders() {
     let interpolated = h.state().linear_image().expect("an image").clone();
     let request = Request { time: 0.0, image: true, vertices: false, exposure: None };
     let methods: [(rsl_engine::MethodId, Box<dyn Method>); 3] = [
-        (id("hybrid"), Box::new(Hybrid::new())),
-        (id("lobe"), Box::new(Hybrid::lobe())),
-        (id("auto"), Box::new(PerObject::new())),
+        (id("hybrid"), Box::new(Composite::hybrid())),
+        (id("lobe"), Box::new(Composite::lobe())),
+        (id("auto"), Box::new(Composite::auto())),
     ];
     // The first drawing with lobes prefilters the environment (seconds) on a worker thread:
     // the view keeps its image and frames keep coming meanwhile.

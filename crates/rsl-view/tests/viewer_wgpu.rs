@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use egui_kittest::Harness;
 use glam::Vec3;
-use rsl_engine::scene::{Material, Preset};
+use rsl_engine::scene::{Brdf, Preset};
 use rsl_view::{Viewer, ViewerOptions};
 
 /// The viewer drawn with wgpu on the harness's own device (shared with rsl-gpu), as in a
@@ -132,7 +132,11 @@ fn with_wgpu_a_material_edit_changes_the_objects_pixels_alone_and_a_move_moves_t
     let width = h.state().scene().camera.width as usize;
     let before = gpu_pixels(&mut h);
     let counters = h.state().counters();
-    let m = Material::Ggx { alpha: 0.5, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+    let m = Brdf::Ggx {
+        alpha: 0.5,
+        specular: glam::Vec3::new(0.95, 0.75, 0.4),
+        diffuse: glam::Vec3::new(0.05, 0.04, 0.02),
+    };
     h.state_mut().set_material(bunny, m).unwrap();
     h.step();
     assert!(h.state().shown_on_gpu());
@@ -200,7 +204,11 @@ fn shading_on_the_gpu_in_the_viewer_agrees_with_the_cpu_and_follows_edits() {
     assert!(e < 1e-4, "the GPU-shaded radiance is {e:.2e} from the CPU's");
     // A material edit reaches the GPU's tables: the bunny's radiance follows the CPU's.
     let bunny = index(h.state(), "bunny");
-    let m = Material::Ggx { alpha: 0.5, specular: [0.95, 0.75, 0.4], diffuse: [0.05, 0.04, 0.02] };
+    let m = Brdf::Ggx {
+        alpha: 0.5,
+        specular: glam::Vec3::new(0.95, 0.75, 0.4),
+        diffuse: glam::Vec3::new(0.05, 0.04, 0.02),
+    };
     h.state_mut().set_material(bunny, m).unwrap();
     h.step();
     let gpu = h.state().radiance().to_vec();
@@ -228,7 +236,8 @@ fn a_lost_device_leaves_the_view_drawn_on_the_cpu_with_the_error_shown() {
     // What a driver reset or a removed GPU looks like to wgpu.
     state.device.destroy();
     let bunny = index(&viewer, "bunny");
-    let m = Material::Ggx { alpha: 0.4, specular: [0.9, 0.9, 0.9], diffuse: [0.05, 0.05, 0.05] };
+    let m =
+        Brdf::Ggx { alpha: 0.4, specular: glam::Vec3::new(0.9, 0.9, 0.9), diffuse: glam::Vec3::new(0.05, 0.05, 0.05) };
     viewer.set_material(bunny, m).unwrap();
     assert!(viewer.refresh().unwrap(), "the frame is drawn");
     assert!(!viewer.shown_on_gpu() && viewer.wgpu_adapter().is_none(), "the view is still drawn with wgpu");

@@ -15,7 +15,7 @@ impl Engine {
     ) -> Result<(Arc<BrdfTable>, u64)> {
         let key = KeyHasher::default()
             .str("table")
-            .u64(brdf_key(brdf))
+            .u64(brdf.key())
             .u64(res.n as u64)
             .u64(res.views as u64)
             .u64(CACHE_VERSION)

@@ -1,0 +1,336 @@
+//! The per-object compositor. Each object of a frame is drawn by the drawing assigned to it
+//! (an [`ObjectDrawing`]: the RSL path at the vertices, the RSL sum per pixel, the lobes);
+//! [`compose`] sets the frame up once, asks each drawing for its objects' radiance at the
+//! vertices and, where it draws per pixel, for a [`PixelShader`], and assembles the frame
+//! and its image: rasterised from the vertices, drawn per pixel on the CPU with each pixel
+//! shaded by its object's shader, or drawn on the GPU when every shader can be
+//! ([`PixelShader::gpu_lobes`]). The per-object methods (`hybrid`, `lobe`, `auto`:
+//! [`crate::lobe::Composite`]) are only rules that assign objects to drawings.
+
+use crate::engine::{Engine, ShadedFrame};
+use crate::method::{Frame, Request, rasterise};
+use crate::progress::Timings;
+use anyhow::Result;
+use glam::Vec3;
+use rsl_brdf::Brdf;
+use rsl_lobe::{MaterialLobes, Prefiltered};
+use rsl_scene::{Scene, SceneState};
+use rsl_shade::{Covers, FrameSetup, FrameStats, Image, PixelMesh, PixelPoint, Terms};
+use rsl_sphere::Frame as LocalFrame;
+use std::time::Instant;
+
+/// What the drawings of a frame share: the scene at the frame's time, set up once.
+pub struct FrameContext<'f> {
+    /// The prepared scene.
+    pub engine: &'f Engine,
+    /// The scene.
+    pub scene: &'f Scene,
+    /// What the frame is asked for.
+    pub request: &'f Request,
+    /// The scene at the frame's time.
+    pub state: &'f SceneState,
+    /// The frame set up with every term.
+    pub setup: &'f FrameSetup<'f>,
+    /// Whether the image is drawn per pixel (else every object's vertices are interpolated).
+    pub per_pixel: bool,
+}
+
+impl FrameContext<'_> {
+    /// The eye.
+    pub fn eye(&self) -> Vec3 {
+        self.scene.camera.eye
+    }
+
+    /// Object `i`'s world positions.
+    pub fn positions(&self, i: usize) -> Vec<Vec3> {
+        (0..self.engine.mesh(i).vertex_count()).map(|v| self.setup.position(i, v)).collect()
+    }
+
+    /// Object `i`'s world normals.
+    pub fn normals(&self, i: usize) -> Vec<Vec3> {
+        (0..self.engine.mesh(i).vertex_count()).map(|v| self.setup.normal(i, v)).collect()
+    }
+
+    /// Whether the frame's image will be drawn per pixel.
+    pub fn image_per_pixel(&self) -> bool {
+        self.request.image && self.per_pixel
+    }
+}
+
+/// What a drawing made of one object: its radiance at the vertices and, when its pixels are
+/// shaded one by one, how.
+pub struct Part<'f> {
+    /// Per vertex, the radiance toward the eye.
+    pub radiance: Vec<Vec3>,
+    /// The shader of its pixels (`None`: its vertices are interpolated).
+    pub pixels: Option<Box<dyn PixelShader + 'f>>,
+}
+
+impl Part<'_> {
+    /// An object drawn from its vertices alone.
+    pub fn vertices(radiance: Vec<Vec3>) -> Self {
+        Self { radiance, pixels: None }
+    }
+}
+
+/// How one object's pixels are shaded.
+pub trait PixelShader: Sync {
+    /// The world shading frame at each vertex; a pixel's is interpolated from its triangle's
+    /// corners.
+    fn frames(&self) -> Vec<LocalFrame>;
+
+    /// The radiance at `point` of the object drawn as `mesh` (`buf`: one float per light, a
+    /// worker's scratch).
+    fn shade(&self, mesh: &PixelMesh<'_>, point: &PixelPoint<'_>, buf: &mut [f32]) -> Vec3;
+
+    /// The object's lobes and the values its pixels interpolate (the visibility ratio),
+    /// when the GPU's lobe pass can draw it.
+    fn gpu_lobes(&self) -> Option<GpuLobe<'_>> {
+        None
+    }
+}
+
+/// An object the GPU's lobe pass draws with its lobes.
+pub struct GpuLobe<'a> {
+    /// The material's lobes.
+    pub material: &'a MaterialLobes,
+    /// Per vertex, what the pixels interpolate and multiply the lobes by.
+    pub values: &'a [Vec3],
+    /// The prefiltered environment the lobes look up, with its key and top κ.
+    pub env: (&'a Prefiltered, (u64, u32)),
+}
+
+/// An object as the GPU draws it: with its lobes, or its vertices' `values` interpolated.
+pub struct GpuObject<'a> {
+    /// Its lobes, if it is drawn with them.
+    pub lobes: Option<GpuLobe<'a>>,
+    /// Per vertex, what its pixels interpolate (with lobes, what multiplies them).
+    pub values: &'a [Vec3],
+}
+
+/// A way to draw objects: the part of a frame of the objects assigned to it. A per-object
+/// method of the registry has one ([`crate::Registration::drawing`]); scene files assign
+/// objects to it by the method's name.
+pub trait ObjectDrawing: Send {
+    /// How it draws an object of `brdf`, in words (`rsl render --explain`).
+    fn describe(&self, brdf: &Brdf) -> String;
+
+    /// Readies what drawing the objects `which` selects (one flag per object) needs (lobes
+    /// fitted, an environment prefiltered); timed apart from the shading.
+    fn prepare(&mut self, _engine: &Engine, _which: &[bool], _timings: &mut Timings) -> Result<()> {
+        Ok(())
+    }
+
+    /// The parts of the objects `which` selects (`None` for the others), with their costs
+    /// added to `stats`.
+    fn shade<'f>(
+        &mut self,
+        ctx: &FrameContext<'f>,
+        which: &[bool],
+        stats: &mut FrameStats,
+    ) -> Result<Vec<Option<Part<'f>>>>;
+}
+
+/// The image drawn on the GPU, for a method that has it (the lobe methods on a GPU:
+/// [`crate::lobe::Composite::on_gpu`]).
+pub trait GpuImage {
+    /// Draws the frame's objects.
+    fn draw(
+        &mut self,
+        ctx: &FrameContext<'_>,
+        objects: &[GpuObject<'_>],
+        positions: &[Vec<Vec3>],
+        normals: &[Vec<Vec3>],
+        timings: &mut Timings,
+    ) -> Result<Image>;
+}
+
+/// A frame with object `i` drawn by `drawings[assigned[i]]`; with `per_pixel` false, the
+/// image interpolates every object's vertices; with `gpu`, the image is drawn there when
+/// every object drawn per pixel can be.
+pub fn compose(
+    (engine, scene, request): (&Engine, &Scene, &Request),
+    assigned: &[usize],
+    drawings: &mut [&mut dyn ObjectDrawing],
+    per_pixel: bool,
+    gpu: Option<&mut dyn GpuImage>,
+) -> Result<Frame> {
+    let n = engine.object_count();
+    anyhow::ensure!(assigned.len() == n, "{} drawing choices for {n} objects", assigned.len());
+    let mut timings = Timings::default();
+    let which = |d: usize| -> Vec<bool> { assigned.iter().map(|&a| a == d).collect() };
+    for (d, drawing) in drawings.iter_mut().enumerate() {
+        let which = which(d);
+        if which.contains(&true) {
+            drawing.prepare(engine, &which, &mut timings)?;
+        }
+    }
+
+    let start = Instant::now();
+    let state = scene.at(request.time);
+    let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
+    let ctx = FrameContext { engine, scene, request, state: &state, setup: &setup, per_pixel };
+    let mut stats = FrameStats::default();
+    let mut parts: Vec<Option<Part<'_>>> = (0..n).map(|_| None).collect();
+    for (d, drawing) in drawings.iter_mut().enumerate() {
+        let which = which(d);
+        if !which.contains(&true) {
+            continue;
+        }
+        for (i, part) in drawing.shade(&ctx, &which, &mut stats)?.into_iter().enumerate() {
+            if which[i] {
+                parts[i] = part;
+            }
+        }
+    }
+    let parts: Vec<Part<'_>> = parts
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| p.ok_or_else(|| anyhow::anyhow!("object {i} was assigned no drawing that drew it")))
+        .collect::<Result<_>>()?;
+    let radiance: Vec<Vec<Vec3>> = parts.iter().map(|p| p.radiance.clone()).collect();
+    let full = ShadedFrame::of(&setup, state.clone(), radiance, stats, 0.0);
+    timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
+
+    let per_pixel = per_pixel && parts.iter().any(|p| p.pixels.is_some());
+    let on_gpu: Option<Vec<GpuObject<'_>>> = parts
+        .iter()
+        .map(|p| match &p.pixels {
+            None => Some(GpuObject { lobes: None, values: &p.radiance }),
+            Some(s) => s.gpu_lobes().map(|l| GpuObject { values: l.values, lobes: Some(l) }),
+        })
+        .collect();
+    let image = match (gpu, on_gpu) {
+        (Some(gpu), Some(objects)) if request.image && per_pixel => {
+            Some(gpu.draw(&ctx, &objects, &full.positions, &full.normals, &mut timings)?)
+        }
+        _ if !request.image => None,
+        _ if !per_pixel => {
+            Some(timings.time("draw", || rasterise(engine, scene, &state, &full.positions, &full.radiance)))
+        }
+        _ => Some(timings.time("draw per pixel", || draw_per_pixel(&ctx, &parts, &full))),
+    };
+    Ok(Frame {
+        state: full.state,
+        positions: full.positions,
+        normals: full.normals,
+        radiance: full.radiance,
+        std_error: None,
+        image,
+        encoded: None,
+        self_error: None,
+        stats: full.stats,
+        shadow_rays: 0,
+        timings,
+    })
+}
+
+/// The image on the CPU: each pixel of an object with a shader shaded by it, the others'
+/// vertices interpolated.
+fn draw_per_pixel(ctx: &FrameContext<'_>, parts: &[Part<'_>], full: &ShadedFrame) -> Image {
+    let frames: Vec<Option<Vec<LocalFrame>>> = parts.iter().map(|p| p.pixels.as_ref().map(|s| s.frames())).collect();
+    let meshes: Vec<PixelMesh<'_>> = ctx
+        .scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| PixelMesh {
+            positions: &full.positions[i],
+            indices: &o.mesh.indices,
+            frames: frames[i].as_deref(),
+            radiance: &full.radiance[i],
+        })
+        .collect();
+    let lights = ctx.setup.light_count();
+    rsl_shade::draw_pixels(
+        &ctx.scene.camera,
+        &meshes,
+        || vec![0.0f32; lights],
+        |p, buf| match &parts[p.object].pixels {
+            Some(s) => s.shade(&meshes[p.object], p, buf),
+            None => Vec3::ZERO,
+        },
+        |d| ctx.engine.background(ctx.state, d),
+    )
+}
+
+/// The RSL path at the vertices, interpolated (method `rsl`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VertexDrawing;
+
+impl ObjectDrawing for VertexDrawing {
+    fn describe(&self, _: &Brdf) -> String {
+        "RSL at the vertices, interpolated".into()
+    }
+
+    fn shade<'f>(
+        &mut self,
+        ctx: &FrameContext<'f>,
+        which: &[bool],
+        stats: &mut FrameStats,
+    ) -> Result<Vec<Option<Part<'f>>>> {
+        let (radiance, s) = rsl_shade::shade_objects(ctx.setup, which);
+        *stats = stats.plus(s);
+        Ok(radiance.into_iter().enumerate().map(|(i, r)| which[i].then(|| Part::vertices(r))).collect())
+    }
+}
+
+/// The RSL sum per pixel (method `pixel`, [`rsl_shade::pixel`]): every light's cover kept at
+/// the vertices and interpolated, the BRDF's integrals for each pixel's own normal and view;
+/// a Lambertian object only where a traced light's shadow falls
+/// ([`rsl_shade::drawn_per_pixel`]), else from its vertices.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PixelDrawing;
+
+/// A pixel shader of [`PixelDrawing`].
+struct CoverShader<'f> {
+    setup: &'f FrameSetup<'f>,
+    object: usize,
+    covers: Covers,
+}
+
+impl PixelShader for CoverShader<'_> {
+    fn frames(&self) -> Vec<LocalFrame> {
+        // The RSL sum reads its tables in the vertices' shading frames.
+        let n = self.covers.values.len() / self.covers.lights.max(1);
+        (0..n).map(|v| self.setup.shading_frame(self.object, v)).collect()
+    }
+
+    fn shade(&self, mesh: &PixelMesh<'_>, point: &PixelPoint<'_>, buf: &mut [f32]) -> Vec3 {
+        rsl_shade::point_radiance(self.setup, &self.covers, mesh, point, buf, &mut FrameStats::default())
+    }
+}
+
+impl ObjectDrawing for PixelDrawing {
+    fn describe(&self, brdf: &Brdf) -> String {
+        if brdf.is_lambertian() { "RSL at the vertices, interpolated" } else { "the RSL sum per pixel" }.into()
+    }
+
+    fn shade<'f>(
+        &mut self,
+        ctx: &FrameContext<'f>,
+        which: &[bool],
+        stats: &mut FrameStats,
+    ) -> Result<Vec<Option<Part<'f>>>> {
+        let n = which.len();
+        let per_pixel: Vec<bool> = (0..n)
+            .map(|i| which[i] && rsl_shade::drawn_per_pixel(ctx.setup, !ctx.engine.brdf(i).is_lambertian()))
+            .collect();
+        let plain: Vec<bool> = (0..n).map(|i| which[i] && !per_pixel[i]).collect();
+        crate::lobe::check_covers_size(ctx.engine, ctx.setup, &per_pixel)?;
+        let (radiance, covers, s) = rsl_shade::shade_covers(ctx.setup, &per_pixel);
+        let (plain_radiance, plain_stats) = rsl_shade::shade_objects(ctx.setup, &plain);
+        *stats = stats.plus(s).plus(plain_stats);
+        Ok((0..n)
+            .zip(radiance.into_iter().zip(covers).zip(plain_radiance))
+            .map(|(i, ((r, c), p))| {
+                if plain[i] {
+                    return Some(Part::vertices(p));
+                }
+                let covers = c?;
+                let shader: Box<dyn PixelShader + 'f> = Box::new(CoverShader { setup: ctx.setup, object: i, covers });
+                Some(Part { radiance: r, pixels: Some(shader) })
+            })
+            .collect())
+    }
+}
