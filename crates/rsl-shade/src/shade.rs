@@ -179,8 +179,10 @@ pub fn shade(setup: &FrameSetup<'_>) -> (Vec<Vec<Vec3>>, FrameStats) {
 /// empty. An object's radiance depends on the others only through their shadows, so a
 /// front end that changed one object's material reshades that object alone.
 pub fn shade_objects(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, FrameStats) {
-    let (radiance, _, stats) = shade_objects_untraced(setup, which);
-    (radiance, stats)
+    let (blocks, stats) = setup.par_blocks(Some(which), BLOCK, FrameStats::plus, |nears, stats, i, vertices| {
+        vertices.map(|v| setup.vertex(i, v, nears, stats).radiance).collect::<Vec<_>>()
+    });
+    (setup.per_object(blocks), stats)
 }
 
 /// [`shade_objects`], and per vertex the radiance of the lights that are not traced (the

@@ -70,6 +70,8 @@ impl<'a> FrameSetup<'a> {
     /// The RSL sum over the frame's lights: `brdf(ctx, l)` and `cover(ctx, l)` give light
     /// `l`'s factors (`ctx` is what both change: costs, scratch), found in `order`; with
     /// `keep`, every light's cover is written there ([`Order::CoverFirst`] only).
+    // Inlined into each shader, so that `order` and the closures fold away.
+    #[inline(always)]
     pub(crate) fn rsl_sum<C>(
         &self,
         ctx: &mut C,
