@@ -58,7 +58,7 @@ impl ObjectDrawing for Normals {
     ) -> Result<Vec<Option<Part<'f>>>> {
         Ok((0..which.len())
             .map(|i| {
-                which[i].then(|| Part::vertices(ctx.normals(i).iter().map(|n| Vec3::splat(0.5) + 0.5 * *n).collect()))
+                which[i].then(|| Part::vertices(ctx.normals[i].iter().map(|n| Vec3::splat(0.5) + 0.5 * *n).collect()))
             })
             .collect())
     }

@@ -19,7 +19,8 @@ pub struct BenchArgs {
     /// (any method `rsl render --method` takes; `cpu` and `gpu` are `rsl` on that device),
     /// `device` (cpu, gpu; default cpu)
     /// or a quality knob (table_resolution, view_samples, env_grid, ovdf_directions,
-    /// ovdf_shells, ovdf_vectors, cpca_clusters, cpca_vectors, traced_lights, shadow_rays);
+    /// ovdf_shells, ovdf_vectors, cpca_clusters, cpca_vectors, traced_lights, shadow_rays,
+    /// aa);
     /// repeat for more. Default:
     /// rsl=10,30,60,100,300 and quality=draft,paper.
     #[arg(long = "sweep")]
@@ -137,6 +138,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         cache_dir: args.prepare.options().cache_dir,
         progress: crate::progress::bars(),
         budget_rsl: (!args.no_budget).then_some(args.budget),
+        command: command_line(),
     };
     crate::status!(
         "bench: {} scene(s) × {} configuration(s) × {} time(s); truth at {} spp",
@@ -182,6 +184,22 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The command line as typed, the program named `rsl`, each argument quoted where a shell
+/// would split it.
+fn command_line() -> String {
+    let quote = |a: String| {
+        if !a.is_empty() && a.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=,:+%".contains(c)) {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    std::iter::once("rsl".to_owned())
+        .chain(std::env::args_os().skip(1).map(|a| quote(a.to_string_lossy().into_owned())))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 #[cfg(test)]

@@ -57,6 +57,8 @@ pub struct BenchOptions {
     /// Error budgets (every oracle alone and all together) for the CPU configurations with
     /// this many RSLs (`None`: no budgets).
     pub budget_rsl: Option<u32>,
+    /// The command that asked for the bench, written at the top of its report (empty: none).
+    pub command: String,
 }
 
 /// One measured point: a configuration of a scene at a time.
@@ -554,7 +556,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         images(options, &mut summary, &mut methods)?;
         report::write_rows(&results, &summary.rows)?;
     }
-    report::write_reports(&options.out, &summary.rows, &budget_rows)?;
+    report::write_reports(&options.out, &options.command, &summary.rows, &budget_rows)?;
     Ok(summary)
 }
 

@@ -191,8 +191,9 @@ fn series_of(config: &str) -> String {
     config.split(' ').filter(|p| !p.starts_with("rsl=") && !p.starts_with("terms=")).collect::<Vec<_>>().join(" ")
 }
 
-/// Writes `report.md` and the plots of every scene into `out`.
-pub fn write_reports(out: &Path, rows: &[Row], budget: &[crate::budget::BudgetRow]) -> Result<()> {
+/// Writes `report.md` (headed by `command`, the command that produced it, when not empty)
+/// and the plots of every scene into `out`.
+pub fn write_reports(out: &Path, command: &str, rows: &[Row], budget: &[crate::budget::BudgetRow]) -> Result<()> {
     let mut by_scene: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
     for r in rows {
         by_scene.entry(&r.scene).or_default().push(r);
@@ -212,6 +213,9 @@ pub fn write_reports(out: &Path, rows: &[Row], budget: &[crate::budget::BudgetRo
          rebuilding of its ray-tracing structures per frame) with the frame time; below 1× Monte \
          Carlo is faster at equal error.\n",
     );
+    if !command.is_empty() {
+        md.insert_str("# rsl bench\n\n".len(), &format!("Written by:\n\n```sh\n{command}\n```\n\n"));
+    }
     for (scene, rows) in &by_scene {
         let stem = stem(scene);
         let mut times: Vec<f32> = rows.iter().map(|r| r.time).collect();
@@ -379,8 +383,9 @@ mod tests {
         let path = dir.join("results.csv");
         write_rows(&path, &rows).unwrap();
         assert_eq!(read_rows(&path).unwrap(), rows);
-        write_reports(&dir, &rows, &[]).unwrap();
+        write_reports(&dir, "rsl bench s.toml --out dir", &rows, &[]).unwrap();
         let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+        assert!(md.starts_with("# rsl bench\n\nWritten by:\n\n```sh\nrsl bench s.toml --out dir\n```\n"), "{md}");
         assert!(md.contains("★ method=cpu quality=draft rsl=30") && md.contains("★ method=cpu quality=paper rsl=30"));
         assert!(
             dir.join("a___b__error_vs_ms.svg").exists(),

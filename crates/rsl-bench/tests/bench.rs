@@ -64,6 +64,7 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         cache_dir: Some(cache),
         progress: Default::default(),
         budget_rsl: None,
+        command: String::new(),
     }
 }
 

@@ -240,9 +240,7 @@ pub(crate) const LAMBERTIAN: &str = "Lambertian: its radiance varies no faster t
 /// anisotropic object, which the lobes cannot fit, gets the RSL sum per pixel; a method a
 /// program registered draws whatever it is given.
 pub fn drawn_by(method: ObjectMethod, brdf: &Brdf) -> Result<MethodId> {
-    let built_in =
-        [ObjectMethod::AUTO, ObjectMethod::RSL, ObjectMethod::PIXEL, ObjectMethod::HYBRID, ObjectMethod::LOBE];
-    if !built_in.contains(&method) {
+    if !method.is_built_in() {
         let id: MethodId = method.name().parse().map_err(anyhow::Error::msg)?;
         anyhow::ensure!(id.registration().drawing.is_some(), "method `{id}` cannot draw single objects");
         return Ok(id);

@@ -7,7 +7,7 @@
 //! ([`PixelShader::gpu_lobes`]). The per-object methods (`hybrid`, `lobe`, `auto`:
 //! [`crate::lobe::Composite`]) are only rules that assign objects to drawings.
 
-use crate::engine::{Engine, ShadedFrame};
+use crate::engine::Engine;
 use crate::method::{Frame, Request, rasterise};
 use crate::progress::Timings;
 use anyhow::Result;
@@ -33,22 +33,16 @@ pub struct FrameContext<'f> {
     pub setup: &'f FrameSetup<'f>,
     /// Whether the image is drawn per pixel (else every object's vertices are interpolated).
     pub per_pixel: bool,
+    /// Per object, its vertices' world positions.
+    pub positions: &'f [Vec<Vec3>],
+    /// Per object, its vertices' world normals.
+    pub normals: &'f [Vec<Vec3>],
 }
 
 impl FrameContext<'_> {
     /// The eye.
     pub fn eye(&self) -> Vec3 {
         self.scene.camera.eye
-    }
-
-    /// Object `i`'s world positions.
-    pub fn positions(&self, i: usize) -> Vec<Vec3> {
-        (0..self.engine.mesh(i).vertex_count()).map(|v| self.setup.position(i, v)).collect()
-    }
-
-    /// Object `i`'s world normals.
-    pub fn normals(&self, i: usize) -> Vec<Vec3> {
-        (0..self.engine.mesh(i).vertex_count()).map(|v| self.setup.normal(i, v)).collect()
     }
 
     /// Whether the frame's image will be drawn per pixel.
@@ -89,6 +83,9 @@ pub trait PixelShader: Sync {
         None
     }
 }
+
+/// A boxed [`PixelShader`] living as long as the frame's data.
+type Shader<'f> = Box<dyn PixelShader + 'f>;
 
 /// An object the GPU's lobe pass draws with its lobes.
 pub struct GpuLobe<'a> {
@@ -169,7 +166,19 @@ pub fn compose(
     let start = Instant::now();
     let state = scene.at(request.time);
     let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
-    let ctx = FrameContext { engine, scene, request, state: &state, setup: &setup, per_pixel };
+    let vertices = |i: usize| 0..engine.mesh(i).vertex_count();
+    let positions: Vec<Vec<Vec3>> = (0..n).map(|i| vertices(i).map(|v| setup.position(i, v)).collect()).collect();
+    let normals: Vec<Vec<Vec3>> = (0..n).map(|i| vertices(i).map(|v| setup.normal(i, v)).collect()).collect();
+    let ctx = FrameContext {
+        engine,
+        scene,
+        request,
+        state: &state,
+        setup: &setup,
+        per_pixel,
+        positions: &positions,
+        normals: &normals,
+    };
     let mut stats = FrameStats::default();
     let mut parts: Vec<Option<Part<'_>>> = (0..n).map(|_| None).collect();
     for (d, drawing) in drawings.iter_mut().enumerate() {
@@ -183,43 +192,46 @@ pub fn compose(
             }
         }
     }
-    let parts: Vec<Part<'_>> = parts
+    let (radiance, shaders): (Vec<Vec<Vec3>>, Vec<Option<Shader<'_>>>) = parts
         .into_iter()
         .enumerate()
-        .map(|(i, p)| p.ok_or_else(|| anyhow::anyhow!("object {i} was assigned no drawing that drew it")))
-        .collect::<Result<_>>()?;
-    let radiance: Vec<Vec<Vec3>> = parts.iter().map(|p| p.radiance.clone()).collect();
-    let full = ShadedFrame::of(&setup, state.clone(), radiance, stats, 0.0);
+        .map(|(i, p)| {
+            p.map(|p| (p.radiance, p.pixels))
+                .ok_or_else(|| anyhow::anyhow!("object {i} was assigned no drawing that drew it"))
+        })
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
     timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
 
-    let per_pixel = per_pixel && parts.iter().any(|p| p.pixels.is_some());
-    let on_gpu: Option<Vec<GpuObject<'_>>> = parts
+    let per_pixel = per_pixel && shaders.iter().any(Option::is_some);
+    let on_gpu: Option<Vec<GpuObject<'_>>> = shaders
         .iter()
-        .map(|p| match &p.pixels {
-            None => Some(GpuObject { lobes: None, values: &p.radiance }),
+        .zip(&radiance)
+        .map(|(s, r)| match s {
+            None => Some(GpuObject { lobes: None, values: r }),
             Some(s) => s.gpu_lobes().map(|l| GpuObject { values: l.values, lobes: Some(l) }),
         })
         .collect();
     let image = match (gpu, on_gpu) {
         (Some(gpu), Some(objects)) if request.image && per_pixel => {
-            Some(gpu.draw(&ctx, &objects, &full.positions, &full.normals, &mut timings)?)
+            Some(gpu.draw(&ctx, &objects, &positions, &normals, &mut timings)?)
         }
         _ if !request.image => None,
-        _ if !per_pixel => {
-            Some(timings.time("draw", || rasterise(engine, scene, &state, &full.positions, &full.radiance)))
-        }
-        _ => Some(timings.time("draw per pixel", || draw_per_pixel(&ctx, &parts, &full))),
+        _ if !per_pixel => Some(timings.time("draw", || rasterise(engine, scene, &state, &positions, &radiance))),
+        _ => Some(timings.time("draw per pixel", || draw_per_pixel(&ctx, &shaders, &radiance))),
     };
+    drop(shaders);
     Ok(Frame {
-        state: full.state,
-        positions: full.positions,
-        normals: full.normals,
-        radiance: full.radiance,
+        state,
+        positions,
+        normals,
+        radiance,
         std_error: None,
         image,
         encoded: None,
         self_error: None,
-        stats: full.stats,
+        stats,
         shadow_rays: 0,
         timings,
     })
@@ -227,26 +239,27 @@ pub fn compose(
 
 /// The image on the CPU: each pixel of an object with a shader shaded by it, the others'
 /// vertices interpolated.
-fn draw_per_pixel(ctx: &FrameContext<'_>, parts: &[Part<'_>], full: &ShadedFrame) -> Image {
-    let frames: Vec<Option<Vec<LocalFrame>>> = parts.iter().map(|p| p.pixels.as_ref().map(|s| s.frames())).collect();
+fn draw_per_pixel(ctx: &FrameContext<'_>, shaders: &[Option<Shader<'_>>], radiance: &[Vec<Vec3>]) -> Image {
+    let frames: Vec<Option<Vec<LocalFrame>>> = shaders.iter().map(|s| s.as_ref().map(|s| s.frames())).collect();
     let meshes: Vec<PixelMesh<'_>> = ctx
         .scene
         .objects
         .iter()
         .enumerate()
         .map(|(i, o)| PixelMesh {
-            positions: &full.positions[i],
+            positions: &ctx.positions[i],
             indices: &o.mesh.indices,
             frames: frames[i].as_deref(),
-            radiance: &full.radiance[i],
+            radiance: &radiance[i],
         })
         .collect();
     let lights = ctx.setup.light_count();
     rsl_shade::draw_pixels(
         &ctx.scene.camera,
         &meshes,
+        ctx.engine.antialias(),
         || vec![0.0f32; lights],
-        |p, buf| match &parts[p.object].pixels {
+        |p, buf| match &shaders[p.object] {
             Some(s) => s.shade(&meshes[p.object], p, buf),
             None => Vec3::ZERO,
         },
@@ -312,25 +325,45 @@ impl ObjectDrawing for PixelDrawing {
         which: &[bool],
         stats: &mut FrameStats,
     ) -> Result<Vec<Option<Part<'f>>>> {
-        let n = which.len();
-        let per_pixel: Vec<bool> = (0..n)
-            .map(|i| which[i] && rsl_shade::drawn_per_pixel(ctx.setup, !ctx.engine.brdf(i).is_lambertian()))
-            .collect();
-        let plain: Vec<bool> = (0..n).map(|i| which[i] && !per_pixel[i]).collect();
-        crate::lobe::check_covers_size(ctx.engine, ctx.setup, &per_pixel)?;
-        let (radiance, covers, s) = rsl_shade::shade_covers(ctx.setup, &per_pixel);
-        let (plain_radiance, plain_stats) = rsl_shade::shade_objects(ctx.setup, &plain);
-        *stats = stats.plus(s).plus(plain_stats);
-        Ok((0..n)
-            .zip(radiance.into_iter().zip(covers).zip(plain_radiance))
-            .map(|(i, ((r, c), p))| {
-                if plain[i] {
-                    return Some(Part::vertices(p));
-                }
-                let covers = c?;
-                let shader: Box<dyn PixelShader + 'f> = Box::new(CoverShader { setup: ctx.setup, object: i, covers });
-                Some(Part { radiance: r, pixels: Some(shader) })
+        let (radiance, covers, s) = shade_for_pixels(ctx.engine, ctx.setup, which)?;
+        *stats = stats.plus(s);
+        Ok(radiance
+            .into_iter()
+            .zip(covers)
+            .enumerate()
+            .map(|(i, (radiance, covers))| {
+                which[i].then(|| match covers {
+                    None => Part::vertices(radiance),
+                    Some(covers) => {
+                        let shader: Box<dyn PixelShader + 'f> =
+                            Box::new(CoverShader { setup: ctx.setup, object: i, covers });
+                        Part { radiance, pixels: Some(shader) }
+                    }
+                })
             })
             .collect())
     }
+}
+
+/// Per object, the vertices' radiance and the covers kept; the frame's counts.
+type ShadedForPixels = (Vec<Vec<Vec3>>, Vec<Option<Covers>>, FrameStats);
+
+/// The objects `which` selects shaded for the RSL sum per pixel: those drawn per pixel
+/// ([`rsl_shade::drawn_per_pixel`]) with every light's cover kept at their vertices
+/// (`Some`), the others from their vertices alone (`None`); every selected object's
+/// radiance at its vertices.
+pub(crate) fn shade_for_pixels(engine: &Engine, setup: &FrameSetup<'_>, which: &[bool]) -> Result<ShadedForPixels> {
+    let n = which.len();
+    let per_pixel: Vec<bool> =
+        (0..n).map(|i| which[i] && rsl_shade::drawn_per_pixel(setup, !engine.brdf(i).is_lambertian())).collect();
+    let plain: Vec<bool> = (0..n).map(|i| which[i] && !per_pixel[i]).collect();
+    crate::lobe::check_covers_size(engine, setup, &per_pixel)?;
+    let (mut radiance, covers, stats) = rsl_shade::shade_covers(setup, &per_pixel);
+    let (plain_radiance, plain_stats) = rsl_shade::shade_objects(setup, &plain);
+    for (i, r) in plain_radiance.into_iter().enumerate() {
+        if plain[i] {
+            radiance[i] = r;
+        }
+    }
+    Ok((radiance, covers, stats.plus(plain_stats)))
 }

@@ -249,6 +249,21 @@ impl Engine {
         (self.preset, self.settings)
     }
 
+    /// Samples per pixel where one is not enough (the `aa` quality knob; 1: none).
+    pub fn antialias(&self) -> u32 {
+        self.settings.aa
+    }
+
+    /// Sets the samples per pixel where one is not enough (a square in 1..=64; nothing is
+    /// prepared again: antialiasing costs only drawing).
+    pub fn set_antialias(&mut self, aa: u32) -> Result<()> {
+        if !rsl_shade::antialias::valid_samples(aa) {
+            bail!("aa must be a square number of samples per pixel (1, 4, 9, 16, 25, 36, 49 or 64), got {aa}");
+        }
+        self.settings.aa = aa;
+        Ok(())
+    }
+
     /// The layers this engine prepares.
     pub fn layers(&self) -> Layers {
         self.options.layers

@@ -448,7 +448,7 @@ impl ObjectDrawing for LobeDrawing {
             for i in (0..n).filter(|&i| which[i]) {
                 let l = self.frame.lobes[i].clone().context("the lobes were not prepared")?;
                 let t = self.frame.transport[i].as_ref().context("the transport lobes were not prepared")?;
-                let (pos, nor) = (ctx.positions(i), ctx.normals(i));
+                let (pos, nor) = (&ctx.positions[i], &ctx.normals[i]);
                 let pose = Pose::new(&ctx.state.objects[i]);
                 let to_world = |d: Vec3| (pose.linear_to_world * d).normalize_or(d);
                 // The transport lobes (the object's own shadows fitted in), each shadowed by
@@ -497,7 +497,7 @@ impl ObjectDrawing for LobeDrawing {
                 continue;
             }
             let l = self.frame.lobes[i].clone().context("the lobes were not prepared")?;
-            let (pos, nor) = (ctx.positions(i), ctx.normals(i));
+            let (pos, nor) = (&ctx.positions[i], &ctx.normals[i]);
             let ratio: Vec<Vec3> = full[i].iter().zip(&bare[i]).map(|(s, u)| visibility_ratio(*s, *u)).collect();
             let radiance = (0..pos.len())
                 .into_par_iter()
@@ -525,7 +525,7 @@ struct LobeShader<'f> {
     /// The prefiltered environment, its key and top κ.
     env: (Arc<Prefiltered>, (u64, u32)),
     material: Arc<MaterialLobes>,
-    normals: Vec<Vec3>,
+    normals: &'f [Vec3],
     ratio: Vec<Vec3>,
     /// Per vertex, the untraced lights' radiance shadowed and unshadowed.
     untraced: Option<(Vec<Vec3>, Vec<Vec3>)>,

@@ -271,7 +271,8 @@ pub fn exposure_for(image: &Image) -> f32 {
     tonemap::auto_exposure(if objects.is_empty() { &image.pixels } else { &objects })
 }
 
-/// Rasterises per-vertex radiance with the environment behind it (the CPU rasteriser).
+/// Rasterises per-vertex radiance with the environment behind it (the CPU rasteriser),
+/// antialiased as the engine's quality asks.
 pub fn rasterise(
     engine: &Engine,
     scene: &Scene,
@@ -285,7 +286,7 @@ pub fn rasterise(
         .enumerate()
         .map(|(i, o)| RasterMesh { positions: &positions[i], indices: &o.mesh.indices, radiance: &radiance[i] })
         .collect();
-    rsl_shade::rasterise(&scene.camera, &meshes, |d| engine.background(state, d))
+    rsl_shade::rasterise_antialiased(&scene.camera, &meshes, engine.antialias(), |d| engine.background(state, d))
 }
 
 /// The CPU RSL path: the rayon fast path of the multiple product approximation and the CPU
@@ -430,8 +431,6 @@ impl Method for CpuRslPixels {
         let start = Instant::now();
         let state = scene.at(request.time);
         let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
-        let per_pixel: Vec<bool> =
-            (0..n).map(|i| rsl_shade::drawn_per_pixel(&setup, !engine.brdf(i).is_lambertian())).collect();
         let (mut k, changed) = match VertexKept::reusable(kept, changes, n) {
             Some(k) => (k, changes.objects.clone()),
             None => {
@@ -445,20 +444,13 @@ impl Method for CpuRslPixels {
                 (Box::new(k), vec![true; n])
             }
         };
-        let with_covers: Vec<bool> = (0..n).map(|i| changed[i] && per_pixel[i]).collect();
-        let plain: Vec<bool> = (0..n).map(|i| changed[i] && !per_pixel[i]).collect();
-        crate::lobe::check_covers_size(engine, &setup, &with_covers)?;
-        let (mut radiance, covers, stats) = rsl_shade::shade_covers(&setup, &with_covers);
-        let (plain_radiance, plain_stats) = rsl_shade::shade_objects(&setup, &plain);
-        for (i, (c, r)) in covers.into_iter().zip(plain_radiance).enumerate() {
-            if plain[i] {
-                radiance[i] = r;
-            }
+        let (radiance, covers, stats) = crate::compose::shade_for_pixels(engine, &setup, &changed)?;
+        for (i, c) in covers.into_iter().enumerate() {
             if changed[i] {
                 k.covers[i] = c;
             }
         }
-        let mut f = ShadedFrame::of(&setup, state.clone(), radiance, stats.plus(plain_stats), 0.0);
+        let mut f = ShadedFrame::of(&setup, state.clone(), radiance, stats, 0.0);
         for i in (0..n).filter(|&i| changed[i]) {
             k.replace(&mut f, i);
         }
@@ -466,8 +458,8 @@ impl Method for CpuRslPixels {
         timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
         let image = request.image.then(|| {
             timings.time("draw per pixel", || {
-                rsl_shade::shade_image(&setup, &scene.camera, &k.covers, &k.radiance, |d| engine.background(&state, d))
-                    .0
+                let background = |d| engine.background(&state, d);
+                rsl_shade::shade_image(&setup, &scene.camera, &k.covers, &k.radiance, engine.antialias(), background).0
             })
         });
         let f = k.frame(f.state, f.stats, 0.0);

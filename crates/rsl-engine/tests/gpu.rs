@@ -17,7 +17,12 @@ fn default_scene() -> Scene {
 /// The default scene's fields, cached for the tests of this run.
 fn engine(scene: &Scene) -> Engine {
     let cache = std::env::temp_dir().join(format!("rsl-gpu-test-{}", std::process::id()));
-    Engine::new(scene, EngineOptions { cache_dir: Some(cache), ..Default::default() }).expect("engine")
+    let mut engine =
+        Engine::new(scene, EngineOptions { cache_dir: Some(cache), ..Default::default() }).expect("engine");
+    // The GPU draws each pixel's centre (it does not antialias yet): the CPU images it is
+    // held to do the same.
+    engine.set_antialias(1).unwrap();
+    engine
 }
 
 fn renderer(test: &str) -> Option<GpuRenderer> {

@@ -65,8 +65,9 @@ fn truth_image(s: &Scene, seed: u64) -> (Image, f64) {
 }
 
 /// [`truth_image`] at `spp` samples per pixel. Every sample at the pixel's centre: the
-/// methods draw one point per pixel, and these tests measure their shading, not their
-/// aliasing (against the box-filtered truth, silhouettes against a bright sky dominate).
+/// methods draw one point per pixel here (`aa = 1`, draft's and these scenes' setting), and
+/// these tests measure their shading, not their aliasing (against the box-filtered truth,
+/// silhouettes against a bright sky dominate).
 fn truth_image_at(s: &Scene, seed: u64, spp: u32) -> (Image, f64) {
     let neutral =
         Engine::new(s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
@@ -404,7 +405,9 @@ fn the_hybrids_ratio_at_each_pixel_keeps_the_suns_self_shadows() {
     // pixel at 480×360 against 1,024 spp; 4.2 % with the ratio at each pixel).
     let s = scene(
         r#"
-        quality = "standard"
+        [quality]
+        preset = "standard"
+        aa = 1
 
         [environment]
         map = "../hdri/sunrise.exr"

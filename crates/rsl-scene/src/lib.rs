@@ -190,6 +190,11 @@ impl ObjectMethod {
     pub const LOBE: ObjectMethod = ObjectMethod("lobe");
     const BUILT_IN: [ObjectMethod; 5] = [Self::AUTO, Self::RSL, Self::PIXEL, Self::HYBRID, Self::LOBE];
 
+    /// Whether it is one of the scene file's own choices (not a method a program registered).
+    pub fn is_built_in(self) -> bool {
+        Self::BUILT_IN.contains(&self)
+    }
+
     /// The method named `name` (`rsl_pixel` is `pixel`), if scene files may name it.
     pub fn named(name: &str) -> Option<Self> {
         let name = if name == "rsl_pixel" { "pixel" } else { name };

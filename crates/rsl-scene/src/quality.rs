@@ -75,6 +75,12 @@ pub struct QualitySettings {
     pub traced_lights: u32,
     /// Shadow rays per traced light per vertex (0 traces none).
     pub shadow_rays: u32,
+    /// The most samples per pixel (a square: a `k×k` grid, averaged) in the pixels one
+    /// sample at the centre does not resolve — silhouettes, shadow edges, small highlights:
+    /// 4 in each, then `aa` more in those whose 4 span a wide range (rsl-shade's
+    /// `antialias`); 1 draws every pixel's centre alone (no antialiasing). Costs no
+    /// precomputation.
+    pub aa: u32,
 }
 
 impl QualitySettings {
@@ -93,6 +99,7 @@ impl QualitySettings {
                 cpca_vectors: 4,
                 traced_lights: 2,
                 shadow_rays: 16,
+                aa: 1,
             },
             Preset::Standard => Self {
                 brdf_resolution: AUTO,
@@ -109,6 +116,7 @@ impl QualitySettings {
                 cpca_vectors: 8,
                 traced_lights: 2,
                 shadow_rays: 16,
+                aa: 16,
             },
             Preset::Paper => Self {
                 brdf_resolution: AUTO,
@@ -124,6 +132,7 @@ impl QualitySettings {
                 cpca_vectors: 8,
                 traced_lights: 2,
                 shadow_rays: 16,
+                aa: 16,
             },
             Preset::High => Self {
                 brdf_resolution: AUTO,
@@ -137,13 +146,14 @@ impl QualitySettings {
                 cpca_vectors: 16,
                 traced_lights: 4,
                 shadow_rays: 32,
+                aa: 64,
             },
         }
     }
 
     /// `(name, value)` of every knob, for summaries and overrides (`brdf_resolution` is
     /// [`AUTO`] when automatic; [`QualitySettings::value_text`] writes it).
-    pub fn knobs(&self) -> [(&'static str, u32); 11] {
+    pub fn knobs(&self) -> [(&'static str, u32); 12] {
         [
             ("brdf_resolution", self.brdf_resolution),
             ("view_samples", self.view_samples),
@@ -156,6 +166,7 @@ impl QualitySettings {
             ("cpca_vectors", self.cpca_vectors),
             ("traced_lights", self.traced_lights),
             ("shadow_rays", self.shadow_rays),
+            ("aa", self.aa),
         ]
     }
 
@@ -206,6 +217,14 @@ impl QualitySettings {
             "cpca_clusters" => (1, 65_536),
             "traced_lights" => (0, 64),
             "shadow_rays" => (0, 4096),
+            "aa" => {
+                if !(1..=64).contains(&value) || (value as f64).sqrt().round().powi(2) != value as f64 {
+                    return Err(format!(
+                        "must be a square number of samples per pixel (1, 4, 9, 16, 25, 36, 49 or 64), got {value}"
+                    ));
+                }
+                (1, 64)
+            }
             _ => {
                 return Err(format!("unknown quality setting `{name}`; known: {}", Self::names().join(", ")));
             }
@@ -230,6 +249,7 @@ impl QualitySettings {
             "cpca_clusters" => self.cpca_clusters = v,
             "traced_lights" => self.traced_lights = v,
             "shadow_rays" => self.shadow_rays = v,
+            "aa" => self.aa = v,
             _ => self.cpca_vectors = v,
         }
         Ok(())

@@ -2,6 +2,7 @@
 //! (Xu et al. 2006, eq. 5 and fig. 8): a plain reference loop and a rayon fast path, the CPU
 //! rasteriser that draws the shaded vertices, and display encoding.
 
+pub mod antialias;
 mod covers;
 pub mod frame;
 pub mod oracle;
@@ -15,11 +16,12 @@ mod traced;
 
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
 pub use pixel::{
-    Covers, PixelMesh, PixelPoint, draw_pixels, drawn_per_pixel, point_radiance, shade_covers, shade_image,
-    traced_at_point,
+    Covers, PixelMesh, PixelPoint, draw_pixels, drawn_per_pixel, point_radiance, rasterise_antialiased, shade_covers,
+    shade_image, traced_at_point,
 };
 pub use raster::{
     Fragment, Image, RasterMesh, background_image, fragments, rasterise, rasterise_changed, rasterise_over,
+    sample_fragments,
 };
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, Traced, TracedCovers, VertexFrames, shade,

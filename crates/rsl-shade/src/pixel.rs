@@ -16,7 +16,8 @@
 //! ([`UNDEFINED`]); the others' weights are renormalised, so that a light grazing a
 //! silhouette is not darkened by a corner that cannot see it at all.
 
-use crate::raster::{Fragment, Image, fragments, pixel_ray};
+use crate::antialias;
+use crate::raster::{Fragment, Image, RasterMesh, fragments, image_ray, pixel_ray, sample_fragments};
 use crate::shade::{BLOCK, FrameSetup, FrameStats};
 use crate::sum::Sum;
 use glam::Vec3;
@@ -120,10 +121,13 @@ pub struct PixelPoint<'f> {
 
 /// Draws `meshes` through `camera`: each pixel of an object with frames gets
 /// `shade(point, scratch)` (`scratch` one per worker, from `init`), each pixel of the others
-/// its vertices' radiance interpolated, and the rest `background(direction)`.
+/// its vertices' radiance interpolated, and the rest `background(direction)`. With `aa` > 1
+/// (a square number), the pixels that one sample at the centre does not resolve are the
+/// mean of `aa` samples over their square ([`crate::antialias`]).
 pub fn draw_pixels<S>(
     camera: &Camera,
     meshes: &[PixelMesh<'_>],
+    aa: u32,
     init: impl Fn() -> S + Sync + Send,
     shade: impl Fn(&PixelPoint<'_>, &mut S) -> Vec3 + Sync + Send,
     background: impl Fn(Vec3) -> Vec3 + Sync,
@@ -131,51 +135,119 @@ pub fn draw_pixels<S>(
     let geometry: Vec<(&[Vec3], &[u32])> = meshes.iter().map(|m| (m.positions, m.indices)).collect();
     let frags = fragments(camera, &geometry);
     let w = camera.width as usize;
-    let done: Vec<(Vec3, bool)> = frags
+    // One sample: what `f` shows, or the background along `ray`.
+    let sample = |f: Option<&Fragment>, ray: &dyn Fn() -> Vec3, scratch: &mut S| -> Vec3 {
+        let Some(f) = f else {
+            return background(ray());
+        };
+        let m = &meshes[f.mesh as usize];
+        match m.frames {
+            Some(fr) => {
+                let t = 3 * f.triangle as usize;
+                let corner = |k: usize| &fr[m.indices[t + k] as usize];
+                let wts = f.weights;
+                let n = corner(0).n * wts.x + corner(1).n * wts.y + corner(2).n * wts.z;
+                let tan = corner(0).t * wts.x + corner(1).t * wts.y + corner(2).t * wts.z;
+                let point = PixelPoint {
+                    object: f.mesh as usize,
+                    position: f.interpolate(m.indices, m.positions),
+                    frame: Frame::from_normal_tangent(n, tan),
+                    fragment: f,
+                };
+                shade(&point, scratch)
+            }
+            None => f.interpolate(m.indices, m.radiance),
+        }
+    };
+    let mut pixels: Vec<Vec3> = frags
         .par_iter()
         .enumerate()
-        .map_init(init, |scratch, (k, f)| {
-            let Some(f) = f else {
-                return (background(pixel_ray(camera, (k % w) as u32, (k / w) as u32)), false);
-            };
-            let m = &meshes[f.mesh as usize];
-            let value = match m.frames {
-                Some(fr) => {
-                    let t = 3 * f.triangle as usize;
-                    let corner = |k: usize| &fr[m.indices[t + k] as usize];
-                    let wts = f.weights;
-                    let n = corner(0).n * wts.x + corner(1).n * wts.y + corner(2).n * wts.z;
-                    let tan = corner(0).t * wts.x + corner(1).t * wts.y + corner(2).t * wts.z;
-                    let point = PixelPoint {
-                        object: f.mesh as usize,
-                        position: f.interpolate(m.indices, m.positions),
-                        frame: Frame::from_normal_tangent(n, tan),
-                        fragment: f,
-                    };
-                    shade(&point, scratch)
-                }
-                None => f.interpolate(m.indices, m.radiance),
-            };
-            (value, true)
+        .map_init(&init, |scratch, (k, f)| {
+            sample(f.as_ref(), &|| pixel_ray(camera, (k % w) as u32, (k / w) as u32), scratch)
         })
         .collect();
-    Image {
-        width: camera.width,
-        height: camera.height,
-        pixels: done.iter().map(|d| d.0).collect(),
-        covered: done.iter().map(|d| d.1).collect(),
+    if aa > 1 {
+        let depth: Vec<f32> = frags
+            .par_iter()
+            .map(|f| {
+                f.map_or(f32::INFINITY, |f| {
+                    let m = &meshes[f.mesh as usize];
+                    f.interpolate(m.indices, m.positions).distance(camera.eye)
+                })
+            })
+            .collect();
+        let edges = antialias::edge_pixels(w, camera.height as usize, &frags, &depth, &pixels);
+        // Each pixel of `which` sampled at `offsets`: the samples' sum, least and greatest
+        // luminance.
+        let sampled = |which: &[usize], offsets: &[[f32; 2]]| -> Vec<(Vec3, f32, f32)> {
+            let at = sample_fragments(camera, &geometry, which, offsets);
+            which
+                .par_iter()
+                .zip(at.par_chunks(offsets.len()))
+                .map_init(&init, |scratch, (&k, samples)| {
+                    let (x, y) = ((k % w) as f32, (k / w) as f32);
+                    samples.iter().zip(offsets).fold((Vec3::ZERO, f32::INFINITY, 0.0f32), |(sum, lo, hi), (f, o)| {
+                        let c = sample(f.as_ref(), &|| image_ray(camera, x + o[0], y + o[1]), scratch);
+                        let l = antialias::luminance(c).max(0.0);
+                        (sum + c, lo.min(l), hi.max(l))
+                    })
+                })
+                .collect()
+        };
+        let first = antialias::sample_offsets(aa.min(antialias::FIRST_ROUND));
+        let firsts = sampled(&edges, &first);
+        for (&k, (sum, _, _)) in edges.iter().zip(&firsts) {
+            pixels[k] = *sum / first.len() as f32;
+        }
+        if aa > antialias::FIRST_ROUND {
+            let mean = antialias::mean_luminance(&pixels);
+            let again: Vec<(usize, Vec3)> = edges
+                .iter()
+                .zip(&firsts)
+                .filter(|(_, (_, lo, hi))| antialias::sample_again(*lo, *hi, mean))
+                .map(|(&k, (sum, _, _))| (k, *sum))
+                .collect();
+            let offsets = antialias::sample_offsets(aa);
+            let which: Vec<usize> = again.iter().map(|a| a.0).collect();
+            let n = (first.len() + offsets.len()) as f32;
+            for ((k, sum), (more, _, _)) in again.iter().zip(sampled(&which, &offsets)) {
+                pixels[*k] = (*sum + more) / n;
+            }
+        }
     }
+    Image { width: camera.width, height: camera.height, covered: frags.iter().map(Option::is_some).collect(), pixels }
+}
+
+/// [`crate::rasterise`] antialiased with `aa` samples per pixel where one is not enough
+/// (`aa` ≤ 1: the rasteriser itself).
+pub fn rasterise_antialiased(
+    camera: &Camera,
+    meshes: &[RasterMesh<'_>],
+    aa: u32,
+    background: impl Fn(Vec3) -> Vec3 + Sync,
+) -> Image {
+    if aa <= 1 {
+        return crate::rasterise(camera, meshes, background);
+    }
+    let meshes: Vec<PixelMesh<'_>> = meshes
+        .iter()
+        .map(|m| PixelMesh { positions: m.positions, indices: m.indices, frames: None, radiance: m.radiance })
+        .collect();
+    // Without frames every object's vertices are interpolated: `shade` is never called.
+    draw_pixels(camera, &meshes, aa, || (), |_, _| Vec3::ZERO, background)
 }
 
 /// The image of the frame through `camera`: the pixels of objects with covers
 /// ([`shade_covers`]) shaded per pixel, those of the others interpolated from `radiance`
 /// (per object, per vertex), and `background(direction)` where no object is; with the BRDF
-/// lookups the per-pixel sums made.
+/// lookups the per-pixel sums made; antialiased with `aa` samples per pixel where one is not
+/// enough.
 pub fn shade_image(
     setup: &FrameSetup<'_>,
     camera: &Camera,
     covers: &[Option<Covers>],
     radiance: &[Vec<Vec3>],
+    aa: u32,
     background: impl Fn(Vec3) -> Vec3 + Sync,
 ) -> (Image, FrameStats) {
     let positions: Vec<Vec<Vec3>> =
@@ -200,6 +272,7 @@ pub fn shade_image(
     let image = draw_pixels(
         camera,
         &meshes,
+        aa,
         || vec![0.0f32; lights],
         |p, buf| {
             let c = covers[p.object].as_ref().expect("objects with frames have covers");

@@ -78,6 +78,22 @@ impl Viewer {
                  edits in between are drawn from the vertices",
             );
         self.set_drawing(drawing);
+        let mut aa = self.scene.quality.settings.aa;
+        let aa_label = |n: u32| if n == 1 { "off".to_owned() } else { format!("up to {n} samples") };
+        egui::ComboBox::from_label("antialiasing")
+            .selected_text(aa_label(aa))
+            .show_ui(ui, |ui| {
+                for n in [1, 4, 16, 64] {
+                    ui.selectable_value(&mut aa, n, aa_label(n));
+                }
+            })
+            .response
+            .on_hover_text(
+                "Samples per pixel where one at the centre is not enough (silhouettes, shadow edges, \
+                 highlights), averaged: the drawings per pixel on the CPU",
+            );
+        let r = self.set_antialias(aa);
+        self.report(r);
         if let Some(adapter) = self.wgpu_adapter().map(str::to_owned) {
             let mut on = self.shading_on_gpu();
             ui.checkbox(&mut on, "shade on the GPU").on_hover_text(format!(

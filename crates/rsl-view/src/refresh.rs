@@ -24,6 +24,22 @@ impl Viewer {
         }
     }
 
+    /// Sets the samples per pixel of the drawings per pixel where one is not enough (the
+    /// `aa` quality knob; nothing is prepared again); drawn that way at once.
+    pub fn set_antialias(&mut self, aa: u32) -> Result<()> {
+        if aa == self.scene.quality.settings.aa {
+            return Ok(());
+        }
+        if let Some(engine) = &mut self.engine {
+            engine.set_antialias(aa)?;
+        }
+        self.scene.quality.settings.aa = aa;
+        self.force_pixels = !self.vertices_only();
+        self.pixels_pending = None;
+        self.mark_all();
+        Ok(())
+    }
+
     /// How the view is drawn once it rests.
     pub fn drawing(&self) -> MethodId {
         self.drawing

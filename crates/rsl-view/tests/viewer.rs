@@ -457,6 +457,30 @@ fn the_per_pixel_drawing_draws_what_the_pixel_method_renders() {
     for (k, (a, b)) in drawn.pixels.iter().zip(&expected.pixels).enumerate() {
         assert!((*a - *b).abs().max_element() <= 1e-4 * b.max_element().max(1e-2), "rested, pixel {k}: {a} vs {b}");
     }
+    // Antialiased: drawn at once as the method draws it with the same samples.
+    let aliased = drawn.pixels.clone();
+    assert!(h.state_mut().set_antialias(3).is_err(), "3 samples are not a grid");
+    {
+        // Through the "antialiasing" drop-down; the list opens on the next pass.
+        use egui_kittest::kittest::Queryable;
+        h.get_by_label("antialiasing").click();
+        h.step();
+        h.step();
+        h.get_by_label("up to 4 samples").click();
+        h.step();
+        h.step();
+        h.step();
+    }
+    let v = h.state();
+    assert_eq!(v.engine().unwrap().antialias(), 4);
+    let expected = CpuRslPixels.render(v.engine().unwrap(), v.scene(), &request).unwrap().image.unwrap();
+    let drawn = v.linear_image().expect("an image");
+    for (k, (a, b)) in drawn.pixels.iter().zip(&expected.pixels).enumerate() {
+        assert!((*a - *b).abs().max_element() <= 1e-4 * b.max_element().max(1e-2), "aa, pixel {k}: {a} vs {b}");
+    }
+    let smoothed = aliased.iter().zip(&drawn.pixels).filter(|(a, b)| (**a - **b).length() > 1e-3).count();
+    assert!(smoothed > 100, "{smoothed} pixels antialiased");
+    h.state_mut().set_antialias(1).unwrap();
     // Off again: the interpolated image comes back (the edit undone first).
     let mut m = h.state().scene().objects[bunny].material;
     if let Brdf::Ggx { alpha, .. } = &mut m {
