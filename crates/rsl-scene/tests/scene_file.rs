@@ -466,6 +466,11 @@ fn names_quality_knobs_and_axes_that_would_mislead_are_refused_or_read_right() {
     let q = parse("[quality]\ntable_resolution = 32\nbrdf_resolution = 64\n").unwrap().quality.settings;
     assert_eq!((q.brdf_resolution, q.visibility_resolution), (64, 32));
     assert_eq!(parse("[quality]\nbrdf_resolution = \"auto\"\n").unwrap().quality.settings.brdf_resolution, 0);
+    // Antialiasing takes a square grid of samples, at most 8×8.
+    for bad in ["aa = 3", "aa = 0", "aa = 81"] {
+        expect_err(parse(&format!("[quality]\n{bad}\n")), &["quality.aa", "square number"]);
+    }
+    assert_eq!(parse("[quality]\npreset = \"draft\"\naa = 64\n").unwrap().quality.settings.aa, 64);
     // A huge axis is a direction, not zero.
     let s = parse(&format!(
         "[[objects]]\nname = \"a\"\n{sphere}\nrotation = {{ axis = [1e30, 1e30, 0.0], degrees = 90.0 }}\n"

@@ -36,6 +36,10 @@ pub const FLOOR: f32 = 0.01;
 /// The most samples per pixel.
 pub const MAX_SAMPLES: u32 = 64;
 
+/// The most sub-pixel samples whose fragments are held at once (about 120 MB with their
+/// depths): an image of any size with any share of edge pixels is sampled in pieces.
+pub const SAMPLES_AT_ONCE: usize = 1 << 22;
+
 /// The samples every edge pixel takes first (a 2×2 grid).
 pub const FIRST_ROUND: u32 = 4;
 

@@ -123,7 +123,8 @@ pub struct PixelPoint<'f> {
 /// `shade(point, scratch)` (`scratch` one per worker, from `init`), each pixel of the others
 /// its vertices' radiance interpolated, and the rest `background(direction)`. With `aa` > 1
 /// (a square number), the pixels that one sample at the centre does not resolve are the
-/// mean of `aa` samples over their square ([`crate::antialias`]).
+/// mean of more samples over their square: 4, and `aa` besides where those span a wide
+/// range ([`crate::antialias`]).
 pub fn draw_pixels<S>(
     camera: &Camera,
     meshes: &[PixelMesh<'_>],
@@ -179,20 +180,26 @@ pub fn draw_pixels<S>(
         let edges = antialias::edge_pixels(w, camera.height as usize, &frags, &depth, &pixels);
         // Each pixel of `which` sampled at `offsets`: the samples' sum, least and greatest
         // luminance.
+        // A few million samples' fragments at a time, whatever the image's size.
         let sampled = |which: &[usize], offsets: &[[f32; 2]]| -> Vec<(Vec3, f32, f32)> {
-            let at = sample_fragments(camera, &geometry, which, offsets);
-            which
-                .par_iter()
-                .zip(at.par_chunks(offsets.len()))
-                .map_init(&init, |scratch, (&k, samples)| {
-                    let (x, y) = ((k % w) as f32, (k / w) as f32);
-                    samples.iter().zip(offsets).fold((Vec3::ZERO, f32::INFINITY, 0.0f32), |(sum, lo, hi), (f, o)| {
-                        let c = sample(f.as_ref(), &|| image_ray(camera, x + o[0], y + o[1]), scratch);
-                        let l = antialias::luminance(c).max(0.0);
-                        (sum + c, lo.min(l), hi.max(l))
-                    })
-                })
-                .collect()
+            let per_chunk = (antialias::SAMPLES_AT_ONCE / offsets.len()).max(1);
+            let mut out = Vec::with_capacity(which.len());
+            for chunk in which.chunks(per_chunk) {
+                let at = sample_fragments(camera, &geometry, chunk, offsets);
+                out.par_extend(chunk.par_iter().zip(at.par_chunks(offsets.len())).map_init(
+                    &init,
+                    |scratch, (&k, samples)| {
+                        let (x, y) = ((k % w) as f32, (k / w) as f32);
+                        let start = (Vec3::ZERO, f32::INFINITY, 0.0f32);
+                        samples.iter().zip(offsets).fold(start, |(sum, lo, hi), (f, o)| {
+                            let c = sample(f.as_ref(), &|| image_ray(camera, x + o[0], y + o[1]), scratch);
+                            let l = antialias::luminance(c).max(0.0);
+                            (sum + c, lo.min(l), hi.max(l))
+                        })
+                    },
+                ));
+            }
+            out
         };
         let first = antialias::sample_offsets(aa.min(antialias::FIRST_ROUND));
         let firsts = sampled(&edges, &first);

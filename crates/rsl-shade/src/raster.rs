@@ -522,6 +522,23 @@ mod tests {
     }
 
     #[test]
+    fn samples_fragments_do_not_depend_on_the_pixels_asked_with_them() {
+        // Antialiasing asks for its samples in pieces: each pixel's fragments are the same
+        // whichever others are asked with it.
+        let cam = camera();
+        let positions = overlapping();
+        let indices = [0, 1, 2, 3, 4, 5];
+        let geometry: [(&[Vec3], &[u32]); 1] = [(&positions, &indices)];
+        let pixels: Vec<usize> = (0..64 * 48).step_by(7).collect();
+        let offsets = crate::antialias::sample_offsets(16);
+        let whole = sample_fragments(&cam, &geometry, &pixels, &offsets);
+        let (a, b) = pixels.split_at(pixels.len() / 3);
+        let pieces = [sample_fragments(&cam, &geometry, a, &offsets), sample_fragments(&cam, &geometry, b, &offsets)];
+        assert_eq!(whole, pieces.concat());
+        assert!(whole.iter().filter(|f| f.is_some()).count() > 500, "the triangles are in view");
+    }
+
+    #[test]
     fn fragments_cover_what_the_rasteriser_draws_and_interpolate_as_it_does() {
         let cam = camera();
         // Two overlapping triangles at different depths, and one crossing the eye plane.
