@@ -166,9 +166,8 @@ pub fn compose(
     let start = Instant::now();
     let state = scene.at(request.time);
     let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
-    let vertices = |i: usize| 0..engine.mesh(i).vertex_count();
-    let positions: Vec<Vec<Vec3>> = (0..n).map(|i| vertices(i).map(|v| setup.position(i, v)).collect()).collect();
-    let normals: Vec<Vec<Vec3>> = (0..n).map(|i| vertices(i).map(|v| setup.normal(i, v)).collect()).collect();
+    let positions: Vec<Vec<Vec3>> = (0..n).map(|i| setup.positions(i)).collect();
+    let normals: Vec<Vec<Vec3>> = (0..n).map(|i| setup.normals(i)).collect();
     let ctx = FrameContext {
         engine,
         scene,

@@ -143,8 +143,11 @@ impl ShadedFrame {
         shade_ms: f64,
     ) -> Self {
         let n = radiance.len();
-        let positions = (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.position(i, v)).collect()).collect();
-        let normals = (0..n).map(|i| (0..radiance[i].len()).map(|v| setup.normal(i, v)).collect()).collect();
+        // An object left out of `radiance` (empty) has no vertices in the frame either.
+        let shaded =
+            |i: usize, all: &dyn Fn(usize) -> Vec<Vec3>| if radiance[i].is_empty() { Vec::new() } else { all(i) };
+        let positions = (0..n).map(|i| shaded(i, &|i| setup.positions(i))).collect();
+        let normals = (0..n).map(|i| shaded(i, &|i| setup.normals(i))).collect();
         Self { state, positions, normals, radiance, stats, shade_ms }
     }
 }
@@ -257,11 +260,7 @@ impl Engine {
     /// Sets the samples per pixel where one is not enough (a square in 1..=64; nothing is
     /// prepared again: antialiasing costs only drawing).
     pub fn set_antialias(&mut self, aa: u32) -> Result<()> {
-        if !rsl_shade::antialias::valid_samples(aa) {
-            bail!("aa must be a square number of samples per pixel (1, 4, 9, 16, 25, 36, 49 or 64), got {aa}");
-        }
-        self.settings.aa = aa;
-        Ok(())
+        self.settings.set("aa", i64::from(aa)).map_err(|m| anyhow::anyhow!("aa {m}"))
     }
 
     /// The layers this engine prepares.

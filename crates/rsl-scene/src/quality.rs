@@ -2,6 +2,13 @@
 
 use serde::Deserialize;
 
+/// Whether `aa` is a valid number of samples per pixel: a square in 1..=64 (1: the centre
+/// alone, no antialiasing).
+pub fn valid_aa(aa: u32) -> bool {
+    let k = f64::from(aa).sqrt().round() as u32;
+    (1..=64).contains(&aa) && k * k == aa
+}
+
 /// A named preset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -218,7 +225,7 @@ impl QualitySettings {
             "traced_lights" => (0, 64),
             "shadow_rays" => (0, 4096),
             "aa" => {
-                if !(1..=64).contains(&value) || (value as f64).sqrt().round().powi(2) != value as f64 {
+                if !u32::try_from(value).is_ok_and(valid_aa) {
                     return Err(format!(
                         "must be a square number of samples per pixel (1, 4, 9, 16, 25, 36, 49 or 64), got {value}"
                     ));

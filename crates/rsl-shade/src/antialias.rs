@@ -54,8 +54,7 @@ pub const SPREAD: f32 = 4.0;
 /// Whether `aa` is a valid number of samples per pixel: a square in `1..=`[`MAX_SAMPLES`]
 /// (1: the centre alone, no antialiasing).
 pub fn valid_samples(aa: u32) -> bool {
-    let k = grid_side(aa);
-    (1..=MAX_SAMPLES).contains(&aa) && k * k == aa
+    rsl_scene::quality::valid_aa(aa)
 }
 
 fn grid_side(aa: u32) -> u32 {

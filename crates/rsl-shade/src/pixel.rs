@@ -257,8 +257,7 @@ pub fn shade_image(
     aa: u32,
     background: impl Fn(Vec3) -> Vec3 + Sync,
 ) -> (Image, FrameStats) {
-    let positions: Vec<Vec<Vec3>> =
-        setup.placed.iter().map(|p| (0..p.object.mesh.vertex_count()).map(|v| p.position(v)).collect()).collect();
+    let positions: Vec<Vec<Vec3>> = (0..setup.placed.len()).map(|i| setup.positions(i)).collect();
     let frames: Vec<Option<Vec<Frame>>> = setup
         .placed
         .iter()

@@ -160,6 +160,16 @@ impl<'a> FrameSetup<'a> {
         p.pose.normal(p.object.mesh.normals[v])
     }
 
+    /// Object `i`'s vertices' world positions.
+    pub fn positions(&self, i: usize) -> Vec<Vec3> {
+        (0..self.placed[i].object.mesh.vertex_count()).map(|v| self.position(i, v)).collect()
+    }
+
+    /// Object `i`'s vertices' world normals.
+    pub fn normals(&self, i: usize) -> Vec<Vec3> {
+        (0..self.placed[i].object.mesh.vertex_count()).map(|v| self.normal(i, v)).collect()
+    }
+
     /// Whether object `i`'s BRDF is view-independent (Lambertian: one table for every view).
     pub fn view_independent(&self, i: usize) -> bool {
         self.placed[i].object.table.view_lookup(Vec3::Z) == ViewLookup::Single
