@@ -42,7 +42,9 @@ pub struct BenchArgs {
     pub target_error: Option<f64>,
     /// Term counts of the Haar wavelet baseline (Ng et al. 2003: the environment's largest
     /// area-weighted coefficients on the scene's cube grid, against transport with shadow
-    /// rays precomputed for the scene at each time), measured beside the configurations.
+    /// rays precomputed for the scene at each time), measured beside the sweep's
+    /// configurations: each is the configuration `method=wavelet wavelet_terms=K` (the same
+    /// as sweeping `--sweep method=wavelet --sweep wavelet_terms=…` alone).
     #[arg(long, value_delimiter = ',', default_value = "20,30,100")]
     pub wavelet_terms: Vec<usize>,
     /// Leave the wavelet baseline out.
@@ -124,17 +126,29 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         bail!("--truth-spp must be in 2..={MAX_SPP} (one sample cannot measure the truth's noise)");
     }
     let sweeps = if args.sweeps.is_empty() { default_sweeps() } else { args.sweeps.clone() };
+    // The sweep's configurations (what --target-error picks from), then the baseline's.
     let configs = configs(&sweeps)?;
+    let mut measured = configs.clone();
+    if !args.no_wavelet {
+        // The largest first: its transport serves the smaller counts.
+        let mut terms = args.wavelet_terms.clone();
+        terms.sort_unstable_by(|a, b| b.cmp(a));
+        terms.dedup();
+        let sweeps = [
+            Sweep { key: "method".into(), values: vec![rsl_engine::MethodId::WAVELET.to_string()] },
+            Sweep { key: "wavelet_terms".into(), values: terms.iter().map(|k| k.to_string()).collect() },
+        ];
+        measured.extend(rsl_bench::config::configs(&sweeps)?);
+    }
     let options = BenchOptions {
         scenes: args.scenes.clone(),
         out: args.out.clone(),
-        configs: configs.clone(),
+        configs: measured,
         truth_spp: args.truth_spp,
         seed: args.seed,
         times: args.times.clone(),
         frames: args.frames,
         grid_spp: args.grid_spp,
-        wavelet_terms: if args.no_wavelet { Vec::new() } else { args.wavelet_terms.clone() },
         cache_dir: args.prepare.options().cache_dir,
         progress: crate::progress::bars(),
         budget_rsl: (!args.no_budget).then_some(args.budget),
@@ -163,7 +177,8 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     if let Some(x) = args.target_error {
         for path in &args.scenes {
             let name = path.display().to_string();
-            // Only this sweep's configurations: their settings are known.
+            // Only this sweep's configurations (not the wavelet baseline beside it): their
+            // settings are what a scene takes.
             let ids: Vec<String> = configs.iter().map(|c| c.id()).collect();
             let rows: Vec<_> = s.rows.iter().filter(|r| ids.contains(&r.config)).cloned().collect();
             let pick = rsl_bench::target::pick(&rows, &name, x)?;

@@ -488,7 +488,7 @@ fn no_output_overwrites_an_input_or_another_output() {
     let map = dir.join("m.exr");
     std::fs::copy("data/hdri/sky.exr", &map).unwrap();
     let before = std::fs::read(&map).unwrap();
-    let scene = common::ball_scene(&dir, "s.toml", "map = \"m.exr\"");
+    let scene = common::ball_scene(&dir, "s.toml", |b| b.map("m.exr"));
     let refused = |c: &mut Command, says: &[&str]| {
         let (ok, _, err) = run(c);
         assert!(!ok, "accepted: {c:?}");

@@ -67,7 +67,7 @@ fn the_largest_exposures_saturate_to_white_on_both_devices() {
     // A grey ball under a unit constant light: every pixel's radiance is at least 0.5.
     let dir = std::env::temp_dir().join(format!("rsl-gpu-exposure-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let scene = common::ball_scene(&dir, "s.toml", "constant = [1.0, 1.0, 1.0]");
+    let scene = common::ball_scene(&dir, "s.toml", |b| b.constant(glam::Vec3::ONE));
     let cache = dir.join("cache");
     for device in ["cpu", "gpu"] {
         for exposure in ["1e20", "1e38"] {

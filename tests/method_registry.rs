@@ -7,6 +7,8 @@
 //! alone does not build it: build it first with `cargo build --release --example
 //! normals_method`.
 
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+use rsl_scene::{Brdf, ObjectMethod};
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -108,23 +110,23 @@ fn an_example_method_is_measured_by_the_bench() {
 fn a_scene_file_gives_an_example_method_to_one_object() {
     let dir = out_dir("per-object");
     let scene = dir.join("two.toml");
-    let ball = |name: &str, x: f32, method: &str| {
-        format!(
-            "[[objects]]\nname = \"{name}\"\ntranslation = [{x}, 0.0, 0.0]\n{method}\n\
-             primitive = {{ kind = \"sphere\", radius = 0.5, resolution = 16 }}\n\
-             material = {{ model = \"ggx\", alpha = 0.3 }}\n"
-        )
+    let ball = |name: &str, x: f32| {
+        ObjectBuilder::sphere(name, 0.5, 16).translation(glam::Vec3::new(x, 0.0, 0.0)).material(Brdf::Ggx {
+            alpha: 0.3,
+            specular: glam::Vec3::ONE,
+            diffuse: glam::Vec3::ZERO,
+        })
     };
-    std::fs::write(
-        &scene,
-        format!(
-            "[environment]\nconstant = [1.0, 1.0, 1.0]\n[camera]\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\n\
-             width = 64\nheight = 48\n{}{}",
-            ball("shown", 0.0, "method = \"normals\""),
-            ball("other", 1.2, "")
-        ),
-    )
-    .unwrap();
+    // The example registers `normals` in its own process; this one only writes the file.
+    rsl_scene::register_method_name("normals");
+    let normals = ObjectMethod::named("normals").unwrap();
+    SceneBuilder::new()
+        .camera(glam::Vec3::new(0.0, 0.0, 3.0), glam::Vec3::ZERO)
+        .image(64, 48)
+        .object(ball("shown", 0.0).method(normals))
+        .object(ball("other", 1.2))
+        .write(&scene)
+        .unwrap();
     let exr = dir.join("two.exr");
     let (ok, log) = run(example()
         .arg("render")

@@ -43,9 +43,6 @@ pub struct BenchOptions {
     pub times: Vec<f32>,
     /// Frames timed per configuration and time (the median is reported).
     pub frames: usize,
-    /// Term counts of the Haar wavelet baseline to measure (empty: none), on the scene's
-    /// own environment grid (a power of two).
-    pub wavelet_terms: Vec<usize>,
     /// Samples per pixel of the per-pixel truth behind the image grids and per-pixel errors,
     /// at half the camera's resolution (0: no images).
     pub grid_spp: u32,
@@ -127,8 +124,8 @@ pub struct Summary {
     pub truths_reused: usize,
 }
 
-/// An engine of `scene`'s method-neutral layer (what the truth and the wavelet baseline
-/// need), from the bench's cache.
+/// An engine of `scene`'s method-neutral layer (what the truth needs), from the bench's
+/// cache.
 fn neutral_engine(scene: &Scene, options: &BenchOptions) -> Result<Engine> {
     Engine::new(
         scene,
@@ -154,11 +151,6 @@ fn config_engine(scene: &Scene, options: &BenchOptions, config: &Config) -> Resu
             ..EngineOptions::default()
         },
     )
-}
-
-/// The identity of the wavelet baseline with `k` terms.
-pub fn wavelet_id(k: usize) -> String {
-    format!("method=wavelet terms={k}")
 }
 
 /// The row of a measured frame: its errors against the truth (scene, per object, per
@@ -379,17 +371,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
             .filter(|(c, t)| !summary.rows.iter().any(|r| r.scene == name && r.config == c.id() && r.time == *t))
             .collect();
-        let wavelet_todo: Vec<(usize, f32)> = options
-            .wavelet_terms
-            .iter()
-            .flat_map(|&k| options.times.iter().map(move |&t| (k, t)))
-            .filter(|(k, t)| {
-                !summary.rows.iter().any(|r| r.scene == name && r.config == wavelet_id(*k) && r.time == *t)
-            })
-            .collect();
-        summary.reused += (options.configs.len() + options.wavelet_terms.len()) * options.times.len()
-            - todo.len()
-            - wavelet_todo.len();
+        summary.reused += options.configs.len() * options.times.len() - todo.len();
         let budget_todo: Vec<(&Config, f32, &'static str, rsl_shade::Oracles)> = options
             .budget_rsl
             .map(|n| {
@@ -408,7 +390,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     .collect()
             })
             .unwrap_or_default();
-        if todo.is_empty() && wavelet_todo.is_empty() && budget_todo.is_empty() {
+        if todo.is_empty() && budget_todo.is_empty() {
             continue;
         }
         // The truths, once per time: only the method-neutral layer is needed for them.
@@ -447,7 +429,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 times.push(f.timings.ms("shade"));
                 if k == 0 {
                     // What the lobe methods prepare on their first frame (the prefiltered
-                    // environment, the transport lobes) is preparation; kept by the method,
+                    // environment, the transport lobes; the wavelet baseline's transport) is
+                    // preparation; kept by the method,
                     // the configuration that built it pays for it, as for fields.
                     prepare_ms += f.timings.ms("lobes") + f.timings.ms("transport");
                 }
@@ -461,7 +444,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 &config.method_name(),
                 engine.rsls().len() as u32,
                 t,
-                (prepare_ms, engine.memory().resident_bytes, engine.cache_stats().misses),
+                (prepare_ms, engine.memory().resident_bytes + method.bytes(), engine.cache_stats().misses),
                 median(times),
                 &frame.radiance,
                 truth,
@@ -512,45 +495,6 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             budget::write_rows(&budget_file, &budget_rows)?;
         }
         scene.quality = base;
-        for &t in &options.times {
-            let terms: Vec<usize> = wavelet_todo.iter().filter(|(_, tt)| *tt == t).map(|(k, _)| *k).collect();
-            let Some(&max) = terms.iter().max() else { continue };
-            let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
-            let task = format!(
-                "{name}: wavelet transport ({} vertices, 6×{}² rays each)",
-                scene.counts().0,
-                base.settings.env_grid
-            );
-            let start = Instant::now();
-            let w = options.progress.task(&task, |_| {
-                wavelet::Wavelets::new(&neutral, &scene, t, base.settings.env_grid as usize, max, true)
-            })?;
-            let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
-            for k in terms {
-                let mut times = Vec::with_capacity(options.frames);
-                let mut radiance = Vec::new();
-                for _ in 0..options.frames {
-                    let start = Instant::now();
-                    radiance = w.radiance(k);
-                    times.push(start.elapsed().as_secs_f64() * 1e3);
-                }
-                let row = measured_row(
-                    &name,
-                    &scene,
-                    wavelet_id(k),
-                    "wavelet",
-                    k as u32,
-                    t,
-                    (prepare_ms, w.bytes(), 0),
-                    median(times),
-                    &radiance,
-                    truth,
-                )?;
-                summary.rows.push(row);
-                summary.measured += 1;
-                report::write_rows(&results, &summary.rows)?;
-            }
-        }
     }
     if options.grid_spp > 0 {
         images(options, &mut summary, &mut methods)?;

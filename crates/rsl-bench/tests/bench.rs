@@ -1,7 +1,10 @@
 //! The study end to end on a small scene: results, reuse of the truth, resuming.
 
+use glam::Vec3;
 use rsl_bench::config::{Sweep, configs};
 use rsl_bench::{BenchOptions, run};
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+use rsl_scene::{Brdf, Preset, Primitive};
 use std::path::PathBuf;
 
 fn dir(name: &str) -> PathBuf {
@@ -15,32 +18,24 @@ fn dir(name: &str) -> PathBuf {
 fn scene(dir: &std::path::Path) -> PathBuf {
     write_scene(
         &dir.join("small.toml"),
-        [0.0, 2.0, 3.0],
-        r#"
-        [[objects]]
-        name = "floor"
-        primitive = { kind = "plane", size = 3.0, resolution = 12 }
-        material = { model = "lambert", albedo = [0.6, 0.6, 0.6] }
-        casts_shadows = false
-        [[objects]]
-        name = "ball"
-        primitive = { kind = "sphere", radius = 0.4, resolution = 12 }
-        translation = [0.0, 0.5, 0.0]
-        material = { model = "ggx", alpha = 0.3, specular = [0.9, 0.9, 0.9], diffuse = [0.2, 0.2, 0.2] }
-        "#,
+        Vec3::new(0.0, 2.0, 3.0),
+        [
+            ObjectBuilder::plane("floor", 3.0, 12).material(Brdf::Lambert { albedo: Vec3::splat(0.6) }).no_shadows(),
+            ObjectBuilder::sphere("ball", 0.4, 12).translation(Vec3::new(0.0, 0.5, 0.0)).material(Brdf::Ggx {
+                alpha: 0.3,
+                specular: Vec3::splat(0.9),
+                diffuse: Vec3::splat(0.2),
+            }),
+        ],
     )
 }
 
-/// A small draft scene under studio.exr, 64×48, seen from `eye`, with `objects` (TOML).
-fn write_scene(path: &std::path::Path, eye: [f32; 3], objects: &str) -> PathBuf {
+/// A small draft scene under studio.exr, 64×48, seen from `eye`, with `objects`, written to
+/// `path`.
+fn write_scene(path: &std::path::Path, eye: Vec3, objects: impl IntoIterator<Item = ObjectBuilder>) -> PathBuf {
     let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
-    let header = format!(
-        "quality = \"draft\"\n[environment]\nmap = \"{}\"\n[camera]\neye = {eye:?}\ntarget = [0.0, 0.0, 0.0]\n\
-         width = 64\nheight = 48\n",
-        map.display()
-    );
-    std::fs::write(path, header + objects).unwrap();
-    path.to_path_buf()
+    let b = SceneBuilder::new().preset(Preset::Draft).map(map).camera(eye, Vec3::ZERO).image(64, 48);
+    objects.into_iter().fold(b, SceneBuilder::object).write(path).unwrap()
 }
 
 fn image_size(path: &std::path::Path) -> (u32, u32) {
@@ -60,7 +55,6 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         times: vec![0.0],
         frames: 2,
         grid_spp: 8,
-        wavelet_terms: vec![],
         cache_dir: Some(cache),
         progress: Default::default(),
         budget_rsl: None,
@@ -129,15 +123,22 @@ fn bad_options_are_clear_errors() {
 fn the_wavelet_baseline_joins_the_study() {
     let d = dir("wavelet");
     let mut o = options(scene(&d), d.join("out"), d.join("cache"), &["rsl=8"]);
-    o.wavelet_terms = vec![4, 64];
+    // What `rsl bench --wavelet-terms 64,4` adds: the baseline as a configuration per count,
+    // the largest first.
+    let sweeps: Vec<Sweep> = ["method=wavelet", "wavelet_terms=64,4"].iter().map(|s| s.parse().unwrap()).collect();
+    o.configs.extend(configs(&sweeps).unwrap());
     o.grid_spp = 0;
     let s = run(&o).unwrap();
     assert_eq!(s.measured, 3);
+    let mut errors = Vec::new();
     for k in [4u32, 64] {
-        let r = s.rows.iter().find(|r| r.config == format!("method=wavelet terms={k}")).unwrap();
-        assert_eq!((r.method.as_str(), r.rsl), ("wavelet", k));
+        let r = s.rows.iter().find(|r| r.config == format!("method=wavelet wavelet_terms={k}")).unwrap();
+        // No square lights: the baseline's rows hold no RSL count.
+        assert_eq!((r.method.as_str(), r.rsl), ("wavelet", 0));
         assert!(r.relative_l2.is_finite() && r.ms_per_frame > 0.0 && r.prepare_bytes > 0);
+        errors.push(r.relative_l2);
     }
+    assert!(errors[1] < errors[0], "64 terms closer to the truth than 4: {errors:?}");
     // Resumed: nothing is measured again.
     assert_eq!(run(&o).unwrap().measured, 0);
 }
@@ -177,14 +178,10 @@ fn raising_any_single_knob_never_raises_the_error_beyond_the_truths_noise() {
     // A torus has a stored self-visibility field, for the CPCA knobs (the ball is convex).
     let torus = write_scene(
         &d.join("torus.toml"),
-        [0.0, 2.0, 2.0],
-        r#"
-        [[objects]]
-        name = "torus"
-        primitive = { kind = "torus", major_radius = 0.5, minor_radius = 0.2, resolution = 12 }
-        rotation = { axis = [1.0, 0.0, 0.0], degrees = 60.0 }
-        material = { model = "lambert", albedo = [0.7, 0.7, 0.7] }
-        "#,
+        Vec3::new(0.0, 2.0, 2.0),
+        [ObjectBuilder::primitive("torus", Primitive::Torus { major_radius: 0.5, minor_radius: 0.2, resolution: 12 })
+            .rotation(Vec3::X, 60.0)
+            .material(Brdf::Lambert { albedo: Vec3::splat(0.7) })],
     );
     // From a coarse base, each knob alone at a low and a higher value.
     let base = "quality=draft";

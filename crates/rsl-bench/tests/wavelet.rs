@@ -7,26 +7,19 @@ use rsl_bench::wavelet::Wavelets;
 use rsl_engine::method::{Method, Request, Truth};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, Layers};
+use rsl_scene::Brdf;
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
 use std::path::PathBuf;
 
 fn scene() -> Scene {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/inline-test.toml");
-    Scene::from_toml_str(
-        r#"
-        [environment]
-        map = "../hdri/studio.exr"
-        rotation = { axis = [0.0, 1.0, 0.0], degrees = 40.0 }
-        [camera]
-        eye = [0.3, 0.8, 3.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ball"
-        primitive = { kind = "sphere", radius = 1.0, resolution = 12 }
-        material = { model = "lambert", albedo = [0.7, 0.5, 0.3] }
-        "#,
-        &root,
-    )
-    .unwrap()
+    SceneBuilder::new()
+        .map("../hdri/studio.exr")
+        .environment_rotation(Vec3::Y, 40.0)
+        .camera(Vec3::new(0.3, 0.8, 3.0), Vec3::ZERO)
+        .object(ObjectBuilder::sphere("ball", 1.0, 12).material(Brdf::Lambert { albedo: Vec3::new(0.7, 0.5, 0.3) }))
+        .build(&root)
+        .unwrap()
 }
 
 fn l2(a: &[Vec3], b: &[Vec3]) -> f64 {

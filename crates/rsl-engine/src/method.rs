@@ -158,6 +158,12 @@ pub trait Method {
     /// What it is, in words (for logs and reports).
     fn describe(&self) -> String;
 
+    /// Bytes the method holds beyond the engine's prepared data (the wavelet baseline's
+    /// transport); 0 by default.
+    fn bytes(&self) -> usize {
+        0
+    }
+
     /// The frame of `scene` (which `engine` was last synced to) for `request`.
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame>;
 

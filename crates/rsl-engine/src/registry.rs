@@ -243,6 +243,8 @@ impl MethodId {
     pub const HYBRID: MethodId = MethodId("hybrid");
     /// Transport lobes shadowed by the other objects' fields.
     pub const LOBE: MethodId = MethodId("lobe");
+    /// The Haar wavelet baseline.
+    pub const WAVELET: MethodId = MethodId("wavelet");
 
     /// Every registered method, built-in ones first.
     pub fn all() -> Vec<MethodId> {

@@ -191,6 +191,11 @@ impl Wavelets {
             + std::mem::size_of_val(self.lighting.as_slice())
     }
 
+    /// Whether it was prepared for at least `terms` terms (or for every term there is).
+    pub fn holds(&self, terms: usize) -> bool {
+        self.kept >= terms.min(self.lighting.len())
+    }
+
     /// The coefficient count of the whole cube (`6R²`): with that many terms the baseline
     /// is the cube's quadrature exactly.
     pub fn all_terms(&self) -> usize {
@@ -212,32 +217,37 @@ impl Wavelets {
 
 /// The Haar wavelet baseline as a method: the transport is prepared for the scene as it is
 /// at the frame's time (a static scene: prepared again when the time, the environment or
-/// the scene changes) on the quality's environment grid, and each frame keeps the
-/// [`WaveletMethod::terms`] largest lighting coefficients.
+/// the scene changes) on the quality's environment grid, and each frame keeps the quality's
+/// `wavelet_terms` largest lighting coefficients. Transport prepared for more terms serves
+/// fewer (a sweep of term counts from the largest down prepares once).
 pub struct WaveletMethod {
-    /// Lighting terms kept per frame.
-    pub terms: usize,
     progress: crate::progress::Progress,
     prepared: Option<(u64, Wavelets)>,
 }
 
-/// Lighting terms the baseline keeps when not told (Ng et al.'s figures use 100–200).
+/// Lighting terms the presets keep (quality knob `wavelet_terms`; Ng et al.'s figures use
+/// 100–200).
 pub const DEFAULT_TERMS: usize = 200;
 
 impl WaveletMethod {
-    /// The baseline with [`DEFAULT_TERMS`] terms (nothing prepared yet).
+    /// The baseline, nothing prepared yet.
     pub fn new(_engine: &Engine, options: &crate::registry::MethodOptions) -> Result<Self> {
-        Ok(Self { terms: DEFAULT_TERMS, progress: options.progress.clone(), prepared: None })
+        Ok(Self { progress: options.progress.clone(), prepared: None })
     }
 }
 
 impl Method for WaveletMethod {
     fn describe(&self) -> String {
-        format!("Haar wavelet baseline, {} terms (CPU)", self.terms)
+        "Haar wavelet baseline, the quality's wavelet_terms largest lighting terms (CPU)".into()
+    }
+
+    fn bytes(&self) -> usize {
+        self.prepared.as_ref().map_or(0, |(_, w)| w.bytes())
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
         let r = scene.quality.settings.env_grid as usize;
+        let terms = scene.quality.settings.wavelet_terms as usize;
         // What the transport depends on: the meshes, materials and shadow casters, each
         // object's world transform at this time, the eye, the environment and the grid.
         let state = scene.at(request.time);
@@ -246,8 +256,7 @@ impl Method for WaveletMethod {
             .u64(engine.environment_key())
             .f32s(&state.world_from_env.to_array())
             .f32s(&scene.camera.eye.to_array())
-            .u64(r as u64)
-            .u64(self.terms as u64);
+            .u64(r as u64);
         for (i, o) in scene.objects.iter().enumerate() {
             h = h
                 .u64(engine.keys(i).mesh)
@@ -257,15 +266,15 @@ impl Method for WaveletMethod {
         }
         let key = h.finish();
         let mut timings = Timings::default();
-        if self.prepared.as_ref().is_none_or(|(k, _)| *k != key) {
+        if self.prepared.as_ref().is_none_or(|(k, w)| *k != key || !w.holds(terms)) {
             let task = format!("wavelet transport ({} vertices, 6×{r}² rays each)", scene.counts().0);
             let start = std::time::Instant::now();
-            let w = self.progress.task(&task, |_| Wavelets::new(engine, scene, request.time, r, self.terms, true))?;
+            let w = self.progress.task(&task, |_| Wavelets::new(engine, scene, request.time, r, terms, true))?;
             timings.add("transport", start.elapsed().as_secs_f64() * 1e3, None);
             self.prepared = Some((key, w));
         }
         let w = &self.prepared.as_ref().expect("prepared above").1;
-        let radiance = timings.time("shade", || w.radiance(self.terms));
+        let radiance = timings.time("shade", || w.radiance(terms));
         Frame::of_vertices(engine, scene, state, radiance, request.image, timings)
     }
 }

@@ -7,7 +7,9 @@ use rsl_shade::Terms;
 use std::path::{Path, PathBuf};
 
 mod common;
-use common::{relative_l2, root, scene};
+use common::{relative_l2, root, scene, turned_suzanne};
+use rsl_scene::Preset;
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
 
 fn memory_only() -> EngineOptions {
     EngineOptions::default()
@@ -25,22 +27,16 @@ fn lambert_sphere_under_constant_light_reflects_albedo_times_radiance() {
     // One RSL per texel of a 6×8×8 grid: the squares are small, so the sum over them is a
     // fine quadrature of the cosine; what remains is table precision.
     let s = scene(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 8
-        table_resolution = 32
-        [environment]
-        constant = [2.0, 1.0, 0.5]
-        rsl_count = 384
-        [camera]
-        eye = [0.0, 0.0, 5.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ball"
-        primitive = { kind = "sphere", radius = 1.0, resolution = 16 }
-        material = { model = "lambert", albedo = [0.5, 0.25, 0.8] }
-        "#,
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .knob("env_grid", 8)
+            .knob("table_resolution", 32)
+            .constant(Vec3::new(2.0, 1.0, 0.5))
+            .rsl_count(384)
+            .camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO)
+            .object(
+                ObjectBuilder::sphere("ball", 1.0, 16).material(Brdf::Lambert { albedo: Vec3::new(0.5, 0.25, 0.8) }),
+            ),
     );
     let engine = Engine::new(&s, memory_only()).unwrap();
     assert_eq!(engine.rsls().len(), 384);
@@ -65,29 +61,10 @@ fn lambert_sphere_under_constant_light_reflects_albedo_times_radiance() {
 #[test]
 fn rotating_an_object_with_the_environment_and_eye_changes_nothing() {
     // Suzanne is not convex: its self-visibility field is used.
-    let text = |deg: f32, eye: Vec3| {
-        format!(
-            r#"
-            quality = "draft"
-            [environment]
-            map = "../hdri/studio.exr"
-            rotation = {{ axis = [0.3, 1.0, 0.2], degrees = {deg} }}
-            [camera]
-            eye = [{}, {}, {}]
-            target = [0.0, 0.0, 0.0]
-            [[objects]]
-            name = "suzanne"
-            mesh = "../models/suzanne.glb"
-            rotation = {{ axis = [0.3, 1.0, 0.2], degrees = {deg} }}
-            material = {{ model = "ggx", alpha = 0.3, diffuse = [0.3, 0.3, 0.3] }}
-            "#,
-            eye.x, eye.y, eye.z
-        )
-    };
     let eye = Vec3::new(0.4, 0.8, 3.0);
-    let a = scene(&text(0.0, eye));
+    let a = turned_suzanne(0.0, eye);
     let q = Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 70f32.to_radians());
-    let b = scene(&text(70.0, q * eye));
+    let b = turned_suzanne(70.0, q * eye);
     let engine = Engine::new(&a, memory_only()).unwrap();
     let fa = engine.shade(&a, 0.0).unwrap();
     let mut engine = engine;
@@ -106,31 +83,25 @@ fn rotating_an_object_with_the_environment_and_eye_changes_nothing() {
     assert!(relative_l2(&open[0], &fa.radiance[0]) > 0.02);
 }
 
-const SUN_SCENE: &str = r#"
-    [quality]
-    preset = "draft"
-    table_resolution = 32
-    ovdf_directions = 16
-    [environment]
-    map = "../hdri/sky.exr"
-    rsl_count = 40
-    [camera]
-    eye = [0.0, 4.0, 4.0]
-    target = [0.0, 0.0, 0.0]
-    [[objects]]
-    name = "ground"
-    primitive = { kind = "plane", size = 4.0, resolution = 40 }
-    material = { model = "lambert", albedo = [0.7, 0.7, 0.7] }
-    [[objects]]
-    name = "ball"
-    primitive = { kind = "sphere", radius = 0.4, resolution = 24 }
-    translation = [0.0, 20.0, 0.0]
-    material = { model = "lambert", albedo = [0.7, 0.7, 0.7] }
-"#;
+/// A ground and a ball 20 units above it, both Lambert, under the sky map at draft.
+fn sun_scene() -> Scene {
+    let grey = Brdf::Lambert { albedo: Vec3::splat(0.7) };
+    scene(
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .knob("table_resolution", 32)
+            .knob("ovdf_directions", 16)
+            .map("../hdri/sky.exr")
+            .rsl_count(40)
+            .camera(Vec3::new(0.0, 4.0, 4.0), Vec3::ZERO)
+            .object(ObjectBuilder::plane("ground", 4.0, 40).material(grey))
+            .object(ObjectBuilder::sphere("ball", 0.4, 24).translation(Vec3::new(0.0, 20.0, 0.0)).material(grey)),
+    )
+}
 
 #[test]
 fn a_far_occluder_casts_no_shadow_at_all() {
-    let mut s = scene(SUN_SCENE);
+    let mut s = sun_scene();
     let engine = Engine::new(&s, memory_only()).unwrap();
     let far = engine.shade(&s, 0.0).unwrap();
     // The same plane with the ball casting nothing.
@@ -145,7 +116,7 @@ fn a_far_occluder_casts_no_shadow_at_all() {
 
 #[test]
 fn an_occluder_shadows_the_plane_where_it_blocks_the_sun_and_nowhere_else() {
-    let mut s = scene(SUN_SCENE);
+    let mut s = sun_scene();
     let engine = Engine::new(&s, memory_only()).unwrap();
     let state = s.at(0.0);
     // The sun: the light of highest radiance.
@@ -337,26 +308,20 @@ fn smooth_map(dir: &Path) -> PathBuf {
 fn the_rsl_path_converges_to_the_truth_as_lights_shrink() {
     let dir = cache_dir("converge");
     let map = smooth_map(&dir);
-    let text = format!(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 16
-        table_resolution = 32
-        view_samples = 32
-        [environment]
-        map = "{}"
-        [camera]
-        eye = [0.0, 0.5, 4.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = 1.0, resolution = 16 }}
-        material = {{ model = "ggx", alpha = 0.3, specular = [0.9, 0.9, 0.9], diffuse = [0.2, 0.2, 0.2] }}
-        "#,
-        map.display()
-    );
-    let s = Scene::from_toml_str(&text, &dir.join("scene.toml")).unwrap();
+    let s = SceneBuilder::new()
+        .preset(Preset::Draft)
+        .knob("env_grid", 16)
+        .knob("table_resolution", 32)
+        .knob("view_samples", 32)
+        .map(&map)
+        .camera(Vec3::new(0.0, 0.5, 4.0), Vec3::ZERO)
+        .object(ObjectBuilder::sphere("ball", 1.0, 16).material(Brdf::Ggx {
+            alpha: 0.3,
+            specular: Vec3::splat(0.9),
+            diffuse: Vec3::splat(0.2),
+        }))
+        .build(dir.join("scene.toml"))
+        .unwrap();
     let frames = rsl_engine::truth::vertex_frames(&s);
     let truth = rsl_engine::truth::truth_scene(&s, &frames, rsl_engine::truth::env_light(&s).unwrap(), 0.0).unwrap();
     let (est, _) = truth.vertices(s.camera.eye, 8192, 5).unwrap();

@@ -9,7 +9,8 @@ use rsl_engine::scene::Scene;
 use rsl_engine::{Engine, EngineOptions, Layers};
 
 mod common;
-use common::{cap_radiance, cap_scene_at, furnace_ball, relative_l2};
+use common::{beckmann, cap_radiance, cap_scene_with, furnace_ball, ggx, lambert, relative_l2};
+use rsl_scene::Preset;
 
 fn render(method: &mut dyn Method, engine: &Engine, s: &Scene) -> Frame {
     let request = Request { time: 0.0, image: false, vertices: true, exposure: None };
@@ -27,7 +28,7 @@ fn render(method: &mut dyn Method, engine: &Engine, s: &Scene) -> Frame {
 #[test]
 fn a_scene_a_millionth_and_a_million_times_the_size_casts_the_same_cap() {
     let run = |s: f32| {
-        let scene = cap_scene_at("", s);
+        let scene = cap_scene_with(s, |ball| ball);
         let engine = Engine::new(&scene, EngineOptions::default()).expect("engine");
         let request = Request { time: 0.0, image: true, vertices: true, exposure: Some(1.0) };
         let rsl = CpuRsl.render(&engine, &scene, &request).expect("frame");
@@ -77,18 +78,14 @@ fn a_scene_a_millionth_and_a_million_times_the_size_casts_the_same_cap() {
 #[test]
 fn views_that_graze_a_glossy_ball_reflect_what_the_truth_does() {
     let materials = [
-        ("lambert", r#"{ model = "lambert", albedo = [0.5, 0.5, 0.5] }"#, true),
-        (
-            "beckmann 0.3",
-            r#"{ model = "beckmann", alpha = 0.3, specular = [0.9, 0.9, 0.9], diffuse = [0.1, 0.1, 0.1] }"#,
-            true,
-        ),
+        ("lambert", lambert(0.5), true),
+        ("beckmann 0.3", beckmann(0.3, 0.9, 0.1), true),
         // A lobe a few texels wide: the lobe path's domain. Its error is reported, not bound
         // (5.7 % and 7.2 % in the two grazing bands against 1.9 % and 1.5 % of noise).
-        ("ggx 0.1", r#"{ model = "ggx", alpha = 0.1, specular = [0.9, 0.9, 0.9], diffuse = [0.1, 0.1, 0.1] }"#, false),
+        ("ggx 0.1", ggx(0.1, 0.9, 0.1), false),
     ];
     for (name, material, bound) in materials {
-        let s = furnace_ball(material, "preset = \"standard\"\n        env_grid = 16", 1536, 48);
+        let s = furnace_ball(material, Preset::Standard, &[("env_grid", 16)], 1536, 48);
         let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
         let rsl = render(&mut CpuRsl, &engine, &s);
         let mut truth = Truth::new(&engine, 1024, 3).expect("truth");
@@ -129,12 +126,7 @@ fn views_that_graze_a_glossy_ball_reflect_what_the_truth_does() {
 fn one_square_for_the_whole_sky_keeps_its_energy_and_squares_below_a_cell_are_exact() {
     // One light per texel of a 6×64×64 grid (squares 0.018 rad across) over tables of 8×8
     // cells (0.3 rad): the fine quadrature's 1 % bound (`tests/methods.rs`).
-    let s = furnace_ball(
-        r#"{ model = "lambert", albedo = [0.5, 0.5, 0.5] }"#,
-        "preset = \"draft\"\n        env_grid = 64\n        table_resolution = 8",
-        24_576,
-        16,
-    );
+    let s = furnace_ball(lambert(0.5), Preset::Draft, &[("env_grid", 64), ("table_resolution", 8)], 24_576, 16);
     let engine = Engine::new(&s, EngineOptions { layers: Layers { rsl: true }, ..Default::default() }).expect("engine");
     assert!(engine.rsls().iter().all(|l| l.solid_angle() < 1e-3));
     let f = render(&mut CpuRsl, &engine, &s);
@@ -152,12 +144,7 @@ fn one_square_for_the_whole_sky_keeps_its_energy_and_squares_below_a_cell_are_ex
     // within the plane, and what remains is the rotated squares' shape near each vertex's
     // horizon (measured 7.6 % and 7.8 %, and 3.7 % at six squares).
     for n in [1u32, 2] {
-        let s = furnace_ball(
-            r#"{ model = "lambert", albedo = [0.5, 0.5, 0.5] }"#,
-            "preset = \"draft\"\n        env_grid = 8",
-            n,
-            16,
-        );
+        let s = furnace_ball(lambert(0.5), Preset::Draft, &[("env_grid", 8)], n, 16);
         let engine =
             Engine::new(&s, EngineOptions { layers: Layers { rsl: true }, ..Default::default() }).expect("engine");
         for l in engine.rsls() {

@@ -9,6 +9,8 @@ use std::sync::Arc;
 
 mod common;
 use common::{root, scene};
+use rsl_scene::Preset;
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
 
 fn default_scene() -> Scene {
     Scene::load(root().join("data/scenes/default.toml")).expect("the default scene loads")
@@ -172,40 +174,39 @@ fn gpu_matches_cpu_with_an_anisotropic_table_and_many_occluders() {
     // light; the plate's table is anisotropic; Suzanne adds a stored self-visibility field;
     // every other ball is an isotropic Ward (its view slices scaled by the view amplitude,
     // its diffuse term in a slice of its own).
-    let mut text = String::from(
-        r#"
-        quality = "draft"
-        [environment]
-        map = "../hdri/sky.exr"
-        rsl_count = 24
-        [camera]
-        eye = [0.0, 2.5, 3.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "plate"
-        primitive = { kind = "plane", size = 2.0, resolution = 24 }
-        material = { model = "ward", alpha_x = 0.08, alpha_y = 0.3, specular = [0.6, 0.6, 0.6], diffuse = [0.3, 0.3, 0.3] }
-        [[objects]]
-        name = "suzanne"
-        mesh = "../models/suzanne.glb"
-        translation = [0.0, 0.5, -0.6]
-        scale = 0.3
-        material = { model = "phong", exponent = 30.0, specular = [0.4, 0.4, 0.4], diffuse = [0.5, 0.2, 0.1] }
-        "#,
-    );
+    let mut b = SceneBuilder::new()
+        .preset(Preset::Draft)
+        .map("../hdri/sky.exr")
+        .rsl_count(24)
+        .camera(Vec3::new(0.0, 2.5, 3.0), Vec3::ZERO)
+        .object(ObjectBuilder::plane("plate", 2.0, 24).material(Brdf::Ward {
+            alpha_x: 0.08,
+            alpha_y: 0.3,
+            specular: Vec3::splat(0.6),
+            diffuse: Vec3::splat(0.3),
+        }))
+        .object(
+            ObjectBuilder::mesh("suzanne", "../models/suzanne.glb")
+                .translation(Vec3::new(0.0, 0.5, -0.6))
+                .scale(Vec3::splat(0.3))
+                .material(Brdf::Phong {
+                    exponent: 30.0,
+                    specular: Vec3::splat(0.4),
+                    diffuse: Vec3::new(0.5, 0.2, 0.1),
+                }),
+        );
     for k in 0..20 {
         let (x, z) = (((k % 5) as f32 - 2.0) * 0.13, ((k / 5) as f32 - 1.5) * 0.13);
         let material = if k % 2 == 0 {
-            r#"{ model = "lambert", albedo = [0.7, 0.7, 0.7] }"#
+            Brdf::Lambert { albedo: Vec3::splat(0.7) }
         } else {
-            r#"{ model = "ward", alpha_x = 0.2, alpha_y = 0.2, specular = [0.5, 0.5, 0.5], diffuse = [0.2, 0.3, 0.4] }"#
+            Brdf::Ward { alpha_x: 0.2, alpha_y: 0.2, specular: Vec3::splat(0.5), diffuse: Vec3::new(0.2, 0.3, 0.4) }
         };
-        text.push_str(&format!(
-            "[[objects]]\nname = \"ball{k}\"\nprimitive = {{ kind = \"sphere\", radius = 0.06, resolution = 8 }}\n\
-             translation = [{x}, 0.08, {z}]\nmaterial = {material}\n"
-        ));
+        b = b.object(
+            ObjectBuilder::sphere(&format!("ball{k}"), 0.06, 8).translation(Vec3::new(x, 0.08, z)).material(material),
+        );
     }
-    let scene = scene(&text);
+    let scene = scene(b);
     let engine = engine(&scene);
     let cpu = engine.shade(&scene, 0.0).unwrap();
     // The overflow path is exercised: some plate vertex has more than 16 occluder fields near.

@@ -12,39 +12,32 @@ use rsl_engine::{Engine, EngineOptions, Layers};
 
 mod common;
 use common::{relative_l2, scene};
+use glam::Vec3;
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+use rsl_scene::{Brdf, Preset, Primitive};
 
 /// A glossy Phong floor (n = 200, a lobe the material fit reproduces to 1–2 % at every view)
 /// under a Lambert ball, sunrise.exr's low sun behind the camera: the floor in front of the
 /// ball reflects it, and the truth (direct light only) sees no environment there.
 fn floor_scene(ball_shadows: bool) -> Scene {
-    scene(&format!(
-        r#"
-        quality = "draft"
-
-        [environment]
-        map = "../hdri/sunrise.exr"
-        rsl_count = 30
-
-        [camera]
-        eye = [0.0, 1.6, 3.0]
-        target = [0.0, 0.3, 0.0]
-        fov_y_degrees = 40.0
-        width = 64
-        height = 48
-
-        [[objects]]
-        name = "floor"
-        primitive = {{ kind = "plane", size = 3.0, resolution = 24 }}
-        material = {{ model = "phong", exponent = 200.0, specular = [0.8, 0.8, 0.8], diffuse = [0.0, 0.0, 0.0] }}
-
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = 0.4, resolution = 16 }}
-        translation = [0.0, 0.45, 0.0]
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        casts_shadows = {ball_shadows}
-        "#
-    ))
+    let ball = ObjectBuilder::sphere("ball", 0.4, 16)
+        .translation(Vec3::new(0.0, 0.45, 0.0))
+        .material(Brdf::Lambert { albedo: Vec3::splat(0.5) });
+    scene(
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .map("../hdri/sunrise.exr")
+            .rsl_count(30)
+            .camera(Vec3::new(0.0, 1.6, 3.0), Vec3::new(0.0, 0.3, 0.0))
+            .fov_y_degrees(40.0)
+            .image(64, 48)
+            .object(ObjectBuilder::plane("floor", 3.0, 24).material(Brdf::Phong {
+                exponent: 200.0,
+                specular: Vec3::splat(0.8),
+                diffuse: Vec3::ZERO,
+            }))
+            .object(if ball_shadows { ball } else { ball.no_shadows() }),
+    )
 }
 
 fn vertices(method: &mut dyn Method, engine: &Engine, s: &Scene) -> Frame {
@@ -106,21 +99,23 @@ fn the_lobes_own_shadows_put_the_ball_on_a_glossy_floor() {
 #[test]
 fn the_transport_lobes_shadow_a_torus_by_itself() {
     let s = scene(
-        r#"
-        quality = "draft"
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = 30
-        [camera]
-        eye = [0.0, 2.2, 2.2]
-        target = [0.0, 0.0, 0.0]
-        width = 64
-        height = 48
-        [[objects]]
-        name = "torus"
-        primitive = { kind = "torus", major_radius = 0.6, minor_radius = 0.3, resolution = 24 }
-        material = { model = "ggx", alpha = 0.3, specular = [0.8, 0.8, 0.8], diffuse = [0.2, 0.2, 0.2] }
-        "#,
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .constant(Vec3::ONE)
+            .rsl_count(30)
+            .camera(Vec3::new(0.0, 2.2, 2.2), Vec3::ZERO)
+            .image(64, 48)
+            .object(
+                ObjectBuilder::primitive(
+                    "torus",
+                    Primitive::Torus { major_radius: 0.6, minor_radius: 0.3, resolution: 24 },
+                )
+                .material(Brdf::Ggx {
+                    alpha: 0.3,
+                    specular: Vec3::splat(0.8),
+                    diffuse: Vec3::splat(0.2),
+                }),
+            ),
     );
     let neutral =
         Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
@@ -154,21 +149,17 @@ fn a_lobe_method_built_later_takes_the_environment_another_prefiltered() {
     // A constant environment of its own (its content key is this test's alone), so that no
     // other test of this binary holds a prefiltered copy of it.
     let s = scene(
-        r#"
-        quality = "draft"
-        [environment]
-        constant = [0.123, 0.456, 0.789]
-        rsl_count = 8
-        [camera]
-        eye = [0.0, 0.0, 3.0]
-        target = [0.0, 0.0, 0.0]
-        width = 32
-        height = 24
-        [[objects]]
-        name = "ball"
-        primitive = { kind = "sphere", radius = 0.5, resolution = 8 }
-        material = { model = "ggx", alpha = 0.1 }
-        "#,
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .constant(Vec3::new(0.123, 0.456, 0.789))
+            .rsl_count(8)
+            .camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO)
+            .image(32, 24)
+            .object(ObjectBuilder::sphere("ball", 0.5, 8).material(Brdf::Ggx {
+                alpha: 0.1,
+                specular: Vec3::ONE,
+                diffuse: Vec3::ZERO,
+            })),
     );
     let engine = Engine::new(&s, EngineOptions::default()).unwrap();
     let mut first = Composite::hybrid();

@@ -23,7 +23,8 @@ use rsl_engine::{Device, Engine, EngineOptions, ErrorModel, MethodId, MethodOpti
 use std::sync::Arc;
 
 mod common;
-use common::{cap_radiance, cap_scene, facing, relative_l2, scene};
+use common::{cap_radiance, cap_scene, cap_scene_with, facing, furnace_ball, lambert, relative_l2, turned_suzanne};
+use rsl_scene::Preset;
 
 /// One registered method on one device.
 #[derive(Clone, Copy, Debug)]
@@ -111,24 +112,7 @@ fn within(kind: Kind, f: &Frame, i: usize, v: usize, expected: Vec3, rsl_tol: f3
 fn furnace(kind: Kind, test: &str) {
     // One RSL per texel of a 6×8×8 grid, so the light set is a fine quadrature of the
     // cosine; what remains is the table's precision (the 1 % bound of the RSL paths).
-    let s = scene(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 8
-        table_resolution = 32
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = 384
-        [camera]
-        eye = [0.0, 0.0, 5.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ball"
-        primitive = { kind = "sphere", radius = 1.0, resolution = 16 }
-        material = { model = "lambert", albedo = [0.5, 0.5, 0.5] }
-        "#,
-    );
+    let s = furnace_ball(lambert(0.5), Preset::Draft, &[("env_grid", 8), ("table_resolution", 32)], 384, 16);
     let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
     let f = vertices_at(method.as_mut(), &engine, &s, 0.0);
     let expected = Vec3::splat(0.5);
@@ -182,7 +166,7 @@ fn check_cap(kind: Kind, s: &Scene, f: &Frame) -> usize {
 }
 
 fn cap(kind: Kind, test: &str) {
-    let s = cap_scene("");
+    let s = cap_scene();
     let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
     let f = vertices_at(method.as_mut(), &engine, &s, 0.0);
     check_cap(kind, &s, &f);
@@ -192,29 +176,10 @@ fn cap(kind: Kind, test: &str) {
 
 fn rotation(kind: Kind, test: &str) {
     // Suzanne is not convex (its self-visibility field is used), under a map.
-    let text = |deg: f32, eye: Vec3| {
-        format!(
-            r#"
-            quality = "draft"
-            [environment]
-            map = "../hdri/studio.exr"
-            rotation = {{ axis = [0.3, 1.0, 0.2], degrees = {deg} }}
-            [camera]
-            eye = [{}, {}, {}]
-            target = [0.0, 0.0, 0.0]
-            [[objects]]
-            name = "suzanne"
-            mesh = "../models/suzanne.glb"
-            rotation = {{ axis = [0.3, 1.0, 0.2], degrees = {deg} }}
-            material = {{ model = "ggx", alpha = 0.3, diffuse = [0.3, 0.3, 0.3] }}
-            "#,
-            eye.x, eye.y, eye.z
-        )
-    };
     let eye = Vec3::new(0.4, 0.8, 3.0);
-    let a = scene(&text(0.0, eye));
+    let a = turned_suzanne(0.0, eye);
     let q = Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 70f32.to_radians());
-    let b = scene(&text(70.0, q * eye));
+    let b = turned_suzanne(70.0, q * eye);
     let Some((mut engine, mut method)) = prepare(kind, &a, test) else { return };
     let fa = vertices_at(method.as_mut(), &engine, &a, 0.0);
     engine.sync(&b).unwrap();
@@ -239,9 +204,7 @@ fn rotation(kind: Kind, test: &str) {
 fn moving_occluder(kind: Kind, test: &str) {
     // The ball orbits the vertical axis through (0.6, 0, 0): its shadow moves over the
     // ground, and each frame matches the cap at the ball's position then.
-    let s = cap_scene(
-        "motion = { orbit = { centre = [0.6, 0.0, 0.0], axis = [0.0, 1.0, 0.0], degrees_per_second = 90.0 } }",
-    );
+    let s = cap_scene_with(1.0, |ball| ball.orbit(Vec3::new(0.6, 0.0, 0.0), Vec3::Y, 90.0));
     let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
     let f0 = vertices_at(method.as_mut(), &engine, &s, 0.0);
     let f1 = vertices_at(method.as_mut(), &engine, &s, 1.0);

@@ -9,7 +9,8 @@ use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Oracles;
 
 mod common;
-use common::{cap_radiance, cap_scene, facing, furnace_ball};
+use common::{cap_radiance, cap_scene, facing, furnace_ball, ggx, lambert};
+use rsl_scene::{Brdf, Preset};
 
 fn render(engine: &mut Engine, scene: &Scene, oracles: Oracles) -> Frame {
     Oracle::prepare(engine, oracles).expect("light set");
@@ -19,13 +20,13 @@ fn render(engine: &mut Engine, scene: &Scene, oracles: Oracles) -> Frame {
     f
 }
 
-fn ball(material: &str, env_grid: u32, rsl_count: u32) -> Scene {
-    furnace_ball(material, &format!("preset = \"draft\"\n        env_grid = {env_grid}"), rsl_count, 12)
+fn ball(material: Brdf, env_grid: u32, rsl_count: u32) -> Scene {
+    furnace_ball(material, Preset::Draft, &[("env_grid", i64::from(env_grid))], rsl_count, 12)
 }
 
 #[test]
 fn every_oracle_at_once_returns_a_lambert_balls_albedo_in_a_furnace() {
-    let s = ball(r#"{ model = "lambert", albedo = [0.5, 0.5, 0.5] }"#, 8, 12);
+    let s = ball(lambert(0.5), 8, 12);
     let mut engine = Engine::new(&s, EngineOptions::default()).unwrap();
     let f = render(&mut engine, &s, Oracles::ALL);
     assert_eq!(engine.rsl_count(), 384, "one light per texel");
@@ -58,7 +59,7 @@ fn directional_albedo(b: &rsl_brdf::Brdf, view: Vec3, h: &dyn Fn(Vec3) -> f32) -
 
 #[test]
 fn the_light_and_brdf_oracles_give_a_glossy_balls_directional_albedo_in_a_furnace() {
-    let s = ball(r#"{ model = "ggx", alpha = 0.25, specular = [0.9, 0.9, 0.9], diffuse = [0.1, 0.1, 0.1] }"#, 16, 12);
+    let s = ball(ggx(0.25, 0.9, 0.1), 16, 12);
     let mut engine = Engine::new(&s, EngineOptions::default()).unwrap();
     let brdf = *engine.brdf(0);
     let f = render(&mut engine, &s, Oracles { light: true, brdf: true, ..Oracles::default() });
@@ -92,7 +93,7 @@ fn the_light_and_brdf_oracles_give_a_glossy_balls_directional_albedo_in_a_furnac
 fn the_self_oracle_matches_a_convex_objects_analytic_field() {
     // A convex ball: its self-visibility field is the analytic horizon, so the rays must
     // find what the field holds — up to their own sampling (12×12 per square).
-    let s = ball(r#"{ model = "lambert", albedo = [0.5, 0.5, 0.5] }"#, 8, 384);
+    let s = ball(lambert(0.5), 8, 384);
     let mut engine = Engine::new(&s, EngineOptions::default()).unwrap();
     let plain = CpuRsl.render(&engine, &s, &Request { time: 0.0, image: false, vertices: true, exposure: None });
     let plain = plain.unwrap();
@@ -107,7 +108,7 @@ fn the_self_oracle_matches_a_convex_objects_analytic_field() {
 /// `albedo·L·(1 − (R/d)² cos θ)` where the cap is wholly above its horizon.
 #[test]
 fn the_occluder_oracle_and_the_field_find_the_analytic_cap() {
-    let s = cap_scene("");
+    let s = cap_scene();
     let mut engine = Engine::new(&s, EngineOptions::default()).unwrap();
     let request = Request { time: 0.0, image: false, vertices: true, exposure: None };
     let plain = CpuRsl.render(&engine, &s, &request).unwrap();

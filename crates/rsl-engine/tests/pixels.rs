@@ -14,37 +14,27 @@ use rsl_shade::Image;
 
 mod common;
 use common::scene;
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+use rsl_scene::{Brdf, ObjectMethod, Preset};
 
 /// A GGX α = 0.1 ball of 8 rings (triangles about 22° across) on a Lambert floor under
 /// sky.exr's sun, seen closely enough that its highlight spans a few pixels.
 fn ball_scene() -> Scene {
     scene(
-        r#"
-        quality = "draft"
-
-        [environment]
-        map = "../hdri/sky.exr"
-        rsl_count = 30
-        rotation = { axis = [0.0, 1.0, 0.0], degrees = 150.0 }
-
-        [camera]
-        eye = [0.0, 1.2, 3.0]
-        target = [0.0, 0.5, 0.0]
-        fov_y_degrees = 35.0
-        width = 96
-        height = 72
-
-        [[objects]]
-        name = "floor"
-        primitive = { kind = "plane", size = 4.0, resolution = 8 }
-        material = { model = "lambert", albedo = [0.5, 0.5, 0.5] }
-
-        [[objects]]
-        name = "ball"
-        primitive = { kind = "sphere", radius = 0.5, resolution = 8 }
-        translation = [0.0, 0.5, 0.0]
-        material = { model = "ggx", alpha = 0.1, specular = [0.9, 0.9, 0.9], diffuse = [0.05, 0.05, 0.05] }
-        "#,
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .map("../hdri/sky.exr")
+            .rsl_count(30)
+            .environment_rotation(Vec3::Y, 150.0)
+            .camera(Vec3::new(0.0, 1.2, 3.0), Vec3::new(0.0, 0.5, 0.0))
+            .fov_y_degrees(35.0)
+            .image(96, 72)
+            .object(ObjectBuilder::plane("floor", 4.0, 8).material(Brdf::Lambert { albedo: Vec3::splat(0.5) }))
+            .object(ObjectBuilder::sphere("ball", 0.5, 8).translation(Vec3::new(0.0, 0.5, 0.0)).material(Brdf::Ggx {
+                alpha: 0.1,
+                specular: Vec3::splat(0.9),
+                diffuse: Vec3::splat(0.05),
+            })),
     )
 }
 
@@ -195,28 +185,20 @@ fn a_mirror_ball_puts_a_sharp_horizon_where_the_truth_does() {
     let dir = std::env::temp_dir().join(format!("rsl-pixels-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let map = horizon_map(&dir);
-    let s = scene(&format!(
-        r#"
-        quality = "draft"
-
-        [environment]
-        map = "{}"
-        rsl_count = 30
-
-        [camera]
-        eye = [0.0, 0.3, 3.0]
-        target = [0.0, 0.0, 0.0]
-        fov_y_degrees = 30.0
-        width = 96
-        height = 96
-
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = 0.7, resolution = 12 }}
-        material = {{ model = "ggx", alpha = 0.02, specular = [0.9, 0.9, 0.9], diffuse = [0.0, 0.0, 0.0] }}
-        "#,
-        map.display()
-    ));
+    let s = scene(
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .map(&map)
+            .rsl_count(30)
+            .camera(Vec3::new(0.0, 0.3, 3.0), Vec3::ZERO)
+            .fov_y_degrees(30.0)
+            .image(96, 96)
+            .object(ObjectBuilder::sphere("ball", 0.7, 12).material(Brdf::Ggx {
+                alpha: 0.02,
+                specular: Vec3::splat(0.9),
+                diffuse: Vec3::ZERO,
+            })),
+    );
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let per_pixel = render(&mut CpuRslPixels, &engine, &s, true).image.expect("image");
     let lobes = render(&mut Composite::hybrid(), &engine, &s, true).image.expect("image");
@@ -255,41 +237,29 @@ fn mixed_scene(rough: &str, sharp: &str) -> Scene {
 
 /// [`mixed_scene`] drawn `width`×`height`.
 fn mixed_scene_sized(rough: &str, sharp: &str, width: u32, height: u32) -> Scene {
-    scene(&format!(
-        r#"
-        quality = "draft"
-
-        [environment]
-        map = "../hdri/sunrise.exr"
-        rsl_count = 30
-
-        [camera]
-        eye = [0.0, 1.0, 3.4]
-        target = [0.0, 0.45, 0.0]
-        fov_y_degrees = 35.0
-        width = {width}
-        height = {height}
-
-        [[objects]]
-        name = "floor"
-        primitive = {{ kind = "plane", size = 4.0, resolution = 12 }}
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-
-        [[objects]]
-        name = "rough"
-        primitive = {{ kind = "sphere", radius = 0.45, resolution = 16 }}
-        translation = [-0.55, 0.45, 0.0]
-        material = {{ model = "ggx", alpha = 0.3, specular = [0.9, 0.8, 0.7], diffuse = [0.1, 0.1, 0.1] }}
-        method = "{rough}"
-
-        [[objects]]
-        name = "sharp"
-        primitive = {{ kind = "sphere", radius = 0.45, resolution = 16 }}
-        translation = [0.55, 0.45, 0.0]
-        material = {{ model = "ggx", alpha = 0.03, specular = [0.9, 0.9, 0.9], diffuse = [0.0, 0.0, 0.0] }}
-        method = "{sharp}"
-        "#
-    ))
+    let method = |name: &str| ObjectMethod::named(name).expect("a per-object method");
+    scene(
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .map("../hdri/sunrise.exr")
+            .rsl_count(30)
+            .camera(Vec3::new(0.0, 1.0, 3.4), Vec3::new(0.0, 0.45, 0.0))
+            .fov_y_degrees(35.0)
+            .image(width, height)
+            .object(ObjectBuilder::plane("floor", 4.0, 12).material(Brdf::Lambert { albedo: Vec3::splat(0.5) }))
+            .object(
+                ObjectBuilder::sphere("rough", 0.45, 16)
+                    .translation(Vec3::new(-0.55, 0.45, 0.0))
+                    .material(Brdf::Ggx { alpha: 0.3, specular: Vec3::new(0.9, 0.8, 0.7), diffuse: Vec3::splat(0.1) })
+                    .method(method(rough)),
+            )
+            .object(
+                ObjectBuilder::sphere("sharp", 0.45, 16)
+                    .translation(Vec3::new(0.55, 0.45, 0.0))
+                    .material(Brdf::Ggx { alpha: 0.03, specular: Vec3::splat(0.9), diffuse: Vec3::ZERO })
+                    .method(method(sharp)),
+            ),
+    )
 }
 
 /// Per object, the relative L2 of `a` against `b` over the pixels that object covers
@@ -404,34 +374,21 @@ fn the_hybrids_ratio_at_each_pixel_keeps_the_suns_self_shadows() {
     // can. Interpolated from the vertices, the ratio lets them through (11.0 % per covered
     // pixel at 480×360 against 1,024 spp; 4.2 % with the ratio at each pixel).
     let s = scene(
-        r#"
-        [quality]
-        preset = "standard"
-        aa = 1
-
-        [environment]
-        map = "../hdri/sunrise.exr"
-        rsl_count = 30
-
-        [camera]
-        eye = [0.0, 1.4, 3.2]
-        target = [0.0, 0.5, 0.0]
-        fov_y_degrees = 40.0
-        width = 240
-        height = 180
-
-        [[objects]]
-        name = "floor"
-        primitive = { kind = "plane", size = 4.0, resolution = 8 }
-        material = { model = "lambert", albedo = [0.0, 0.0, 0.0] }
-
-        [[objects]]
-        name = "suzanne"
-        mesh = "../models/suzanne.glb"
-        translation = [0.0, 0.6, 0.0]
-        scale = 0.6
-        material = { model = "beckmann", alpha = 0.1, specular = [0.9, 0.9, 0.9], diffuse = [0.1, 0.1, 0.1] }
-        "#,
+        SceneBuilder::new()
+            .preset(Preset::Standard)
+            .knob("aa", 1)
+            .map("../hdri/sunrise.exr")
+            .rsl_count(30)
+            .camera(Vec3::new(0.0, 1.4, 3.2), Vec3::new(0.0, 0.5, 0.0))
+            .fov_y_degrees(40.0)
+            .image(240, 180)
+            .object(ObjectBuilder::plane("floor", 4.0, 8).material(Brdf::Lambert { albedo: Vec3::ZERO }))
+            .object(
+                ObjectBuilder::mesh("suzanne", "../models/suzanne.glb")
+                    .translation(Vec3::new(0.0, 0.6, 0.0))
+                    .scale(Vec3::splat(0.6))
+                    .material(Brdf::Beckmann { alpha: 0.1, specular: Vec3::splat(0.9), diffuse: Vec3::splat(0.1) }),
+            ),
     );
     let (t, noise) = truth_image_at(&s, 21, 512);
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");

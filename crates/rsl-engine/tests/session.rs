@@ -8,44 +8,36 @@ use rsl_engine::{Engine, EngineOptions, MethodId, MethodOptions, Session};
 
 mod common;
 use common::scene;
+use rsl_scene::Preset;
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
 
 /// Three glossy and Lambert balls on a floor under a sun: `a` and `b` close together, `far`
 /// well away, so that moving `a` changes `b`'s shadowing and not `far`'s.
 fn balls() -> Scene {
     scene(
-        r#"
-        quality = "draft"
-
-        [environment]
-        map = "../hdri/sky.exr"
-        rsl_count = 24
-        rotation = { axis = [0.0, 1.0, 0.0], degrees = 150.0 }
-
-        [camera]
-        eye = [0.0, 2.0, 6.0]
-        target = [0.0, 0.3, 0.0]
-        fov_y_degrees = 40.0
-        width = 80
-        height = 60
-
-        [[objects]]
-        name = "a"
-        primitive = { kind = "sphere", radius = 0.4, resolution = 8 }
-        translation = [-0.5, 0.4, 0.0]
-        material = { model = "ggx", alpha = 0.2, specular = [0.8, 0.8, 0.8], diffuse = [0.1, 0.1, 0.1] }
-
-        [[objects]]
-        name = "b"
-        primitive = { kind = "sphere", radius = 0.4, resolution = 8 }
-        translation = [0.5, 0.4, 0.0]
-        material = { model = "lambert", albedo = [0.6, 0.5, 0.4] }
-
-        [[objects]]
-        name = "far"
-        primitive = { kind = "sphere", radius = 0.4, resolution = 8 }
-        translation = [30.0, 0.4, -30.0]
-        material = { model = "lambert", albedo = [0.4, 0.5, 0.6] }
-        "#,
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .map("../hdri/sky.exr")
+            .rsl_count(24)
+            .environment_rotation(Vec3::Y, 150.0)
+            .camera(Vec3::new(0.0, 2.0, 6.0), Vec3::new(0.0, 0.3, 0.0))
+            .fov_y_degrees(40.0)
+            .image(80, 60)
+            .object(ObjectBuilder::sphere("a", 0.4, 8).translation(Vec3::new(-0.5, 0.4, 0.0)).material(Brdf::Ggx {
+                alpha: 0.2,
+                specular: Vec3::splat(0.8),
+                diffuse: Vec3::splat(0.1),
+            }))
+            .object(
+                ObjectBuilder::sphere("b", 0.4, 8)
+                    .translation(Vec3::new(0.5, 0.4, 0.0))
+                    .material(Brdf::Lambert { albedo: Vec3::new(0.6, 0.5, 0.4) }),
+            )
+            .object(
+                ObjectBuilder::sphere("far", 0.4, 8)
+                    .translation(Vec3::new(30.0, 0.4, -30.0))
+                    .material(Brdf::Lambert { albedo: Vec3::new(0.4, 0.5, 0.6) }),
+            ),
     )
 }
 

@@ -10,38 +10,38 @@ use rsl_sphere::hemi::dir_from_hemi;
 
 mod common;
 use common::{relative_l2, scene};
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+use rsl_scene::{Brdf, Preset, Primitive};
+
+/// A white furnace at draft on a 6×4×4 grid cut into `lights` RSLs, `traced` of them traced
+/// with `rays` rays each.
+fn furnace(traced: u32, rays: u32, lights: u32) -> SceneBuilder {
+    SceneBuilder::new()
+        .preset(Preset::Draft)
+        .knob("env_grid", 4)
+        .knob("traced_lights", i64::from(traced))
+        .knob("shadow_rays", i64::from(rays))
+        .constant(Vec3::ONE)
+        .rsl_count(lights)
+}
 
 /// A ground plane under a thin box (1 × 0.02 × 0.5, turned 90° about y: 0.5 wide in x, 1 in
 /// z, its middle at height 0.5), lit by a constant environment cut into 6 RSLs (squares a
 /// cube face across, so that the box's penumbra is wide), `traced` lights traced with
 /// `rays` rays each.
 fn plate(traced: u32, rays: u32) -> Scene {
-    scene(&format!(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 4
-        traced_lights = {traced}
-        shadow_rays = {rays}
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = 6
-        [camera]
-        eye = [0.0, 3.0, 0.5]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ground"
-        primitive = {{ kind = "plane", size = 3.0, resolution = 24 }}
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        casts_shadows = false
-        [[objects]]
-        name = "plate"
-        primitive = {{ kind = "box", size = [1.0, 0.02, 0.5] }}
-        translation = [0.1, 0.5, -0.2]
-        rotation = {{ axis = [0.0, 1.0, 0.0], degrees = 90.0 }}
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        "#
-    ))
+    let grey = Brdf::Lambert { albedo: Vec3::splat(0.5) };
+    scene(
+        furnace(traced, rays, 6)
+            .camera(Vec3::new(0.0, 3.0, 0.5), Vec3::ZERO)
+            .object(ObjectBuilder::plane("ground", 3.0, 24).material(grey).no_shadows())
+            .object(
+                ObjectBuilder::primitive("plate", Primitive::Box { size: [1.0, 0.02, 0.5], resolution: 8 })
+                    .translation(Vec3::new(0.1, 0.5, -0.2))
+                    .rotation(Vec3::Y, 90.0)
+                    .material(grey),
+            ),
+    )
 }
 
 /// Whether the ray from `x` along `d` meets the axis-aligned box `lo..hi` (slab test).
@@ -175,26 +175,16 @@ fn the_fast_path_and_the_reference_agree_with_traced_lights() {
 /// A torus (it hides parts of itself) under a constant environment cut into 48 RSLs, with
 /// `traced` lights traced by `rays` rays each, seen from above.
 fn torus(traced: u32, rays: u32) -> Scene {
-    scene(&format!(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 4
-        traced_lights = {traced}
-        shadow_rays = {rays}
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = 48
-        [camera]
-        eye = [0.0, 3.0, 1.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "torus"
-        primitive = {{ kind = "torus", major_radius = 0.5, minor_radius = 0.25, resolution = 16 }}
-        rotation = {{ axis = [1.0, 0.0, 0.0], degrees = 30.0 }}
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        "#
-    ))
+    scene(
+        furnace(traced, rays, 48).camera(Vec3::new(0.0, 3.0, 1.0), Vec3::ZERO).object(
+            ObjectBuilder::primitive(
+                "torus",
+                Primitive::Torus { major_radius: 0.5, minor_radius: 0.25, resolution: 16 },
+            )
+            .rotation(Vec3::X, 30.0)
+            .material(Brdf::Lambert { albedo: Vec3::splat(0.5) }),
+        ),
+    )
 }
 
 #[test]

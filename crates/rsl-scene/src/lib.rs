@@ -25,6 +25,7 @@
 //! motion = { spin = { axis = [0.0, 1.0, 0.0], degrees_per_second = 45.0 } }
 //! ```
 
+pub mod build;
 mod error;
 pub mod gltf_import;
 pub mod material;

@@ -88,6 +88,10 @@ pub struct QualitySettings {
     /// `antialias`); 1 draws every pixel's centre alone (no antialiasing). Costs no
     /// precomputation.
     pub aa: u32,
+    /// Lighting terms the Haar wavelet baseline (method `wavelet`) keeps per frame: the
+    /// environment's largest coefficients on the `env_grid` cube (Ng et al.'s figures use
+    /// 100–200). The other methods ignore it.
+    pub wavelet_terms: u32,
 }
 
 impl QualitySettings {
@@ -107,6 +111,7 @@ impl QualitySettings {
                 traced_lights: 2,
                 shadow_rays: 16,
                 aa: 1,
+                wavelet_terms: 200,
             },
             Preset::Standard => Self {
                 brdf_resolution: AUTO,
@@ -124,6 +129,7 @@ impl QualitySettings {
                 traced_lights: 2,
                 shadow_rays: 16,
                 aa: 16,
+                wavelet_terms: 200,
             },
             Preset::Paper => Self {
                 brdf_resolution: AUTO,
@@ -140,6 +146,7 @@ impl QualitySettings {
                 traced_lights: 2,
                 shadow_rays: 16,
                 aa: 16,
+                wavelet_terms: 200,
             },
             Preset::High => Self {
                 brdf_resolution: AUTO,
@@ -154,13 +161,14 @@ impl QualitySettings {
                 traced_lights: 4,
                 shadow_rays: 32,
                 aa: 64,
+                wavelet_terms: 200,
             },
         }
     }
 
     /// `(name, value)` of every knob, for summaries and overrides (`brdf_resolution` is
     /// [`AUTO`] when automatic; [`QualitySettings::value_text`] writes it).
-    pub fn knobs(&self) -> [(&'static str, u32); 12] {
+    pub fn knobs(&self) -> [(&'static str, u32); 13] {
         [
             ("brdf_resolution", self.brdf_resolution),
             ("view_samples", self.view_samples),
@@ -174,6 +182,7 @@ impl QualitySettings {
             ("traced_lights", self.traced_lights),
             ("shadow_rays", self.shadow_rays),
             ("aa", self.aa),
+            ("wavelet_terms", self.wavelet_terms),
         ]
     }
 
@@ -224,6 +233,7 @@ impl QualitySettings {
             "cpca_clusters" => (1, 65_536),
             "traced_lights" => (0, 64),
             "shadow_rays" => (0, 4096),
+            "wavelet_terms" => (1, 6 * 512 * 512),
             "aa" => {
                 if !u32::try_from(value).is_ok_and(valid_aa) {
                     return Err(format!(
@@ -257,6 +267,7 @@ impl QualitySettings {
             "traced_lights" => self.traced_lights = v,
             "shadow_rays" => self.shadow_rays = v,
             "aa" => self.aa = v,
+            "wavelet_terms" => self.wavelet_terms = v,
             _ => self.cpca_vectors = v,
         }
         Ok(())

@@ -5,7 +5,7 @@
 //! exact in one), rotations as unit quaternions, so that loading the file gives the same
 //! transforms bit for bit; spins keep their degrees per second (a rounding at most).
 
-use crate::motion::{Spin, Transform};
+use crate::motion::{Motion, Spin, Transform};
 use crate::quality::QualitySettings;
 use crate::{EnvironmentSource, MeshSource, Scene};
 use glam::{Quat, Vec3};
@@ -36,6 +36,38 @@ fn transform_into(t: &mut Table, x: &Transform) {
     t.insert("translation".into(), vec3(x.translation));
     t.insert("rotation".into(), rotation(x.rotation));
     t.insert("scale".into(), vec3(x.scale));
+}
+
+/// An object's `motion` table (`None` for a static object).
+pub(crate) fn motion(m: &Motion) -> Option<Value> {
+    if m.is_static() {
+        return None;
+    }
+    let mut motion = Table::new();
+    if let Some(s) = &m.spin {
+        motion.insert("spin".into(), spin(s));
+    }
+    if let Some(orbit) = &m.orbit {
+        let mut ot = Table::new();
+        ot.insert("centre".into(), vec3(orbit.centre));
+        ot.insert("axis".into(), vec3(orbit.spin.axis));
+        ot.insert("degrees_per_second".into(), num(orbit.spin.radians_per_second.to_degrees()));
+        motion.insert("orbit".into(), Value::Table(ot));
+    }
+    if !m.keyframes.is_empty() {
+        let keys = m
+            .keyframes
+            .iter()
+            .map(|k| {
+                let mut kt = Table::new();
+                kt.insert("time".into(), num(k.time));
+                transform_into(&mut kt, &k.transform);
+                Value::Table(kt)
+            })
+            .collect();
+        motion.insert("keyframes".into(), Value::Array(keys));
+    }
+    Some(Value::Table(motion))
 }
 
 /// How a path read from `from` (a scene file) is written in a file saved at `to`: as
@@ -116,33 +148,8 @@ impl Scene {
             }
             transform_into(&mut t, &o.transform);
             t.insert("material".into(), Value::try_from(crate::material::MaterialFile::of(&o.material))?);
-            let m = &o.motion;
-            if !m.is_static() {
-                let mut motion = Table::new();
-                if let Some(s) = &m.spin {
-                    motion.insert("spin".into(), spin(s));
-                }
-                if let Some(orbit) = &m.orbit {
-                    let mut ot = Table::new();
-                    ot.insert("centre".into(), vec3(orbit.centre));
-                    ot.insert("axis".into(), vec3(orbit.spin.axis));
-                    ot.insert("degrees_per_second".into(), num(orbit.spin.radians_per_second.to_degrees()));
-                    motion.insert("orbit".into(), Value::Table(ot));
-                }
-                if !m.keyframes.is_empty() {
-                    let keys = m
-                        .keyframes
-                        .iter()
-                        .map(|k| {
-                            let mut kt = Table::new();
-                            kt.insert("time".into(), num(k.time));
-                            transform_into(&mut kt, &k.transform);
-                            Value::Table(kt)
-                        })
-                        .collect();
-                    motion.insert("keyframes".into(), Value::Array(keys));
-                }
-                t.insert("motion".into(), Value::Table(motion));
+            if let Some(m) = motion(&o.motion) {
+                t.insert("motion".into(), m);
             }
             if !o.casts_shadows {
                 t.insert("casts_shadows".into(), Value::Boolean(false));

@@ -2,10 +2,12 @@
 //! iteration sets the bunny's roughness to the next value and redraws (engine sync — one
 //! BRDF table, a 32×32 preview while the slider moves —, the bunny reshaded, the image
 //! rasterised and tonemapped); and the frame when the slider comes to rest (the real table
-//! built, the bunny reshaded). Twice: drawn by the CPU rasteriser (the texture upload by egui
-//! not included), and drawn with wgpu on a headless egui render state's device as in a
-//! window (rsl-gpu's draw pass and tonemapping into the texture egui samples; skipped with
-//! a message where there is no adapter). The vertices are shaded on the CPU both times.
+//! built, the bunny reshaded). Three times: drawn by the CPU rasteriser with the scene's
+//! antialiasing (the texture upload by egui not included), the same with `aa = 1` (each pixel
+//! its centre: what versions before antialiasing drew, to compare with them), and drawn with
+//! wgpu on a headless egui render state's device as in a window (rsl-gpu's draw pass and
+//! tonemapping into the texture egui samples; skipped with a message where there is no
+//! adapter). The vertices are shaded on the CPU every time.
 //!
 //! `cargo bench -p rsl-view --bench material_drag` (run from anywhere; it uses the disk
 //! cache, `$RSL_CACHE_DIR` or the default folder, and prints the stage breakdown).
@@ -16,14 +18,18 @@ use rsl_view::{Viewer, ViewerOptions};
 use std::path::PathBuf;
 
 fn material_drag(c: &mut Criterion) {
-    drag(c, None);
+    drag(c, None, None);
+    // As drawn before antialiasing existed: the same frames, each pixel its centre.
+    drag(c, None, Some(1));
     match rsl_view::headless_render_state() {
-        Ok(state) => drag(c, Some(&state)),
+        Ok(state) => drag(c, Some(&state), None),
         Err(e) => eprintln!("material drag with wgpu: skipped: {e:#}"),
     }
 }
 
-fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) {
+/// The drag and rest benchmarks, drawn with wgpu or by the CPU rasteriser with the scene's
+/// antialiasing or `aa` samples per pixel at most.
+fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>, aa: Option<u32>) {
     let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/default.toml");
     let options = ViewerOptions { cache_dir: rsl_engine::cache::default_dir(), quality: None };
     let mut viewer = Viewer::open(&scene, options).expect("the default scene opens");
@@ -35,6 +41,13 @@ fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) {
             " with wgpu"
         }
         None => "",
+    };
+    let drawn = match aa {
+        Some(aa) => {
+            viewer.set_antialias(aa).expect("a square number of samples");
+            format!("{drawn}, aa = {aa}")
+        }
+        None => drawn.to_string(),
     };
     viewer.refresh().unwrap();
     assert_eq!(viewer.shown_on_gpu(), wgpu.is_some());

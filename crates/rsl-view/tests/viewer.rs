@@ -217,30 +217,20 @@ fn a_saved_scene_renders_the_same_radiance() {
 /// Two balls and a third far away, under a constant sky, nothing traced: a ball's shadow
 /// reaches only as far as its occluder field.
 fn far_apart() -> rsl_engine::scene::Scene {
-    let text = r#"
-quality = { preset = "draft", traced_lights = 0 }
-[environment]
-constant = [1.0, 1.0, 1.0]
-rsl_count = 8
-[camera]
-eye = [0.0, 2.0, 30.0]
-target = [0.0, 0.0, 0.0]
-width = 160
-height = 120
-[[objects]]
-name = "a"
-primitive = { kind = "sphere", radius = 0.5, resolution = 12 }
-[[objects]]
-name = "near"
-primitive = { kind = "sphere", radius = 0.5, resolution = 12 }
-translation = [1.2, 0.0, 0.0]
-[[objects]]
-name = "far"
-primitive = { kind = "sphere", radius = 0.5, resolution = 12 }
-translation = [20.0, 0.0, 0.0]
-"#;
-    let dir = std::env::temp_dir();
-    rsl_engine::scene::Scene::from_toml_str(text, &dir.join("far_apart.toml")).unwrap()
+    use rsl_engine::scene::build::{ObjectBuilder, SceneBuilder};
+    let ball = |name: &str, x: f32| ObjectBuilder::sphere(name, 0.5, 12).translation(glam::Vec3::new(x, 0.0, 0.0));
+    SceneBuilder::new()
+        .preset(rsl_engine::scene::Preset::Draft)
+        .knob("traced_lights", 0)
+        .constant(glam::Vec3::ONE)
+        .rsl_count(8)
+        .camera(glam::Vec3::new(0.0, 2.0, 30.0), glam::Vec3::ZERO)
+        .image(160, 120)
+        .object(ball("a", 0.0))
+        .object(ball("near", 1.2))
+        .object(ball("far", 20.0))
+        .build(std::env::temp_dir().join("far_apart.toml"))
+        .unwrap()
 }
 
 /// The harness on [`far_apart`], prepared and drawn (`None`: no adapter, skipped).

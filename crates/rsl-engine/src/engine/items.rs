@@ -123,6 +123,13 @@ impl Engine {
     pub(super) fn ovdf(&mut self, name: &str, mesh: &TriMesh, mesh_key: u64) -> Result<(Arc<Ovdf>, u64)> {
         let p = ovdf_params(&self.settings);
         p.check().context("quality settings")?;
+        let key = field_key("ovdf", mesh_key, &[p.shells, p.m, p.n, p.supersample, p.vectors]);
+        // Held already (every edit's sync asks again): nothing to check or read.
+        if let Some(f) = self.store.get::<Ovdf>(key) {
+            self.store.pin_more([key]);
+            self.stats.memory_hits += 1;
+            return Ok((f, key));
+        }
         // A flat convex occluder is its closed form (a few corners), never the tables: its
         // size does not depend on the field's knobs (two planes were refused for 12.9 GB).
         let flat = rsl_vis::flat::Flat::detect(mesh).is_some();
@@ -134,7 +141,6 @@ impl Engine {
             "ovdf_shells, ovdf_directions or visibility_resolution",
             if flat { 0 } else { (p.shells * 6 * p.m * p.m) as u64 * (p.n as u64).pow(2) * 4 },
         )?;
-        let key = field_key("ovdf", mesh_key, &[p.shells, p.m, p.n, p.supersample, p.vectors]);
         let io = FieldIo {
             prefix: "ovdf",
             load: rsl_vis::store::load_ovdf,

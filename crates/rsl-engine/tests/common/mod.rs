@@ -1,4 +1,4 @@
-//! Helpers shared by the engine's test binaries: inline scenes, and the analytic cap a ball
+//! Helpers shared by the engine's test binaries: scenes built in code, materials, and the analytic cap a ball
 //! casts on a plane under a constant environment.
 
 // Each test binary uses its own subset.
@@ -7,6 +7,8 @@
 use glam::Vec3;
 use rsl_engine::method::Frame;
 use rsl_engine::scene::Scene;
+use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+use rsl_scene::{Brdf, Preset};
 use std::path::PathBuf;
 
 /// The repository's root.
@@ -14,9 +16,24 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// A scene written inline as if it were a file in data/scenes (so `../hdri/…` resolves).
-pub fn scene(text: &str) -> Scene {
-    Scene::from_toml_str(text, &root().join("data/scenes/inline-test.toml")).expect("valid test scene")
+/// The scene `b` builds, as if its file were in data/scenes (so `../hdri/…` resolves).
+pub fn scene(b: SceneBuilder) -> Scene {
+    b.build(root().join("data/scenes/inline-test.toml")).expect("valid test scene")
+}
+
+/// Lambert with grey albedo `a`.
+pub fn lambert(a: f32) -> Brdf {
+    Brdf::Lambert { albedo: Vec3::splat(a) }
+}
+
+/// GGX of roughness `alpha` with grey specular `s` and diffuse `d`.
+pub fn ggx(alpha: f32, s: f32, d: f32) -> Brdf {
+    Brdf::Ggx { alpha, specular: Vec3::splat(s), diffuse: Vec3::splat(d) }
+}
+
+/// Beckmann of roughness `alpha` with grey specular `s` and diffuse `d`.
+pub fn beckmann(alpha: f32, s: f32, d: f32) -> Brdf {
+    Brdf::Beckmann { alpha, specular: Vec3::splat(s), diffuse: Vec3::splat(d) }
 }
 
 /// Whether vertex `v` of object `i` faces `eye` (by more than a grazing margin).
@@ -30,24 +47,15 @@ pub fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f64 {
 }
 
 /// A ball of radius 1 and `resolution` with `material` in a constant white environment of
-/// `rsl_count` lights, `quality` the lines of its `[quality]` table, seen from +Z.
-pub fn furnace_ball(material: &str, quality: &str, rsl_count: u32, resolution: u32) -> Scene {
-    scene(&format!(
-        r#"
-        [quality]
-        {quality}
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = {rsl_count}
-        [camera]
-        eye = [0.0, 0.0, 5.0]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = 1.0, resolution = {resolution} }}
-        material = {material}
-        "#
-    ))
+/// `rsl_count` lights, at `preset` with `knobs` over it, seen from +Z.
+pub fn furnace_ball(material: Brdf, preset: Preset, knobs: &[(&str, i64)], rsl_count: u32, resolution: u32) -> Scene {
+    let b = knobs.iter().fold(SceneBuilder::new().preset(preset), |b, (k, v)| b.knob(k, *v));
+    scene(
+        b.constant(Vec3::ONE)
+            .rsl_count(rsl_count)
+            .camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO)
+            .object(ObjectBuilder::sphere("ball", 1.0, resolution).material(material)),
+    )
 }
 
 /// A plane under a ball, both Lambert, in a constant white environment: a plane point at
@@ -56,43 +64,47 @@ pub fn furnace_ball(material: &str, quality: &str, rsl_count: u32, resolution: u
 /// (cos θ = h/d). Where the cap is wholly above the horizon (θ + β < π/2) it hides
 /// (R/d)²·cos θ of the cosine-weighted hemisphere (the form factor of a sphere), so the
 /// point reflects `albedo·L·(1 − (R/d)² cos θ)`.
-pub fn cap_scene(motion: &str) -> Scene {
-    cap_scene_at(motion, 1.0)
+pub fn cap_scene() -> Scene {
+    cap_scene_with(1.0, |ball| ball)
 }
 
-/// [`cap_scene`] with every length (and the camera's place) times `s`.
-pub fn cap_scene_at(motion: &str, s: f32) -> Scene {
-    scene(&format!(
-        r#"
-        [quality]
-        preset = "draft"
-        env_grid = 8
-        table_resolution = 32
-        ovdf_directions = 16
-        [environment]
-        constant = [1.0, 1.0, 1.0]
-        rsl_count = 384
-        [camera]
-        eye = [0.0, {eye_y:e}, {eye_z:e}]
-        target = [0.0, 0.0, 0.0]
-        [[objects]]
-        name = "ground"
-        primitive = {{ kind = "plane", size = {size:e}, resolution = 30 }}
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        casts_shadows = false
-        [[objects]]
-        name = "ball"
-        primitive = {{ kind = "sphere", radius = {radius:e}, resolution = 24 }}
-        translation = [0.0, {height:e}, 0.0]
-        material = {{ model = "lambert", albedo = [0.5, 0.5, 0.5] }}
-        {motion}
-        "#,
-        eye_y = 3.0 * s,
-        eye_z = 0.5 * s,
-        size = 3.0 * s,
-        radius = 0.4 * s,
-        height = 0.8 * s,
-    ))
+/// [`cap_scene`] with every length (and the camera's place) times `s`, the ball as `ball`
+/// makes it (its motion).
+pub fn cap_scene_with(s: f32, ball: impl FnOnce(ObjectBuilder) -> ObjectBuilder) -> Scene {
+    scene(
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .knob("env_grid", 8)
+            .knob("table_resolution", 32)
+            .knob("ovdf_directions", 16)
+            .constant(Vec3::ONE)
+            .rsl_count(384)
+            .camera(Vec3::new(0.0, 3.0 * s, 0.5 * s), Vec3::ZERO)
+            .object(ObjectBuilder::plane("ground", 3.0 * s, 30).material(lambert(0.5)).no_shadows())
+            .object(ball(
+                ObjectBuilder::sphere("ball", 0.4 * s, 24)
+                    .translation(Vec3::new(0.0, 0.8 * s, 0.0))
+                    .material(lambert(0.5)),
+            )),
+    )
+}
+
+/// Suzanne (GGX α = 0.3, not convex: her self-visibility field is used) under the studio
+/// map at draft, she and the map turned by `degrees` about one axis, seen from `eye`.
+pub fn turned_suzanne(degrees: f32, eye: Vec3) -> Scene {
+    let axis = Vec3::new(0.3, 1.0, 0.2);
+    scene(
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .map("../hdri/studio.exr")
+            .environment_rotation(axis, degrees)
+            .camera(eye, Vec3::ZERO)
+            .object(
+                ObjectBuilder::mesh("suzanne", "../models/suzanne.glb")
+                    .rotation(axis, degrees)
+                    .material(ggx(0.3, 1.0, 0.3)),
+            ),
+    )
 }
 
 /// The radiance of a ground point `p` under a ball at `centre` of radius `r` (`None` where

@@ -1,0 +1,350 @@
+//! Scenes built in code: what tests and programs write instead of scene-file text.
+//!
+//! A [`SceneBuilder`] writes the scene file's table, in the file's own units (degrees,
+//! colours, preset names), and reads it back through the file's validation: a built scene
+//! is the scene the equivalent file gives, with the same errors naming the same fields.
+//!
+//! ```
+//! use glam::Vec3;
+//! use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+//! use rsl_scene::{Brdf, Preset};
+//!
+//! let scene = SceneBuilder::new()
+//!     .preset(Preset::Draft)
+//!     .constant(Vec3::ONE)
+//!     .camera(Vec3::new(0.0, 2.0, 5.0), Vec3::ZERO)
+//!     .object(ObjectBuilder::plane("floor", 4.0, 8).material(Brdf::Lambert { albedo: Vec3::splat(0.5) }).no_shadows())
+//!     .object(ObjectBuilder::sphere("ball", 0.5, 16).translation(Vec3::new(0.0, 0.5, 0.0)))
+//!     .build("scene.toml")
+//!     .unwrap();
+//! assert_eq!(scene.objects.len(), 2);
+//! ```
+
+use crate::error::SceneError;
+use crate::motion::Motion;
+use crate::{Brdf, ObjectMethod, Preset, Primitive};
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use toml::{Table, Value};
+
+fn num(v: f32) -> Value {
+    Value::Float(f64::from(v))
+}
+
+fn vec3(v: Vec3) -> Value {
+    Value::Array(v.to_array().map(num).to_vec())
+}
+
+fn axis_degrees(axis: Vec3, degrees: f32) -> Value {
+    let mut t = Table::new();
+    t.insert("axis".into(), vec3(axis));
+    t.insert("degrees".into(), num(degrees));
+    Value::Table(t)
+}
+
+/// A scene under construction; [`SceneBuilder::build`] validates it. Unset, the
+/// environment is a constant white, the camera looks from `(0, 0, 5)` at the origin, and
+/// the quality is the default preset.
+#[derive(Clone, Debug)]
+pub struct SceneBuilder {
+    quality: Table,
+    environment: Table,
+    camera: Table,
+    objects: Vec<Value>,
+}
+
+impl Default for SceneBuilder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SceneBuilder {
+    /// An empty scene: no objects, a constant white environment, the default camera and
+    /// quality.
+    pub fn new() -> Self {
+        let mut b =
+            Self { quality: Table::new(), environment: Table::new(), camera: Table::new(), objects: Vec::new() };
+        b = b.constant(Vec3::ONE).camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO);
+        b
+    }
+
+    /// Starts the quality from preset `p` (`quality.preset`).
+    pub fn preset(mut self, p: Preset) -> Self {
+        self.quality.insert("preset".into(), Value::String(p.name().into()));
+        self
+    }
+
+    /// Sets quality knob `name` (`quality.<name>`: `env_grid`, `aa`, `table_resolution`, …).
+    pub fn knob(mut self, name: &str, value: i64) -> Self {
+        self.quality.insert(name.into(), Value::Integer(value));
+        self
+    }
+
+    /// The same radiance in every direction (`environment.constant`; replaces a map).
+    pub fn constant(mut self, radiance: Vec3) -> Self {
+        self.environment.remove("map");
+        self.environment.insert("constant".into(), vec3(radiance));
+        self
+    }
+
+    /// A lat-long map (`environment.map`), as a scene file would write it: relative paths
+    /// resolve from the folder of the path given to [`SceneBuilder::build`].
+    pub fn map(mut self, path: impl AsRef<Path>) -> Self {
+        self.environment.remove("constant");
+        self.environment.insert("map".into(), Value::String(path.as_ref().to_string_lossy().into_owned()));
+        self
+    }
+
+    /// Scale of the map or constant (`environment.intensity`).
+    pub fn intensity(mut self, k: f32) -> Self {
+        self.environment.insert("intensity".into(), num(k));
+        self
+    }
+
+    /// The environment turned by `degrees` about `axis` (`environment.rotation`).
+    pub fn environment_rotation(mut self, axis: Vec3, degrees: f32) -> Self {
+        self.environment.insert("rotation".into(), axis_degrees(axis, degrees));
+        self
+    }
+
+    /// Number of rotatable square lights (`environment.rsl_count`).
+    pub fn rsl_count(mut self, n: u32) -> Self {
+        self.environment.insert("rsl_count".into(), Value::Integer(i64::from(n)));
+        self
+    }
+
+    /// Where the camera is and what it looks at (`camera.eye`, `camera.target`).
+    pub fn camera(mut self, eye: Vec3, target: Vec3) -> Self {
+        self.camera.insert("eye".into(), vec3(eye));
+        self.camera.insert("target".into(), vec3(target));
+        self
+    }
+
+    /// The image's size in pixels (`camera.width`, `camera.height`).
+    pub fn image(mut self, width: u32, height: u32) -> Self {
+        self.camera.insert("width".into(), Value::Integer(i64::from(width)));
+        self.camera.insert("height".into(), Value::Integer(i64::from(height)));
+        self
+    }
+
+    /// The vertical field of view (`camera.fov_y_degrees`).
+    pub fn fov_y_degrees(mut self, degrees: f32) -> Self {
+        self.camera.insert("fov_y_degrees".into(), num(degrees));
+        self
+    }
+
+    /// Adds an object (after those added before).
+    pub fn object(mut self, o: ObjectBuilder) -> Self {
+        self.objects.push(Value::Table(o.table));
+        self
+    }
+
+    /// The scene file this builder describes.
+    pub fn to_toml(&self) -> String {
+        let mut root = Table::new();
+        if !self.quality.is_empty() {
+            root.insert("quality".into(), Value::Table(self.quality.clone()));
+        }
+        root.insert("environment".into(), Value::Table(self.environment.clone()));
+        root.insert("camera".into(), Value::Table(self.camera.clone()));
+        root.insert("objects".into(), Value::Array(self.objects.clone()));
+        toml::to_string(&root).expect("a table of numbers, strings and tables serialises")
+    }
+
+    /// The scene, validated as if read from a file at `path` (which locates relative maps
+    /// and meshes, and names the file in errors; nothing is read from or written to it).
+    pub fn build(&self, path: impl AsRef<Path>) -> Result<crate::Scene, SceneError> {
+        crate::Scene::from_toml_str(&self.to_toml(), path.as_ref())
+    }
+
+    /// Writes the scene file to `path` (a whole file or none: written beside it, then
+    /// renamed) and gives `path` back.
+    pub fn write(&self, path: impl AsRef<Path>) -> std::io::Result<PathBuf> {
+        let path = path.as_ref();
+        let tmp = path.with_extension("toml.partial");
+        std::fs::write(&tmp, self.to_toml())?;
+        std::fs::rename(&tmp, path)?;
+        Ok(path.to_path_buf())
+    }
+}
+
+/// An object under construction (the keys of one `[[objects]]` table).
+#[derive(Clone, Debug)]
+pub struct ObjectBuilder {
+    table: Table,
+}
+
+impl ObjectBuilder {
+    fn named(name: &str) -> Self {
+        let mut table = Table::new();
+        table.insert("name".into(), Value::String(name.into()));
+        Self { table }
+    }
+
+    /// An object named `name` with a generated mesh (`primitive`).
+    pub fn primitive(name: &str, p: Primitive) -> Self {
+        let mut o = Self::named(name);
+        o.table.insert("primitive".into(), Value::try_from(p).expect("a primitive serialises"));
+        o
+    }
+
+    /// A sphere of `radius` with `resolution` rings, centred at the object's origin.
+    pub fn sphere(name: &str, radius: f32, resolution: u32) -> Self {
+        Self::primitive(name, Primitive::Sphere { radius, resolution })
+    }
+
+    /// A `size × size` square in the XZ plane of `resolution²` quads, facing +Y.
+    pub fn plane(name: &str, size: f32, resolution: u32) -> Self {
+        Self::primitive(name, Primitive::Plane { size, resolution })
+    }
+
+    /// An object whose mesh is a glTF file (`mesh`), as a scene file would write it.
+    pub fn mesh(name: &str, path: impl AsRef<Path>) -> Self {
+        let mut o = Self::named(name);
+        o.table.insert("mesh".into(), Value::String(path.as_ref().to_string_lossy().into_owned()));
+        o
+    }
+
+    /// Its material (`material`; Lambert white when not set).
+    pub fn material(mut self, m: Brdf) -> Self {
+        let file = crate::material::MaterialFile::of(&m);
+        self.table.insert("material".into(), Value::try_from(file).expect("a material serialises"));
+        self
+    }
+
+    /// Where its origin is (`translation`).
+    pub fn translation(mut self, t: Vec3) -> Self {
+        self.table.insert("translation".into(), vec3(t));
+        self
+    }
+
+    /// Turned by `degrees` about `axis` (`rotation`).
+    pub fn rotation(mut self, axis: Vec3, degrees: f32) -> Self {
+        self.table.insert("rotation".into(), axis_degrees(axis, degrees));
+        self
+    }
+
+    /// Scaled per axis (`scale`).
+    pub fn scale(mut self, s: Vec3) -> Self {
+        self.table.insert("scale".into(), vec3(s));
+        self
+    }
+
+    /// Casts no shadow on the other objects (`casts_shadows = false`).
+    pub fn no_shadows(mut self) -> Self {
+        self.table.insert("casts_shadows".into(), Value::Boolean(false));
+        self
+    }
+
+    /// How `auto` draws it (`method`).
+    pub fn method(mut self, m: ObjectMethod) -> Self {
+        self.table.insert("method".into(), Value::String(m.name().into()));
+        self
+    }
+
+    /// Spins about its origin at `degrees_per_second` around `axis` (`motion.spin`).
+    pub fn spin(self, axis: Vec3, degrees_per_second: f32) -> Self {
+        self.motion_entry("spin", [("axis", vec3(axis)), ("degrees_per_second", num(degrees_per_second))])
+    }
+
+    /// Its origin orbits `axis` through `centre` at `degrees_per_second` (`motion.orbit`).
+    pub fn orbit(self, centre: Vec3, axis: Vec3, degrees_per_second: f32) -> Self {
+        self.motion_entry(
+            "orbit",
+            [("centre", vec3(centre)), ("axis", vec3(axis)), ("degrees_per_second", num(degrees_per_second))],
+        )
+    }
+
+    /// Moves as `m` says (`motion`, written as [`crate::Scene::to_toml`] writes it).
+    pub fn motion(mut self, m: &Motion) -> Self {
+        match crate::write::motion(m) {
+            Some(v) => self.table.insert("motion".into(), v),
+            None => self.table.remove("motion"),
+        };
+        self
+    }
+
+    fn motion_entry<const N: usize>(mut self, key: &str, pairs: [(&str, Value); N]) -> Self {
+        let entry = Value::Table(pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect());
+        let motion = self.table.entry("motion").or_insert_with(|| Value::Table(Table::new()));
+        if let Value::Table(t) = motion {
+            t.insert(key.into(), entry);
+        }
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Scene;
+
+    #[test]
+    fn a_built_scene_is_the_scene_its_file_gives() {
+        let b = SceneBuilder::new()
+            .preset(Preset::Draft)
+            .knob("env_grid", 8)
+            .constant(Vec3::new(0.5, 1.0, 2.0))
+            .rsl_count(12)
+            .camera(Vec3::new(0.0, 3.0, 0.5), Vec3::ZERO)
+            .image(64, 48)
+            .object(
+                ObjectBuilder::plane("ground", 3.0, 6)
+                    .material(Brdf::Lambert { albedo: Vec3::splat(0.5) })
+                    .no_shadows()
+                    .method(ObjectMethod::RSL),
+            )
+            .object(
+                ObjectBuilder::sphere("ball", 0.4, 8)
+                    .translation(Vec3::new(0.0, 0.8, 0.0))
+                    .rotation(Vec3::Y, 30.0)
+                    .orbit(Vec3::ZERO, Vec3::Y, 45.0)
+                    .spin(Vec3::X, 10.0),
+            );
+        let path = Path::new("built.toml");
+        let built = b.build(path).unwrap();
+        let text = r#"
+            [quality]
+            preset = "draft"
+            env_grid = 8
+            [environment]
+            constant = [0.5, 1.0, 2.0]
+            rsl_count = 12
+            [camera]
+            eye = [0.0, 3.0, 0.5]
+            target = [0.0, 0.0, 0.0]
+            width = 64
+            height = 48
+            [[objects]]
+            name = "ground"
+            primitive = { kind = "plane", size = 3.0, resolution = 6 }
+            material = { model = "lambert", albedo = [0.5, 0.5, 0.5] }
+            casts_shadows = false
+            method = "rsl"
+            [[objects]]
+            name = "ball"
+            primitive = { kind = "sphere", radius = 0.4, resolution = 8 }
+            translation = [0.0, 0.8, 0.0]
+            rotation = { axis = [0.0, 1.0, 0.0], degrees = 30.0 }
+            motion = { orbit = { centre = [0.0, 0.0, 0.0], axis = [0.0, 1.0, 0.0], degrees_per_second = 45.0 }, spin = { axis = [1.0, 0.0, 0.0], degrees_per_second = 10.0 } }
+        "#;
+        assert_eq!(built, Scene::from_toml_str(text, path).unwrap());
+        // Motion given as a value is written as the scene writer writes it.
+        let m = built.objects[1].motion.clone();
+        let again = SceneBuilder::new().object(ObjectBuilder::sphere("ball", 0.4, 8).motion(&m)).build(path).unwrap();
+        assert_eq!(again.objects[0].motion.orbit, m.orbit);
+    }
+
+    #[test]
+    fn a_bad_built_scene_is_refused_naming_the_field() {
+        let e = SceneBuilder::new().knob("aa", 3).build("bad.toml").unwrap_err().to_string();
+        assert!(e.contains("bad.toml") && e.contains("quality.aa"), "{e}");
+        let e = SceneBuilder::new()
+            .object(ObjectBuilder::sphere("ball", -1.0, 8))
+            .build("bad.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("objects[0]") && e.contains("radius"), "{e}");
+    }
+}
