@@ -71,11 +71,12 @@ pub struct RenderArgs {
     /// them, wall time otherwise).
     #[arg(long)]
     pub timings: bool,
-    /// How radiance is computed: any registered method (`rsl render --help` lists them;
-    /// `truth` is the Monte Carlo reference, per pixel through the camera and per vertex for
-    /// --vertex-out).
-    #[arg(long, default_value_t = MethodId::RSL)]
-    pub method: MethodId,
+    /// How radiance is computed: any registered method (`rsl methods` lists them; `truth`
+    /// is the Monte Carlo reference, per pixel through the camera and per vertex for
+    /// --vertex-out). By default `auto` (each object by its most accurate drawing per
+    /// pixel; CPU only), or `rsl` with `--device gpu`.
+    #[arg(long)]
+    pub method: Option<MethodId>,
     /// Print which method draws each object, and why, before rendering.
     #[arg(long)]
     pub explain: bool,
@@ -290,6 +291,12 @@ pub fn precompute(scene: &Path, prepare: &PrepareArgs) -> Result<()> {
 
 /// `rsl render`.
 pub fn render(args: &RenderArgs) -> Result<()> {
+    // The default: an oracle replaces parts of a method that has them; else the device's.
+    let chosen = match (args.method, args.oracle) {
+        (Some(m), _) => m,
+        (None, Some(_)) => MethodId::all().into_iter().find(|m| m.capabilities().oracles).unwrap_or(MethodId::RSL),
+        (None, None) => MethodId::default_on(args.device),
+    };
     let format = args.out.as_deref().map(format_of).transpose()?;
     if let Some(out) = &args.out {
         check_writable(out, "--out")?;
@@ -308,9 +315,9 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     {
         bail!("--exposure must be a positive number, got {e}");
     }
-    let capabilities = args.method.capabilities();
+    let capabilities = chosen.capabilities();
     if args.device == Device::Gpu && !capabilities.gpu {
-        bail!("--method {} runs on the CPU only; drop --device gpu", args.method);
+        bail!("--method {chosen} runs on the CPU only; drop --device gpu");
     }
     if capabilities.monte_carlo && !(1..=rsl_truth::MAX_SPP).contains(&args.spp) {
         bail!("--spp must be in 1..={} samples per point, got {}", rsl_truth::MAX_SPP, args.spp);
@@ -396,10 +403,10 @@ pub fn render(args: &RenderArgs) -> Result<()> {
             o.progress = crate::progress::bars();
             Box::new(o)
         }
-        None => method_for(args.method, args.device, &engine, args.spp, args.seed)?,
+        None => method_for(chosen, args.device, &engine, args.spp, args.seed)?,
     };
     // Frames through a render session: each draws again only what changed since the last.
-    let id = args.method;
+    let id = chosen;
     let mut session = Session::new(MethodOptions::default());
     session.insert(id, method);
     if layers.rsl {
@@ -519,8 +526,9 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
     let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
     print_preparation(&engine);
     let mut session = Session::new(MethodOptions::default());
-    session.insert(MethodId::RSL, method_for(MethodId::RSL, args.device, &engine, 1, 1)?);
-    let device = session.method(&engine, MethodId::RSL)?.describe();
+    let id = MethodId::default_on(args.device);
+    session.insert(id, method_for(id, args.device, &engine, 1, 1)?);
+    let device = session.method(&engine, id)?.describe();
     let frames = (args.seconds * args.fps).round().max(1.0) as u32;
     let swap_at = frames / 2;
     let swapped = &scene.objects[1].name.clone();
@@ -541,9 +549,10 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
         }
         let t = k as f32 / args.fps;
         let request = Request { time: t, image: true, vertices: false, exposure };
-        let mut frame = session.render(&engine, &scene, MethodId::RSL, &request)?.frame;
+        let mut frame = session.render(&engine, &scene, id, &request)?.frame;
         shade.push(frame.timings.ms("shade"));
-        raster += frame.timings.ms("draw");
+        // The image's stages: "draw", "draw per pixel", and their GPU forms.
+        raster += frame.timings.stages.iter().filter(|s| s.name.starts_with("draw")).map(|s| s.wall_ms).sum::<f64>();
         let s = Instant::now();
         let rgb = display_rgb(&mut frame, &mut exposure)?;
         let image = frame.image.as_ref().context("the method made no image")?;

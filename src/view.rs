@@ -21,7 +21,8 @@ pub struct ViewArgs {
     #[arg(long, conflicts_with = "drawing")]
     pub per_pixel: bool,
     /// How glossy objects are drawn once the view rests (the "drawing" drop-down): as
-    /// `rsl render --method` draws them.
+    /// `rsl render --method` draws them; by default `auto` (the vertices interpolated while
+    /// edits come, each object's most accurate drawing once the view rests).
     #[arg(long)]
     pub drawing: Option<MethodId>,
     /// Precomputation options.
@@ -51,7 +52,9 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     let engine = args.prepare.options();
     let options = rsl_view::ViewerOptions { cache_dir: engine.cache_dir, quality: args.prepare.quality };
     let mut viewer = rsl_view::Viewer::new(scene, options);
-    viewer.set_per_pixel(args.per_pixel);
+    if args.per_pixel {
+        viewer.set_per_pixel(true);
+    }
     if let Some(d) = args.drawing {
         if !d.capabilities().interactive {
             bail!(

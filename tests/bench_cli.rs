@@ -70,7 +70,11 @@ fn the_bench_error_is_what_compare_says_of_the_same_renders() {
     let bench_l2: f64 = row[10].parse().unwrap();
     // The same configuration and the same truth, rendered and compared by hand.
     let common = ["--time", "0.5", "--device", "cpu", "--cache", cache];
-    rsl(&[&["render", scene, "--rsl", "8", "--out", &p("a.exr"), "--vertex-out", &p("a.ply")], &common[..]].concat());
+    rsl(&[
+        &["render", scene, "--method", "rsl", "--rsl", "8", "--out", &p("a.exr"), "--vertex-out", &p("a.ply")],
+        &common[..],
+    ]
+    .concat());
     rsl(&[
         &["render", scene, "--method", "truth", "--spp", "16", "--out", &p("t.exr"), "--vertex-out", &p("t.ply")],
         &common[..],

@@ -431,6 +431,30 @@ fn a_run_that_works_prints_no_error_without_a_runtime_dir() {
 }
 
 #[test]
+fn the_default_method_is_auto_on_the_cpu_and_rsl_where_a_gpu_is_asked_for() {
+    let dir = out_dir("default-method");
+    let scene = common::small_scene(&dir);
+    let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--device", "cpu", "--out"]).arg(dir.join("a.png")));
+    assert!(ok, "{err}");
+    assert!(err.contains("drawing with each object's own method on the CPU"), "auto draws by default:\n{err}");
+    // With --oracle the default is the RSL path whose parts it replaces.
+    let (ok, _, err) = run(rsl()
+        .arg("render")
+        .arg(&scene)
+        .args(["--device", "cpu", "--oracle", "brdf", "--out"])
+        .arg(dir.join("o.png")));
+    assert!(ok, "{err}");
+    // Where only a GPU is asked for, the default is a method that runs there.
+    if rsl_gpu::testing::context_or_skip("the_default_method_is_auto_on_the_cpu_and_rsl_where_a_gpu_is_asked_for")
+        .is_some()
+    {
+        let (ok, _, err) =
+            run(rsl().arg("render").arg(&scene).args(["--device", "gpu", "--out"]).arg(dir.join("g.png")));
+        assert!(ok, "--device gpu without --method: {err}");
+    }
+}
+
+#[test]
 fn explain_says_how_each_object_is_drawn_and_why_for_every_per_object_method() {
     // The default scene: a Lambert floor, and three glossy objects.
     let glossy = ["bunny", "suzanne", "sphere"];

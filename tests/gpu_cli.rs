@@ -32,8 +32,12 @@ fn render_on_the_gpu_writes_the_same_outputs() {
         .concat())
     .unwrap();
     run(&[&["render", scene, "--device", "gpu", "--out", &out("g.png")], &common[..]].concat()).unwrap();
-    run(&[&["render", scene, "--device", "cpu", "--out", &out("c.exr"), "--vertex-out", &out("c.ply")], &common[..]]
-        .concat())
+    // The same method on both devices (`--device gpu` draws `rsl` by default; the CPU `auto`).
+    run(&[
+        &["render", scene, "--device", "cpu", "--method", "rsl", "--out", &out("c.exr"), "--vertex-out", &out("c.ply")],
+        &common[..],
+    ]
+    .concat())
     .unwrap();
     let img = image::open(dir.join("g.png")).unwrap();
     assert_eq!((img.width(), img.height()), (640, 480));

@@ -34,8 +34,8 @@ fn render_writes_images_vertices_and_animations() {
     let cache = dir.join("cache");
     let cache = cache.to_str().unwrap();
     let out = |n: &str| dir.join(n).to_str().unwrap().to_string();
-    // On the CPU path, so that the PLY holds exactly the engine's CPU radiance.
-    let args = ["--device", "cpu", "--cache", cache];
+    // The RSL path on the CPU, so that the PLY holds exactly the engine's CPU radiance.
+    let args = ["--device", "cpu", "--method", "rsl", "--cache", cache];
     run(&[&["render", scene, "--time", "1.0", "--out", &out("a.png"), "--vertex-out", &out("a.ply")], &args[..]]
         .concat())
     .unwrap();

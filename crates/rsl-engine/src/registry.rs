@@ -233,8 +233,11 @@ fn lookup(name: &str) -> Option<(&'static Registration, Option<Device>)> {
 }
 
 impl MethodId {
-    /// The default method of `rsl render` and `rsl demo`.
+    /// The RSL path at the vertices, interpolated across triangles.
     pub const RSL: MethodId = MethodId("rsl");
+    /// `auto`: each object drawn as its scene `method` says (by default its most accurate
+    /// drawing per pixel).
+    pub const AUTO: MethodId = MethodId("auto");
     /// The Monte Carlo ground truth.
     pub const TRUTH: MethodId = MethodId("truth");
     /// The RSL sum per pixel.
@@ -245,6 +248,24 @@ impl MethodId {
     pub const LOBE: MethodId = MethodId("lobe");
     /// The Haar wavelet baseline.
     pub const WAVELET: MethodId = MethodId("wavelet");
+
+    /// The methods a front end draws with when none is named, best first: `auto` (each
+    /// object by its most accurate drawing per pixel), then `rsl` (which runs everywhere).
+    pub const DEFAULTS: [MethodId; 2] = [MethodId::AUTO, MethodId::RSL];
+
+    /// The default method of `rsl render`, `rsl demo` and the viewer on `device`: the first
+    /// of [`MethodId::DEFAULTS`] that runs there (`auto`, which is CPU-only, except where a
+    /// GPU is asked for).
+    pub fn default_on(device: Device) -> MethodId {
+        let runs = |m: &MethodId| {
+            let c = m.capabilities();
+            match device {
+                Device::Gpu => c.gpu,
+                Device::Cpu | Device::Auto => c.cpu,
+            }
+        };
+        Self::DEFAULTS.into_iter().find(runs).unwrap_or(MethodId::RSL)
+    }
 
     /// Every registered method, built-in ones first.
     pub fn all() -> Vec<MethodId> {
@@ -603,6 +624,15 @@ mod tests {
         assert_eq!("rsl_pixel".parse::<MethodId>().unwrap().name(), "pixel");
         assert_eq!(MethodId::RSL.name_on(Device::Cpu), "cpu");
         assert_eq!("pixel".parse::<MethodId>().unwrap().name_on(Device::Cpu), "pixel");
+    }
+
+    #[test]
+    fn the_default_is_auto_where_it_runs_and_rsl_on_a_gpu() {
+        assert_eq!(MethodId::default_on(Device::Cpu), MethodId::AUTO);
+        assert_eq!(MethodId::default_on(Device::Auto), MethodId::AUTO);
+        let on_gpu = MethodId::default_on(Device::Gpu);
+        assert!(on_gpu.capabilities().gpu, "{on_gpu} runs on the GPU");
+        assert_eq!(on_gpu, if MethodId::AUTO.capabilities().gpu { MethodId::AUTO } else { MethodId::RSL });
     }
 
     #[test]

@@ -62,6 +62,13 @@ pub fn screenshot(viewer: Viewer, frames: usize) -> Result<image_rgba::Rgba> {
         // A drawing prepares on a worker (the lobes prefiltered, say): the next frame draws with it.
         harness.state_mut().wait_drawing();
     }
+    // The view as it is once it has rested: drawn per pixel where the drawing is, not
+    // interpolated as while edits come.
+    if harness.state_mut().settle_pixels(true) {
+        harness.step();
+        harness.state_mut().wait_drawing();
+        harness.step();
+    }
     if let Some(e) = harness.state().error() {
         return Err(anyhow!("{e}"));
     }

@@ -58,7 +58,7 @@ impl Viewer {
             texture_stale: false,
             thumbnail: None,
             readout: None,
-            drawing: MethodId::RSL,
+            drawing: MethodId::default_on(rsl_engine::Device::Cpu),
             force_pixels: false,
             pixels_pending: None,
             gizmo_drag: None,
