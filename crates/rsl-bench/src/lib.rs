@@ -105,6 +105,10 @@ pub struct Row {
     pub mc_ms: Option<f64>,
     /// Per object: name, relative L2, the truth's noise.
     pub objects: Vec<(String, f64, f64)>,
+    /// The content key of the truth it was measured against ([`truth::key`]: the scene's
+    /// contents at its time, the samples, the seed); a row whose key is not the current
+    /// truth's is measured again. `None` in results written before rows carried it.
+    pub truth_key: Option<u64>,
 }
 
 /// What a run did.
@@ -191,6 +195,7 @@ fn measured_row(
         mc_ms: mc_spp.map(|s| s * truth.seconds * 1e3 / f64::from(truth.spp)),
         pixel_l2: None,
         objects,
+        truth_key: None,
     })
 }
 
@@ -365,11 +370,25 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         let name = scene_path.display().to_string();
         let mut scene = Scene::load(scene_path)?;
         let base = scene.quality;
+        // The truths' keys, one per time: a row measured against another truth (other
+        // samples or seed, or the scene's contents changed since) is measured again.
+        let neutral = neutral_engine(&scene, options)?;
+        let keys: Vec<(f32, u64)> = options
+            .times
+            .iter()
+            .map(|&t| (t, truth::key(&neutral, &scene, t, options.truth_spp, options.seed)))
+            .collect();
+        let key_at = |t: f32| keys.iter().find(|(tt, _)| *tt == t).map(|(_, k)| *k);
         let todo: Vec<(&Config, f32)> = options
             .configs
             .iter()
             .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
-            .filter(|(c, t)| !summary.rows.iter().any(|r| r.scene == name && r.config == c.id() && r.time == *t))
+            .filter(|(c, t)| {
+                !summary
+                    .rows
+                    .iter()
+                    .any(|r| r.scene == name && r.config == c.id() && r.time == *t && r.truth_key == key_at(*t))
+            })
             .collect();
         summary.reused += options.configs.len() * options.times.len() - todo.len();
         let budget_todo: Vec<(&Config, f32, &'static str, rsl_shade::Oracles)> = options
@@ -394,7 +413,6 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             continue;
         }
         // The truths, once per time: only the method-neutral layer is needed for them.
-        let neutral = neutral_engine(&scene, options)?;
         let mut truths = Vec::new();
         for &t in &options.times {
             let (tr, cached) = truth::truth(
@@ -449,7 +467,9 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 &frame.radiance,
                 truth,
             )?;
-            summary.rows.push(row);
+            // It replaces a row measured against another truth.
+            summary.rows.retain(|r| !(r.scene == name && r.config == row.config && r.time == t));
+            summary.rows.push(Row { truth_key: key_at(t), ..row });
             summary.measured += 1;
             report::write_rows(&results, &summary.rows)?;
         }

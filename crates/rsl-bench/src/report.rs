@@ -9,7 +9,14 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 const HEADER: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,ms_per_frame,relative_l2,\
-                      mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,pixel_l2,pixel_truth_noise,objects";
+                      mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,pixel_l2,pixel_truth_noise,objects,\
+                      truth_key";
+
+/// The header of results written before rows carried their truth's key: read, and every
+/// row measured again.
+const HEADER_UNKEYED: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,ms_per_frame,\
+                              relative_l2,mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,pixel_l2,\
+                              pixel_truth_noise,objects";
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break.
 pub(crate) fn field(s: &str) -> String {
@@ -50,7 +57,7 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     for r in rows {
         s += &format!(
             // Floats in their shortest exact form, so a resumed bench reads back what it wrote.
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             field(&r.scene),
             field(&r.config),
             r.method,
@@ -70,7 +77,8 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
             r.mc_ms.map_or(String::new(), |v| v.to_string()),
             r.pixel_l2.map_or(String::new(), |v| v.0.to_string()),
             r.pixel_l2.map_or(String::new(), |v| v.1.to_string()),
-            field(&objects_field(r))
+            field(&objects_field(r)),
+            r.truth_key.map_or(String::new(), |k| format!("{k:016x}"))
         );
         for (name, e, n) in &r.objects {
             o += &format!("{},{},{},{},{e},{n}\n", field(&r.scene), field(&r.config), r.time, field(name));
@@ -129,8 +137,10 @@ pub(crate) fn measure(path: &Path, n: usize, header: &str, f: &[String], i: usiz
 
 /// Reads `results.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
-    read_csv(path, HEADER, "results", 20)?
-        .into_iter()
+    let unkeyed = std::fs::read_to_string(path).is_ok_and(|t| t.lines().next() == Some(HEADER_UNKEYED));
+    let rows =
+        if unkeyed { read_csv(path, HEADER_UNKEYED, "results", 20)? } else { read_csv(path, HEADER, "results", 21)? };
+    rows.into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
             let num = |i: usize| measure(path, n, HEADER, &f, i, false);
@@ -169,6 +179,12 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
                 mc_ms: if f[16].is_empty() { None } else { Some(num(16)?) },
                 pixel_l2: if f[17].is_empty() { None } else { Some((num(17)?, num(18)?)) },
                 objects,
+                truth_key: match f.get(20).map(String::as_str) {
+                    None | Some("") => None,
+                    Some(k) => Some(u64::from_str_radix(k, 16).map_err(|_| {
+                        anyhow::anyhow!("{}: line {n}: truth_key `{k}` is not a key rsl writes", path.display())
+                    })?),
+                },
             })
         })
         .collect()
@@ -393,6 +409,7 @@ mod tests {
             mc_ms: None,
             pixel_l2: Some((0.5, 0.25)),
             objects: vec![("floor".into(), 0.05, 0.01), ("ball".into(), 0.5, 0.02)],
+            truth_key: Some(0x0123_4567_89ab_cdef),
         }
     }
 

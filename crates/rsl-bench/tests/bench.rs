@@ -16,13 +16,18 @@ fn dir(name: &str) -> PathBuf {
 
 /// A ball over a plane under the bundled studio map, at draft quality.
 fn scene(dir: &std::path::Path) -> PathBuf {
+    ball_scene(&dir.join("small.toml"), 0.3)
+}
+
+/// [`scene`] with the ball's GGX roughness `alpha`, written to `path`.
+fn ball_scene(path: &std::path::Path, alpha: f32) -> PathBuf {
     write_scene(
-        &dir.join("small.toml"),
+        path,
         Vec3::new(0.0, 2.0, 3.0),
         [
             ObjectBuilder::plane("floor", 3.0, 12).material(Brdf::Lambert { albedo: Vec3::splat(0.6) }).no_shadows(),
             ObjectBuilder::sphere("ball", 0.4, 12).translation(Vec3::new(0.0, 0.5, 0.0)).material(Brdf::Ggx {
-                alpha: 0.3,
+                alpha,
                 specular: Vec3::splat(0.9),
                 diffuse: Vec3::splat(0.2),
             }),
@@ -117,6 +122,31 @@ fn bad_options_are_clear_errors() {
     o.truth_spp = 4;
     o.scenes = vec![d.join("missing.toml")];
     assert!(format!("{:#}", run(&o).unwrap_err()).contains("missing.toml"));
+}
+
+#[test]
+fn rows_measured_against_another_truth_or_scene_are_measured_again() {
+    let d = dir("rekey");
+    let scene = scene(&d);
+    let mut o = options(scene.clone(), d.join("out"), d.join("cache"), &["rsl=4"]);
+    (o.grid_spp, o.truth_spp, o.frames) = (0, 16, 1);
+    assert_eq!(run(&o).unwrap().measured, 1);
+    assert_eq!(run(&o).unwrap().measured, 0, "the same truth: the row is kept");
+    // Another number of samples: another truth, and the row is replaced.
+    o.truth_spp = 32;
+    let s = run(&o).unwrap();
+    assert_eq!((s.measured, s.rows.len(), s.rows[0].truth_spp), (1, 1, 32));
+    // The scene's file changed (the ball's roughness): measured again.
+    ball_scene(&scene, 0.5);
+    assert_eq!(run(&o).unwrap().measured, 1, "another scene: measured again");
+    // Results written before rows carried their truth's key are read, and measured again.
+    let results = d.join("out/results.csv");
+    let text = std::fs::read_to_string(&results).unwrap();
+    let unkeyed: Vec<String> =
+        text.lines().map(|l| l.rsplit_once(',').expect("a truth_key column").0.to_string()).collect();
+    std::fs::write(&results, unkeyed.join("\n") + "\n").unwrap();
+    assert_eq!(run(&o).unwrap().measured, 1, "an unkeyed row: measured again");
+    assert_eq!(run(&o).unwrap().measured, 0);
 }
 
 #[test]
