@@ -67,7 +67,7 @@ pub fn write_rows(path: &Path, rows: &[BudgetRow]) -> Result<()> {
 
 /// Reads `budget.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<BudgetRow>> {
-    read_csv(path, HEADER, "budget", 9)?
+    read_csv(path, &[(HEADER, 9)], "budget")?
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);

@@ -88,19 +88,21 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     write_atomic(&path.with_file_name("objects.csv"), o.as_bytes())
 }
 
-/// The fields of every line but the header of a CSV file written with `header`, with their
-/// line numbers (none when the file does not exist); `kind` names the file in the error for a
-/// different header, and a line with other than `fields` fields is malformed.
-pub(crate) fn read_csv(path: &Path, header: &str, kind: &str, fields: usize) -> Result<Vec<(usize, Vec<String>)>> {
+/// The fields of every line but the header of a CSV file whose header is one of `headers`
+/// (each with its field count), with their line numbers (none when the file does not exist);
+/// `kind` names the file in the error for another header, and a line with other than its
+/// header's field count is malformed.
+pub(crate) fn read_csv(path: &Path, headers: &[(&str, usize)], kind: &str) -> Result<Vec<(usize, Vec<String>)>> {
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
         Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
     };
     let mut lines = text.lines();
-    if lines.next() != Some(header) {
+    let first = lines.next();
+    let Some(&(_, fields)) = headers.iter().find(|(h, _)| first == Some(*h)) else {
         bail!("{}: not a {kind} file of this version (header differs); move it away to start afresh", path.display());
-    }
+    };
     lines
         .enumerate()
         .map(|(k, line)| {
@@ -137,10 +139,8 @@ pub(crate) fn measure(path: &Path, n: usize, header: &str, f: &[String], i: usiz
 
 /// Reads `results.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
-    let unkeyed = std::fs::read_to_string(path).is_ok_and(|t| t.lines().next() == Some(HEADER_UNKEYED));
-    let rows =
-        if unkeyed { read_csv(path, HEADER_UNKEYED, "results", 20)? } else { read_csv(path, HEADER, "results", 21)? };
-    rows.into_iter()
+    read_csv(path, &[(HEADER, 21), (HEADER_UNKEYED, 20)], "results")?
+        .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
             let num = |i: usize| measure(path, n, HEADER, &f, i, false);

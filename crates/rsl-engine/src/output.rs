@@ -6,12 +6,8 @@ use std::path::Path;
 /// Writes `bytes` to `path` atomically: into a temporary file beside it, then renamed over
 /// it. On any error the temporary file is removed and `path` is untouched.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = temporary(path)?;
-    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.with_context(|| format!("cannot write {}", path.display()))
+    temporary(path)?;
+    rsl_sphere::io::write_atomic(path, bytes).with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Encodes RGB8 pixels as PNG and writes them atomically.
@@ -124,9 +120,7 @@ impl Drop for GifWriter {
 
 /// The temporary file beside `path` that [`write_atomic`] and [`GifWriter`] write first.
 fn temporary(path: &Path) -> Result<std::path::PathBuf> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().with_context(|| format!("{}: not a file path", path.display()))?;
-    Ok(dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id())))
+    rsl_sphere::io::temporary(path).with_context(|| format!("{}: not a file path", path.display()))
 }
 
 /// Checks before any work that `path` can be written: its folder exists (or can be made) and

@@ -22,18 +22,11 @@
 
 use crate::error::SceneError;
 use crate::motion::Motion;
+use crate::write::{num, vec3};
 use crate::{Brdf, ObjectMethod, Preset, Primitive};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
-
-fn num(v: f32) -> Value {
-    Value::Float(f64::from(v))
-}
-
-fn vec3(v: Vec3) -> Value {
-    Value::Array(v.to_array().map(num).to_vec())
-}
 
 fn axis_degrees(axis: Vec3, degrees: f32) -> Value {
     let mut t = Table::new();
@@ -63,10 +56,9 @@ impl SceneBuilder {
     /// An empty scene: no objects, a constant white environment, the default camera and
     /// quality.
     pub fn new() -> Self {
-        let mut b =
-            Self { quality: Table::new(), environment: Table::new(), camera: Table::new(), objects: Vec::new() };
-        b = b.constant(Vec3::ONE).camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO);
-        b
+        Self { quality: Table::new(), environment: Table::new(), camera: Table::new(), objects: Vec::new() }
+            .constant(Vec3::ONE)
+            .camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO)
     }
 
     /// Starts the quality from preset `p` (`quality.preset`).
@@ -162,9 +154,7 @@ impl SceneBuilder {
     /// renamed) and gives `path` back.
     pub fn write(&self, path: impl AsRef<Path>) -> std::io::Result<PathBuf> {
         let path = path.as_ref();
-        let tmp = path.with_extension("toml.partial");
-        std::fs::write(&tmp, self.to_toml())?;
-        std::fs::rename(&tmp, path)?;
+        rsl_sphere::io::write_atomic(path, self.to_toml().as_bytes())?;
         Ok(path.to_path_buf())
     }
 }

@@ -12,11 +12,11 @@ use glam::{Quat, Vec3};
 use std::path::{Path, PathBuf};
 use toml::{Table, Value};
 
-fn num(v: f32) -> Value {
+pub(crate) fn num(v: f32) -> Value {
     Value::Float(f64::from(v))
 }
 
-fn vec3(v: Vec3) -> Value {
+pub(crate) fn vec3(v: Vec3) -> Value {
     Value::Array(v.to_array().map(num).to_vec())
 }
 

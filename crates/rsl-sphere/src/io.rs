@@ -2,7 +2,7 @@
 //! block or never end), no larger than a stated limit, read in one go.
 
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The largest scene file read, bytes.
 pub const MAX_SCENE_BYTES: u64 = 16 << 20;
@@ -71,6 +71,25 @@ pub fn read_text_bounded(path: &Path, limit: u64) -> Result<String, ReadError> {
     String::from_utf8(read_bounded(path, limit)?).map_err(|e| ReadError::Io(format!("not UTF-8 text: {e}")))
 }
 
+/// The temporary file [`write_atomic`] writes `path` through: hidden, beside it (so the
+/// rename stays on one file system), named by this process (so two writers never share one).
+pub fn temporary(path: &Path) -> std::io::Result<PathBuf> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().ok_or_else(|| std::io::Error::other("not a file path"))?;
+    Ok(dir.join(format!(".{}.{}.tmp", name.to_string_lossy(), std::process::id())))
+}
+
+/// Writes `bytes` to `path` whole or not at all: into [`temporary`], then renamed over it. On
+/// any error the temporary file is removed and `path` is untouched.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let tmp = temporary(path)?;
+    let result = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -95,6 +114,24 @@ mod tests {
             let e = read_bounded(&a, 10).unwrap_err();
             assert!(matches!(e, ReadError::Io(ref m) if m.contains("symbolic links")), "{e}");
         }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_atomic_write_replaces_the_file_whole_and_a_failed_one_leaves_it_and_no_temporary() {
+        let dir = std::env::temp_dir().join(format!("rsl-sphere-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("a.txt");
+        write_atomic(&f, b"old").unwrap();
+        write_atomic(&f, b"new").unwrap();
+        assert_eq!(std::fs::read(&f).unwrap(), b"new");
+        // A folder where the temporary file goes: the write fails, the file is untouched.
+        std::fs::create_dir_all(temporary(&f).unwrap()).unwrap();
+        assert!(write_atomic(&f, b"lost").is_err());
+        assert_eq!(std::fs::read(&f).unwrap(), b"new");
+        std::fs::remove_dir_all(temporary(&f).unwrap()).unwrap();
+        let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, ["a.txt"]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

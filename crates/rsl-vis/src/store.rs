@@ -316,12 +316,7 @@ pub fn load_ovdf(path: &Path, key: u64) -> Result<crate::ovdf::Ovdf, FieldFileEr
 }
 
 fn save_bytes(bytes: &[u8], path: &Path) -> Result<(), FieldFileError> {
-    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    let r = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if r.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    r.map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))
+    rsl_sphere::io::write_atomic(path, bytes).map_err(|e| FieldFileError::Io(format!("{}: {e}", path.display())))
 }
 
 /// Reads and verifies a field file built for `key`.

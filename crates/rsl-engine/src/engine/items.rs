@@ -97,11 +97,6 @@ impl Engine {
         let p = svdf_params(self.preset, &self.settings);
         let key = field_key("svdf", mesh_key, &[p.n, p.supersample, p.clusters, p.vectors, p.iterations]);
         let vertices = mesh.vertex_count();
-        check_size(
-            &format!("object {name}: the self-visibility field ({vertices} vertices × {}² tables)", p.n),
-            "visibility_resolution",
-            vertices as u64 * (p.n as u64).pow(2) * 4,
-        )?;
         let io = FieldIo {
             prefix: "svdf",
             load: rsl_vis::store::load_svdf,
@@ -109,7 +104,13 @@ impl Engine {
             check: &|f: &Svdf| {
                 (field_vertices(f) == vertices).then_some(()).ok_or("vertex count differs from the mesh")
             },
+            // The size is checked only where the field must be built.
             build: &|report| {
+                check_size(
+                    &format!("object {name}: the self-visibility field ({vertices} vertices × {}² tables)", p.n),
+                    "visibility_resolution",
+                    vertices as u64 * (p.n as u64).pow(2) * 4,
+                )?;
                 Svdf::build_with_progress(mesh, &p, report)
                     .with_context(|| format!("object {name}: self-visibility field"))
             },
@@ -124,29 +125,24 @@ impl Engine {
         let p = ovdf_params(&self.settings);
         p.check().context("quality settings")?;
         let key = field_key("ovdf", mesh_key, &[p.shells, p.m, p.n, p.supersample, p.vectors]);
-        // Held already (every edit's sync asks again): nothing to check or read.
-        if let Some(f) = self.store.get::<Ovdf>(key) {
-            self.store.pin_more([key]);
-            self.stats.memory_hits += 1;
-            return Ok((f, key));
-        }
-        // A flat convex occluder is its closed form (a few corners), never the tables: its
-        // size does not depend on the field's knobs (two planes were refused for 12.9 GB).
-        let flat = rsl_vis::flat::Flat::detect(mesh).is_some();
-        check_size(
-            &format!(
-                "object {name}: the occluder field ({} shells × 6×{}² directions × {}² tables)",
-                p.shells, p.m, p.n
-            ),
-            "ovdf_shells, ovdf_directions or visibility_resolution",
-            if flat { 0 } else { (p.shells * 6 * p.m * p.m) as u64 * (p.n as u64).pow(2) * 4 },
-        )?;
         let io = FieldIo {
             prefix: "ovdf",
             load: rsl_vis::store::load_ovdf,
             save: rsl_vis::store::save_ovdf,
             check: &|f: &Ovdf| (f.params() == &p).then_some(()).ok_or("resolution differs"),
+            // The size is checked only where the field must be built. A flat convex occluder
+            // is its closed form (a few corners), never the tables: its size does not depend
+            // on the field's knobs (two planes were refused for 12.9 GB).
             build: &|report| {
+                let flat = rsl_vis::flat::Flat::detect(mesh).is_some();
+                check_size(
+                    &format!(
+                        "object {name}: the occluder field ({} shells × 6×{}² directions × {}² tables)",
+                        p.shells, p.m, p.n
+                    ),
+                    "ovdf_shells, ovdf_directions or visibility_resolution",
+                    if flat { 0 } else { (p.shells * 6 * p.m * p.m) as u64 * (p.n as u64).pow(2) * 4 },
+                )?;
                 Ovdf::build_with_progress(mesh, &p, report).with_context(|| format!("object {name}: occluder field"))
             },
             bytes: Ovdf::bytes,
