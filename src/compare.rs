@@ -26,11 +26,15 @@ pub struct CompareArgs {
     /// Compare every pixel of EXR inputs, background included.
     #[arg(long)]
     pub all_pixels: bool,
-    /// With PLY inputs and --scene: the error per object and per band of n·v (the cosine
-    /// between the vertex normal and the direction to the scene's camera eye), each with its
-    /// share of the squared error.
+    /// With --scene: the error per object, each with its share of the squared error; with
+    /// PLY inputs also per band of n·v (the cosine between the vertex normal and the
+    /// direction to the scene's camera eye); with EXR inputs over the covered pixels whose
+    /// centre sees the object (the scene's camera at the images' size, at --time).
     #[arg(long)]
     pub breakdown: bool,
+    /// The scene time of EXR inputs, in seconds, for --breakdown (the objects' places).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub time: f32,
 }
 
 fn kind(p: &Path) -> Option<&'static str> {
@@ -163,6 +167,13 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         not_black(&args.b, &pb, mask.as_deref())?;
         let m = metrics::compare(&pa, &pb, mask.as_deref())?;
         println!("{}: {m}", if mask.is_some() { "covered pixels" } else { "pixels" });
+        if args.breakdown {
+            let Some(path) = &args.scene else { bail!("--breakdown needs --scene for the objects") };
+            anyhow::ensure!(args.time.is_finite(), "--time {} is not a finite number of seconds", args.time);
+            let mut scene = Scene::load(path)?;
+            (scene.camera.width, scene.camera.height) = (wa, ha);
+            print_rows(&pixel_breakdown(&scene, args.time, &pa, &pb, mask.as_deref())?, "pixels");
+        }
         if let Some(h) = &args.heatmap {
             let err = luminance_errors(&pa, &pb);
             let keep = |k: usize| mask.as_ref().is_none_or(|m| m[k]);
@@ -177,6 +188,23 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The error of `a` against `b` over the points `keep` selects, with its share of the
+/// squared error of all points.
+fn error_row(by: &'static str, name: String, a: &[Vec3], b: &[Vec3], keep: &dyn Fn(usize) -> bool) -> Result<Row> {
+    let squared = |keep: &dyn Fn(usize) -> bool| -> f64 {
+        (0..a.len()).filter(|&k| keep(k)).map(|k| f64::from((a[k] - b[k]).length_squared())).sum()
+    };
+    let total = squared(&|_| true);
+    let mask: Vec<bool> = (0..a.len()).map(keep).collect();
+    let (points, relative_l2) = match metrics::compare(a, b, Some(&mask)) {
+        Ok(m) => (m.points, m.relative_l2),
+        Err(metrics::CompareError::Empty) => (0, 0.0),
+        Err(e) => return Err(e.into()),
+    };
+    let share = if total > 0.0 { squared(keep) / total } else { 0.0 };
+    Ok(Row { by, name, points, relative_l2, share })
 }
 
 /// Bands of n·v for [`print_breakdown`]: grazing views first.
@@ -197,20 +225,7 @@ struct Row {
 /// The error per object (`names` by index) and per band of n·v toward `eye`, each with its
 /// share of the squared error (the vertices' positions and normals from the reference `b`).
 fn breakdown(eye: Vec3, names: &[String], b: &ply::PlyData, ra: &[Vec3], rb: &[Vec3]) -> Result<Vec<Row>> {
-    let squared = |keep: &dyn Fn(usize) -> bool| -> f64 {
-        (0..ra.len()).filter(|&k| keep(k)).map(|k| f64::from((ra[k] - rb[k]).length_squared())).sum()
-    };
-    let total = squared(&|_| true);
-    let row = |by: &'static str, name: String, keep: &dyn Fn(usize) -> bool| -> Result<Row> {
-        let mask: Vec<bool> = (0..ra.len()).map(keep).collect();
-        let (points, relative_l2) = match metrics::compare(ra, rb, Some(&mask)) {
-            Ok(m) => (m.points, m.relative_l2),
-            Err(metrics::CompareError::Empty) => (0, 0.0),
-            Err(e) => return Err(e.into()),
-        };
-        let share = if total > 0.0 { squared(keep) / total } else { 0.0 };
-        Ok(Row { by, name, points, relative_l2, share })
-    };
+    let row = |by: &'static str, name: String, keep: &dyn Fn(usize) -> bool| error_row(by, name, ra, rb, keep);
     let mut rows = Vec::new();
     for (j, name) in names.iter().enumerate() {
         rows.push(row("object", name.clone(), &|k| b.objects[k] == j as i32)?);
@@ -233,21 +248,53 @@ fn breakdown(eye: Vec3, names: &[String], b: &ply::PlyData, ra: &[Vec3], rb: &[V
 /// Prints [`breakdown`] for `scene`'s objects and camera eye.
 fn print_breakdown(scene: &Scene, b: &ply::PlyData, ra: &[Vec3], rb: &[Vec3]) -> Result<()> {
     let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
+    print_rows(&breakdown(scene.camera.eye, &names, b, ra, rb)?, "vertices");
+    Ok(())
+}
+
+/// Prints breakdown rows, grouped by what they split by; `unit` names the points.
+fn print_rows(rows: &[Row], unit: &str) {
     let mut by = "";
-    for r in breakdown(scene.camera.eye, &names, b, ra, rb)? {
+    for r in rows {
         if r.by != by {
             by = r.by;
             println!("by {by}:");
         }
         println!(
-            "  {:<24} {:>7} vertices  relative L2 {:>9.4}%  {:>6.2}% of the squared error",
+            "  {:<24} {:>7} {unit:<8}  relative L2 {:>9.4}%  {:>6.2}% of the squared error",
             r.name,
             r.points,
             100.0 * r.relative_l2,
             100.0 * r.share
         );
     }
-    Ok(())
+}
+
+/// The error per object of image `a` against `b` (`scene`'s camera at its size, time `t`)
+/// over the pixels `mask` keeps whose centre sees the object.
+fn pixel_breakdown(scene: &Scene, t: f32, a: &[Vec3], b: &[Vec3], mask: Option<&[bool]>) -> Result<Vec<Row>> {
+    let seen = object_pixels(scene, t);
+    let keep = |k: usize| mask.is_none_or(|m| m[k]);
+    (0..scene.objects.len())
+        .map(|j| error_row("object", scene.objects[j].name.clone(), a, b, &|k| keep(k) && seen[k] == Some(j)))
+        .collect()
+}
+
+/// Per pixel of `scene`'s camera at time `t`, the object its centre sees.
+fn object_pixels(scene: &Scene, t: f32) -> Vec<Option<usize>> {
+    let state = scene.at(t);
+    let positions: Vec<Vec<Vec3>> = scene
+        .objects
+        .iter()
+        .zip(&state.objects)
+        .map(|(o, tr)| {
+            let m = tr.matrix();
+            o.mesh.positions.iter().map(|&p| m.transform_point3(p)).collect()
+        })
+        .collect();
+    let geometry: Vec<(&[Vec3], &[u32])> =
+        scene.objects.iter().zip(&positions).map(|(o, p)| (p.as_slice(), o.mesh.indices.as_slice())).collect();
+    rsl_shade::fragments(&scene.camera, &geometry).iter().map(|f| f.map(|f| f.mesh as usize)).collect()
 }
 
 fn write_heatmap(path: &Path, w: u32, h: u32, px: &[Vec3], max: f32) -> Result<()> {
@@ -296,5 +343,42 @@ mod tests {
         // Every vertex falls in one band.
         let bands: usize = rows.iter().filter(|r| r.by == "n·v").map(|r| r.points).sum();
         assert_eq!(bands, 4);
+    }
+
+    #[test]
+    fn a_pixel_breakdown_splits_the_error_by_the_object_each_pixel_sees() {
+        use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+        let dir = std::env::temp_dir().join(format!("rsl-compare-pixels-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // Two balls side by side, the right one orbiting up to the top over a second.
+        let scene = SceneBuilder::new()
+            .camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO)
+            .image(64, 32)
+            .object(ObjectBuilder::sphere("left", 0.5, 16).translation(Vec3::new(-0.8, 0.0, 0.0)))
+            .object(ObjectBuilder::sphere("right", 0.5, 16).translation(Vec3::new(0.8, 0.0, 0.0)).orbit(
+                Vec3::ZERO,
+                Vec3::Z,
+                90.0,
+            ))
+            .build(dir.join("two.toml"))
+            .unwrap();
+        let seen = object_pixels(&scene, 0.0);
+        let (w, h) = (64usize, 32usize);
+        assert_eq!(seen.len(), w * h);
+        assert_eq!(seen[(h / 2) * w + w / 2 - 13], Some(0), "the left ball left of centre");
+        assert_eq!(seen[(h / 2) * w + w / 2 + 13], Some(1), "the right ball right of centre");
+        assert_eq!(seen[w / 2], None, "the background above the gap");
+        // The right ball 10 % too bright: all of the error is its.
+        let b = vec![Vec3::ONE; w * h];
+        let a: Vec<Vec3> = (0..w * h).map(|k| if seen[k] == Some(1) { Vec3::splat(1.1) } else { Vec3::ONE }).collect();
+        let rows = pixel_breakdown(&scene, 0.0, &a, &b, None).unwrap();
+        assert_eq!(rows.iter().map(|r| r.name.as_str()).collect::<Vec<_>>(), ["left", "right"]);
+        assert_eq!((rows[0].relative_l2, rows[0].share), (0.0, 0.0));
+        assert!((rows[1].relative_l2 - 0.1).abs() < 1e-6 && (rows[1].share - 1.0).abs() < 1e-12, "{:?}", rows[1]);
+        assert_eq!(rows[1].points, seen.iter().filter(|s| **s == Some(1)).count());
+        // A second later the right ball has moved up and out of the row.
+        let later = object_pixels(&scene, 1.0);
+        assert_ne!(later[(h / 2) * w + w / 2 + 13], Some(1));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

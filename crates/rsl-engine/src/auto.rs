@@ -230,13 +230,15 @@ pub(crate) const ANISOTROPIC: &str =
 
 /// Why a Lambertian object is drawn from its vertices (`rsl render --explain`).
 pub(crate) const LAMBERTIAN: &str = "Lambertian: its radiance varies no faster than its visibility and its BRDF \
-     term is exact (per pixel only where a traced light's shadow falls)";
+     term is exact (per pixel only where a traced light's shadow falls or another object's shadow edge crosses \
+     its triangles)";
 
 /// The per-object method that draws an object of `brdf` whose scene asks for `method`:
 /// `auto` draws a glossy object per pixel ([`Composite::auto_choice`] may take the lobes);
 /// the built-in methods never give a Lambertian object lobes (the RSL path's Lambertian term
 /// is exact where a cosine-fitted lobe is not) and draw it per pixel only where that changes
-/// something, for the shadows of traced lights ([`rsl_shade::drawn_per_pixel`]); an
+/// something, for the shadows of traced lights and of other objects
+/// ([`rsl_shade::drawn_per_pixel`]); an
 /// anisotropic object, which the lobes cannot fit, gets the RSL sum per pixel; a method a
 /// program registered draws whatever it is given.
 pub fn drawn_by(method: ObjectMethod, brdf: &Brdf) -> Result<MethodId> {

@@ -289,8 +289,8 @@ impl ObjectDrawing for VertexDrawing {
 
 /// The RSL sum per pixel (method `pixel`, [`rsl_shade::pixel`]): every light's cover kept at
 /// the vertices and interpolated, the BRDF's integrals for each pixel's own normal and view;
-/// a Lambertian object only where a traced light's shadow falls
-/// ([`rsl_shade::drawn_per_pixel`]), else from its vertices.
+/// a Lambertian object only where shadows make it worthwhile (traced lights, other objects:
+/// [`rsl_shade::drawn_per_pixel`]), else from its vertices.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PixelDrawing;
 

@@ -118,19 +118,33 @@ fn a_highlight_between_vertices_is_drawn_per_pixel() {
 }
 
 #[test]
-fn lambertian_objects_are_drawn_per_pixel_for_traced_shadows_alone() {
-    // Nothing traced: a Lambertian object's pixels are its vertices interpolated.
+fn lambertian_objects_are_drawn_per_pixel_for_shadows_alone() {
+    // Nothing traced: a Lambertian object's pixels are its vertices interpolated, except in
+    // the triangles that the ball's shadow edges cross, where the ball's occluder field is
+    // read per pixel — closer to the truth.
     let mut s = ball_scene();
     s.objects[1].material = s.objects[0].material;
     s.quality.settings.traced_lights = 0;
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
-    let interpolated = render(&mut CpuRsl, &engine, &s, true).image.expect("image");
+    let f = render(&mut CpuRsl, &engine, &s, true);
+    let interpolated = f.image.clone().expect("image");
     let per_pixel = render(&mut CpuRslPixels, &engine, &s, true).image.expect("image");
     assert_eq!(interpolated.covered, per_pixel.covered);
     assert!(interpolated.covered.iter().filter(|c| **c).count() > 1000);
-    for (k, (a, b)) in interpolated.pixels.iter().zip(&per_pixel.pixels).enumerate() {
-        assert!((*a - *b).abs().max_element() <= 1e-5 * a.max_element().max(1e-3), "pixel {k}: {a} vs {b}");
-    }
+    let same = |a: &Vec3, b: &Vec3| (*a - *b).abs().max_element() <= 1e-5 * a.max_element().max(1e-3);
+    let covered: Vec<usize> = (0..per_pixel.pixels.len()).filter(|&k| per_pixel.covered[k]).collect();
+    let equal = covered.iter().filter(|&&k| same(&interpolated.pixels[k], &per_pixel.pixels[k])).count();
+    println!("{equal} of {} covered pixels are the vertices interpolated", covered.len());
+    assert!(equal > covered.len() / 2 && equal < covered.len(), "{equal} of {} pixels interpolated", covered.len());
+    let (t, _) = truth_image(&s, 4);
+    let (e_vertex, e_pixel) = (object_pixel_l2(&s, &f, &interpolated, &t), object_pixel_l2(&s, &f, &per_pixel, &t));
+    println!(
+        "without traced lights, floor per covered pixel: interpolated {:.4}, per pixel {:.4}",
+        e_vertex[0], e_pixel[0]
+    );
+    // Measured: 2,184 of 3,924 pixels interpolated; the floor 0.221 interpolated, 0.062 per
+    // pixel (the truth's noise on the whole image: about 0.04).
+    assert!(e_pixel[0] < 0.8 * e_vertex[0], "floor: per pixel {} against interpolated {}", e_pixel[0], e_vertex[0]);
 
     // The sun traced: the floor's shadow edge is traced per pixel, closer to the truth's
     // than its 9×9 vertices interpolated.
@@ -142,7 +156,9 @@ fn lambertian_objects_are_drawn_per_pixel_for_traced_shadows_alone() {
     let (t, _) = truth_image(&s, 4);
     let (e_vertex, e_pixel) = (object_pixel_l2(&s, &f, &interpolated, &t), object_pixel_l2(&s, &f, &per_pixel, &t));
     println!("floor per covered pixel: interpolated {:.4}, per pixel {:.4}", e_vertex[0], e_pixel[0]);
-    // Measured: 0.195 interpolated, 0.054 per pixel (the truth's noise on the whole image: 0.047).
+    // Measured: 0.195 interpolated, 0.042 per pixel (0.054 before the other lights' covers
+    // were found per pixel where the ball's shadow edges cross the floor's triangles; the
+    // truth's noise on the whole image: 0.047).
     assert!(e_pixel[0] < 0.5 * e_vertex[0], "floor: per pixel {} against interpolated {}", e_pixel[0], e_vertex[0]);
 }
 

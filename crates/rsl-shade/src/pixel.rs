@@ -15,6 +15,14 @@
 //! barycentric weights. A light wholly below a corner's horizon has no cover there
 //! ([`UNDEFINED`]); the others' weights are renormalised, so that a light grazing a
 //! silhouette is not darkened by a corner that cannot see it at all.
+//!
+//! Covers vary slowly except where another object's shadow edge crosses a triangle: there
+//! the corners' covers differ, and interpolating them draws the edge along the triangle's
+//! sides (a staircase of whole triangles on a coarse floor). For a light whose covers
+//! spread over such a triangle by enough to matter to the point ([`occluders_at_point`]:
+//! more than [`COVER_SPREAD`], and moving more than [`REFINE_SHARE`] of its irradiance),
+//! the other objects' occluder fields are read at the point itself, as at a vertex, and
+//! multiply the object's own part interpolated from the corners.
 
 use crate::antialias;
 use crate::raster::{Fragment, Image, RasterMesh, fragments, image_ray, pixel_ray, sample_fragments};
@@ -36,11 +44,24 @@ pub struct Covers {
     pub lights: usize,
     /// `values[v * lights + l]`: light `l`'s cover at vertex `v`, in [0, 1] or [`UNDEFINED`].
     pub values: Vec<f32>,
+    /// `own[v * lights + l]`: the part of `values[v * lights + l]` the object itself leaves
+    /// (its self-visibility and face mask; the rest is the other objects' occluder fields),
+    /// 1 for a traced light.
+    pub own: Vec<f32>,
     /// Per vertex, the radiance of the lights that are not traced.
     pub untraced: Vec<Vec3>,
 }
 
 impl Covers {
+    /// Light `l`'s covers at the corners of triangle `t` (first index `3t`) that define it
+    /// (`None` for those where it is wholly below the horizon).
+    fn corners(&self, indices: &[u32], t: usize, l: usize) -> [Option<f32>; 3] {
+        [0, 1, 2].map(|k| {
+            let c = self.values[indices[3 * t + k] as usize * self.lights + l];
+            (c != UNDEFINED).then_some(c)
+        })
+    }
+
     /// The covers at `fragment` of a mesh with triangles `indices`, into `out` (one per
     /// light): each light's weighted mean over the triangle's corners that define it (the
     /// weights renormalised over those), 0 where none does.
@@ -69,22 +90,29 @@ pub fn shade_covers(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, 
     let lights = setup.lights.len();
     let (blocks, stats) = setup.par_blocks(Some(which), BLOCK, FrameStats::plus, |nears, stats, i, vertices| {
         let mut covers = vec![0.0; vertices.len() * lights];
+        let mut own = vec![1.0; vertices.len() * lights];
         let sums: Vec<Sum> = vertices
-            .zip(covers.chunks_exact_mut(lights.max(1)))
+            .zip(covers.chunks_exact_mut(lights.max(1)).zip(own.chunks_exact_mut(lights.max(1))))
             .map(|(v, out)| setup.vertex_covers(i, v, nears, stats, out))
             .collect();
-        (sums, covers)
+        (sums, (covers, own))
     });
     let mut covers: Vec<Option<Covers>> = (0..setup.placed.len())
         .map(|i| {
-            which.get(i).copied().unwrap_or(false).then(|| Covers { lights, values: Vec::new(), untraced: Vec::new() })
+            which.get(i).copied().unwrap_or(false).then(|| Covers {
+                lights,
+                values: Vec::new(),
+                own: Vec::new(),
+                untraced: Vec::new(),
+            })
         })
         .collect();
     let mut radiance: Vec<Vec<Vec3>> = vec![Vec::new(); setup.placed.len()];
-    for (i, (sums, values)) in blocks {
+    for (i, (sums, (values, own))) in blocks {
         radiance[i].extend(sums.iter().map(|s| s.radiance));
         if let Some(c) = &mut covers[i] {
             c.values.extend(values);
+            c.own.extend(own);
             c.untraced.extend(sums.iter().map(|s| s.untraced));
         }
     }
@@ -300,17 +328,34 @@ pub fn shade_image(
 /// the presets.
 pub const PIXEL_RAYS: usize = 4;
 
+/// The spread of a light's covers over a triangle's corners above which its cover at a
+/// pixel of the triangle is found at the pixel itself ([`occluders_at_point`]) rather than
+/// interpolated: where another object's shadow edge crosses the triangle, interpolating
+/// its corners draws the edge as the triangle's outline (a staircase on a coarse floor).
+pub const COVER_SPREAD: f32 = 0.02;
+
+/// The share of a point's irradiance below which a light's spread of covers is left
+/// interpolated ([`occluders_at_point`]). On the default scene (320×240, `aa = 16`, against
+/// the truth at 1,024 samples per pixel) the floor's pixels came to 4.66 % interpolated,
+/// 2.98 % at 0.01, 2.98 % at 0.03 and 3.23 % at 0.1; 0.03 found a third fewer covers per
+/// pixel than 0.01.
+pub const REFINE_SHARE: f32 = 0.03;
+
 /// Whether an object is drawn per pixel by the RSL sum: a glossy one always (its highlights
 /// are sharper than its triangles), a Lambertian one when some light is traced (its sharp
-/// shadows are traced per pixel; otherwise its radiance varies no faster than its covers,
-/// and interpolating its vertices gives the same image).
+/// shadows are traced per pixel) or when other objects' fields can shadow it (their shadow
+/// edges are found per pixel where they cross its triangles, [`COVER_SPREAD`]); a lone
+/// Lambertian object's radiance varies no faster than its covers, and interpolating its
+/// vertices gives the same image.
 pub fn drawn_per_pixel(setup: &FrameSetup<'_>, glossy: bool) -> bool {
-    glossy || setup.traces_any()
+    glossy || setup.traces_any() || (setup.terms.occluders && setup.placed.len() > 1)
 }
 
 /// The RSL sum at `point` of an object with `covers` drawn as `mesh` (world positions): each
 /// light's cover interpolated from the vertices, except a traced light's, which is traced
-/// from the point itself ([`PIXEL_RAYS`] rays, masked with the face the point lies on).
+/// from the point itself ([`PIXEL_RAYS`] rays, masked with the face the point lies on), and
+/// a light whose covers differ across the point's triangle, whose occluder fields are read
+/// at the point ([`occluders_at_point`]).
 pub fn point_radiance(
     setup: &FrameSetup<'_>,
     covers: &Covers,
@@ -319,17 +364,106 @@ pub fn point_radiance(
     buf: &mut [f32],
     stats: &mut FrameStats,
 ) -> Vec3 {
-    if setup.view_independent(point.object) && setup.traces_any() {
-        // A Lambertian object is drawn per pixel for its traced lights' shadows alone: the
-        // other lights' radiance varies no faster than their covers, and is interpolated.
-        buf.iter_mut().for_each(|c| *c = 0.0);
-        trace_at(setup, mesh, point, buf, stats);
-        return point.fragment.interpolate(mesh.indices, &covers.untraced)
-            + setup.point(point.object, point.position, &point.frame, buf, stats);
+    let refined = occluders_at_point(setup, covers, mesh, point, stats);
+    if setup.view_independent(point.object) {
+        // A Lambertian object's untraced lights vary no faster than their covers: their
+        // radiance is interpolated from the vertices, and only the lights traced or found
+        // at the point are summed here (the latter as the change from their interpolation).
+        let mut radiance = point.fragment.interpolate(mesh.indices, &covers.untraced);
+        if !refined.is_empty() {
+            for pick in [0, 1] {
+                buf.iter_mut().for_each(|c| *c = 0.0);
+                refined.iter().for_each(|r| buf[r.0] = if pick == 0 { r.2 } else { r.1 });
+                let sum = setup.point(point.object, point.position, &point.frame, buf, stats);
+                radiance += if pick == 0 { sum } else { -sum };
+            }
+        }
+        if setup.traces_any() {
+            buf.iter_mut().for_each(|c| *c = 0.0);
+            trace_at(setup, mesh, point, buf, stats);
+            radiance += setup.point(point.object, point.position, &point.frame, buf, stats);
+        }
+        return radiance;
     }
     covers.at(mesh.indices, point.fragment, buf);
+    refined.iter().for_each(|r| buf[r.0] = r.2);
     trace_at(setup, mesh, point, buf, stats);
     setup.point(point.object, point.position, &point.frame, buf, stats)
+}
+
+/// The lights that are not traced whose covers spread over more than [`COVER_SPREAD`]
+/// across `point`'s triangle, each as `(light, interpolated cover, cover at the point)`:
+/// at the point, the object's own part interpolated ([`Covers::own`]) times the other
+/// objects' occluder fields read there, as at a vertex.
+pub fn occluders_at_point(
+    setup: &FrameSetup<'_>,
+    covers: &Covers,
+    mesh: &PixelMesh<'_>,
+    point: &PixelPoint<'_>,
+    stats: &mut FrameStats,
+) -> Vec<(usize, f32, f32)> {
+    let mut refined = Vec::new();
+    if !setup.terms.occluders || covers.own.len() != covers.values.len() {
+        return refined;
+    }
+    let t = point.fragment.triangle as usize;
+    let w = point.fragment.weights.to_array();
+    // Each light's share of the point's irradiance, roughly (its radiance's luminance times
+    // its solid angle and cosine), and their sum under the interpolated covers: a light
+    // whose spread of covers cannot move the point's irradiance by [`REFINE_SHARE`] of
+    // that sum is interpolated.
+    let n = point.frame.n;
+    let share = |l: usize| {
+        let light = &setup.lights[l];
+        let r = light.half_diagonal;
+        crate::antialias::luminance(light.radiance).max(0.0) * 4.0 * r * r * (n.dot(light.dir) + r).max(0.0)
+    };
+    let mut total = 0.0;
+    for l in 0..covers.lights {
+        let corners = covers.corners(mesh.indices, t, l);
+        let (sum, weight) =
+            (0..3).filter_map(|k| corners[k].map(|c| (w[k] * c, w[k]))).fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        if weight > 0.0 {
+            total += share(l) * sum / weight;
+        }
+    }
+    let least = total * REFINE_SHARE;
+    let mut nears = None;
+    for l in 0..covers.lights {
+        if setup.is_traced(l) {
+            continue;
+        }
+        let corners = covers.corners(mesh.indices, t, l);
+        let own_at = |k: usize| covers.own[mesh.indices[3 * t + k] as usize * covers.lights + l];
+        // The spread of the other objects' part (a corner the object hides the light from
+        // itself says nothing of it).
+        let (lo, hi) = (0..3)
+            .filter_map(|k| corners[k].zip(Some(own_at(k))).filter(|(_, o)| *o > 0.0).map(|(c, o)| c / o))
+            .fold((f32::INFINITY, 0.0f32), |(lo, hi), c| (lo.min(c), hi.max(c)));
+        if hi - lo <= COVER_SPREAD || (hi - lo) * share(l) <= least {
+            continue;
+        }
+        // The corners' weighted means over those that define the light, as `Covers::at`.
+        let (mut value, mut own, mut weight) = (0.0, 0.0, 0.0);
+        for (k, c) in corners.iter().enumerate() {
+            if let Some(c) = c {
+                value += w[k] * c;
+                own += w[k] * own_at(k);
+                weight += w[k];
+            }
+        }
+        if weight <= 0.0 {
+            continue;
+        }
+        let nears = nears.get_or_insert_with(|| {
+            let mut n = Vec::new();
+            setup.nears(point.object, point.position, &mut n);
+            n
+        });
+        let here = setup.occluder_cover(nears, l, (own / weight).clamp(0.0, 1.0), stats);
+        refined.push((l, (value / weight).clamp(0.0, 1.0), here));
+    }
+    refined
 }
 
 /// The traced lights alone at `point` of an object with `covers` drawn as `mesh`: their
@@ -390,7 +524,12 @@ mod tests {
     #[test]
     fn covers_interpolate_over_the_corners_that_see_a_light() {
         // Two lights, a triangle 0-1-2; light 1 is below vertex 2's horizon.
-        let covers = Covers { lights: 2, values: vec![1.0, 0.2, 0.5, 0.6, 0.0, UNDEFINED], untraced: Vec::new() };
+        let covers = Covers {
+            lights: 2,
+            values: vec![1.0, 0.2, 0.5, 0.6, 0.0, UNDEFINED],
+            own: Vec::new(),
+            untraced: Vec::new(),
+        };
         let f = Fragment { mesh: 0, triangle: 0, weights: Vec3::new(0.5, 0.25, 0.25) };
         let mut out = [0.0; 2];
         covers.at(&[0, 1, 2], &f, &mut out);
@@ -398,7 +537,7 @@ mod tests {
         // Renormalised over vertices 0 and 1: (0.5·0.2 + 0.25·0.6) / 0.75.
         assert!((out[1] - (0.1 + 0.15) / 0.75).abs() < 1e-6, "{out:?}");
         // No corner sees it: nothing.
-        let covers = Covers { lights: 1, values: vec![UNDEFINED; 3], untraced: Vec::new() };
+        let covers = Covers { lights: 1, values: vec![UNDEFINED; 3], own: Vec::new(), untraced: Vec::new() };
         let mut one = [0.5];
         covers.at(&[0, 1, 2], &f, &mut one);
         assert_eq!(one, [0.0]);

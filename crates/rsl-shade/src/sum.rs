@@ -16,6 +16,7 @@
 //! [`crate::shade::shade_reference`] keeps the formula written out with nothing shared, as
 //! the independent answer these are tested against.
 
+use crate::covers::self_cover;
 use crate::frame::{Near, Placed};
 use crate::pixel::UNDEFINED;
 use crate::shade::{FrameSetup, FrameStats, Lazy};
@@ -170,23 +171,26 @@ impl<'a> FrameSetup<'a> {
 
     /// [`FrameSetup::vertex`], keeping every light's cover in `out` (one per light; what
     /// multiplies the light's BRDF integral there, [`UNDEFINED`] for a light wholly below
-    /// the vertex's horizon): every light above the horizon gets its cover, whatever the
-    /// vertex's BRDF and view do with it, since points near the vertex (a pixel's) have
-    /// other normals and views.
+    /// the vertex's horizon) and, in `own`, the part of it that the object itself leaves
+    /// (the self-visibility field and face mask; the rest is the occluder fields' product;
+    /// 1 for a traced light, whose rays give its whole cover): every light above the horizon
+    /// gets its cover, whatever the vertex's BRDF and view do with it, since points near the
+    /// vertex (a pixel's) have other normals and views.
     pub(crate) fn vertex_covers(
         &self,
         i: usize,
         v: usize,
         nears: &mut Nears<'a>,
         stats: &mut FrameStats,
-        out: &mut [f32],
+        (out, own): (&mut [f32], &mut [f32]),
     ) -> Sum {
         stats.vertices += 1;
         let at = self.at_vertex(i, v);
         self.nears(i, at.x, nears);
         let fields = self.vertex_fields(i, v);
         let table = &at.placed.object.table;
-        let brdf = |(_, stats): &mut (&mut Nears<'a>, &mut FrameStats), l: usize| {
+        type Ctx<'c, 'a> = (&'c mut Nears<'a>, &'c mut FrameStats, &'c mut [f32]);
+        let brdf = |(_, stats, _): &mut Ctx<'_, 'a>, l: usize| {
             if at.lookup == ViewLookup::Below {
                 return Vec3::ZERO;
             }
@@ -194,15 +198,25 @@ impl<'a> FrameSetup<'a> {
             stats.brdf_lookups += 1;
             table.integral_for(&at.lookup, at.frame.to_local(light.dir), light.half_diagonal)
         };
-        let cover = |ctx: &mut (&mut Nears<'a>, &mut FrameStats), l: usize| {
+        let cover = |(nears, stats, own): &mut Ctx<'_, 'a>, l: usize| {
+            own[l] = 1.0;
             // Wholly below the horizon: no part of the square in the hemisphere plane's disk.
             let q = self.light_on_hemi(i, &fields, l);
-            if rsl_vis::coverage::coverage(1.0 - q.length(), self.lights[l].half_diagonal) <= 0.0 {
+            let r = self.lights[l].half_diagonal;
+            if rsl_vis::coverage::coverage(1.0 - q.length(), r) <= 0.0 {
                 return UNDEFINED;
             }
-            self.vertex_cover(ctx, (i, v, l), &fields)
+            if self.is_traced(l) {
+                return self.traced_cover(i, v, l, &mut stats.traced_rays);
+            }
+            // `fields_cover`, its two factors kept apart.
+            if self.terms.self_visibility {
+                stats.self_lookups += 1;
+                own[l] = self_cover((&fields.own, &fields.mask), q, r, self.reaches[l]);
+            }
+            if self.terms.occluders { self.occluder_cover(nears, l, own[l], stats) } else { own[l] }
         };
-        self.rsl_sum(&mut (nears, stats), Order::CoverFirst, brdf, cover, Some(out))
+        self.rsl_sum(&mut (nears, stats, own), Order::CoverFirst, brdf, cover, Some(out))
     }
 
     /// Radiance toward the eye from world point `x` of object `i` with world shading frame
