@@ -53,15 +53,6 @@ pub struct Covers {
 }
 
 impl Covers {
-    /// Light `l`'s covers at the corners of triangle `t` (first index `3t`) that define it
-    /// (`None` for those where it is wholly below the horizon).
-    fn corners(&self, indices: &[u32], t: usize, l: usize) -> [Option<f32>; 3] {
-        [0, 1, 2].map(|k| {
-            let c = self.values[indices[3 * t + k] as usize * self.lights + l];
-            (c != UNDEFINED).then_some(c)
-        })
-    }
-
     /// The covers at `fragment` of a mesh with triangles `indices`, into `out` (one per
     /// light): each light's weighted mean over the triangle's corners that define it (the
     /// weights renormalised over those), 0 where none does.
@@ -408,6 +399,31 @@ pub fn occluders_at_point(
     }
     let t = point.fragment.triangle as usize;
     let w = point.fragment.weights.to_array();
+    // Each corner's first cover and own part.
+    let base = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize * covers.lights);
+    let corners = |l: usize| {
+        base.map(|b| {
+            let c = covers.values[b + l];
+            (c != UNDEFINED).then_some((c, covers.own[b + l]))
+        })
+    };
+    // First the lights whose other objects' part spreads over the corners (a corner the
+    // object hides the light from itself says nothing of it): most points have none.
+    let mut spread = Vec::new();
+    for l in (0..covers.lights).filter(|&l| !setup.is_traced(l)) {
+        let (lo, hi) = corners(l)
+            .iter()
+            .flatten()
+            .filter(|(_, o)| *o > 0.0)
+            .map(|(c, o)| c / o)
+            .fold((f32::INFINITY, 0.0f32), |(lo, hi), c| (lo.min(c), hi.max(c)));
+        if hi - lo > COVER_SPREAD {
+            spread.push((l, hi - lo));
+        }
+    }
+    if spread.is_empty() {
+        return refined;
+    }
     // Each light's share of the point's irradiance, roughly (its radiance's luminance times
     // its solid angle and cosine), and their sum under the interpolated covers: a light
     // whose spread of covers cannot move the point's irradiance by [`REFINE_SHARE`] of
@@ -420,35 +436,25 @@ pub fn occluders_at_point(
     };
     let mut total = 0.0;
     for l in 0..covers.lights {
-        let corners = covers.corners(mesh.indices, t, l);
-        let (sum, weight) =
-            (0..3).filter_map(|k| corners[k].map(|c| (w[k] * c, w[k]))).fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        let (sum, weight) = (0..3)
+            .filter_map(|k| corners(l)[k].map(|(c, _)| (w[k] * c, w[k])))
+            .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
         if weight > 0.0 {
             total += share(l) * sum / weight;
         }
     }
     let least = total * REFINE_SHARE;
     let mut nears = None;
-    for l in 0..covers.lights {
-        if setup.is_traced(l) {
-            continue;
-        }
-        let corners = covers.corners(mesh.indices, t, l);
-        let own_at = |k: usize| covers.own[mesh.indices[3 * t + k] as usize * covers.lights + l];
-        // The spread of the other objects' part (a corner the object hides the light from
-        // itself says nothing of it).
-        let (lo, hi) = (0..3)
-            .filter_map(|k| corners[k].zip(Some(own_at(k))).filter(|(_, o)| *o > 0.0).map(|(c, o)| c / o))
-            .fold((f32::INFINITY, 0.0f32), |(lo, hi), c| (lo.min(c), hi.max(c)));
-        if hi - lo <= COVER_SPREAD || (hi - lo) * share(l) <= least {
+    for (l, width) in spread {
+        if width * share(l) <= least {
             continue;
         }
         // The corners' weighted means over those that define the light, as `Covers::at`.
         let (mut value, mut own, mut weight) = (0.0, 0.0, 0.0);
-        for (k, c) in corners.iter().enumerate() {
-            if let Some(c) = c {
+        for (k, c) in corners(l).iter().enumerate() {
+            if let Some((c, o)) = c {
                 value += w[k] * c;
-                own += w[k] * own_at(k);
+                own += w[k] * o;
                 weight += w[k];
             }
         }
