@@ -3,7 +3,7 @@
 //! time and all together — which term costs how much. `budget.csv` holds one row per oracle
 //! (read back to resume); `report.md` shows a table per configuration.
 
-use crate::report::{field, malformed, measure, read_csv};
+use crate::report::{field, key_field, malformed, measure, read_csv, truth_key};
 use anyhow::Result;
 use rsl_engine::output::write_atomic;
 use rsl_shade::Oracles;
@@ -39,9 +39,14 @@ pub struct BudgetRow {
     pub rays: u64,
     /// Per object: name and relative L2.
     pub objects: Vec<(String, f64)>,
+    /// The content key of the truth it was measured against (`crate::truth::key`; `None`
+    /// in files written before rows carried it, which are measured again).
+    pub truth_key: Option<u64>,
 }
 
-const HEADER: &str = "scene,config,time,oracle,relative_l2,truth_noise,ms,rays,objects";
+const HEADER: &str = "scene,config,time,oracle,relative_l2,truth_noise,ms,rays,objects,truth_key";
+/// The header of budget files written before rows carried their truth's key.
+const HEADER_UNKEYED: &str = "scene,config,time,oracle,relative_l2,truth_noise,ms,rays,objects";
 
 /// Writes the rows (atomically).
 pub fn write_rows(path: &Path, rows: &[BudgetRow]) -> Result<()> {
@@ -50,7 +55,7 @@ pub fn write_rows(path: &Path, rows: &[BudgetRow]) -> Result<()> {
         let objects: Vec<String> =
             r.objects.iter().map(|(n, e)| format!("{}={e}", n.replace([';', '='], "_"))).collect();
         s += &format!(
-            "{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{}\n",
             field(&r.scene),
             field(&r.config),
             r.time,
@@ -59,7 +64,8 @@ pub fn write_rows(path: &Path, rows: &[BudgetRow]) -> Result<()> {
             r.truth_noise,
             r.ms,
             r.rays,
-            field(&objects.join(";"))
+            field(&objects.join(";")),
+            key_field(r.truth_key)
         );
     }
     write_atomic(path, s.as_bytes())
@@ -67,7 +73,7 @@ pub fn write_rows(path: &Path, rows: &[BudgetRow]) -> Result<()> {
 
 /// Reads `budget.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<BudgetRow>> {
-    read_csv(path, &[(HEADER, 9)], "budget")?
+    read_csv(path, &[(HEADER, 10), (HEADER_UNKEYED, 9)], "budget")?
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
@@ -93,6 +99,7 @@ pub fn read_rows(path: &Path) -> Result<Vec<BudgetRow>> {
                 ms: num(6)?,
                 rays: f[7].parse().map_err(|_| bad())?,
                 objects,
+                truth_key: truth_key(path, n, f.get(9))?,
             })
         })
         .collect()
@@ -170,6 +177,7 @@ mod tests {
             ms: 12.0,
             rays: 7,
             objects: vec![("floor".into(), e / 2.0), ("ball".into(), e)],
+            truth_key: Some(0xfedc_ba98_7654_3210),
         };
         let rows = vec![row("brdf", 0.05), row("none", 0.1), row("all", 0.01)];
         let path = dir.join("budget.csv");

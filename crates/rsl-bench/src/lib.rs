@@ -402,9 +402,13 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
                     .flat_map(|(c, t)| budget::oracle_settings().into_iter().map(move |(o, set)| (c, t, o, set)))
                     .filter(|(c, t, o, _)| {
-                        !budget_rows
-                            .iter()
-                            .any(|r| r.scene == name && r.config == c.id() && r.time == *t && r.oracle == *o)
+                        !budget_rows.iter().any(|r| {
+                            r.scene == name
+                                && r.config == c.id()
+                                && r.time == *t
+                                && r.oracle == *o
+                                && r.truth_key == key_at(*t)
+                        })
                     })
                     .collect()
             })
@@ -500,6 +504,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             let ms = start.elapsed().as_secs_f64() * 1e3;
             let relative_l2 = rsl_truth::compare(&frame.radiance.concat(), &truth.mean.concat(), None)?.relative_l2;
             let objects = object_errors(&scene, &frame.radiance, truth)?.into_iter().map(|(n, e, _)| (n, e)).collect();
+            // It replaces a row measured against another truth.
+            budget_rows.retain(|r| !(r.scene == name && r.config == config.id() && r.time == t && r.oracle == oracle));
             budget_rows.push(budget::BudgetRow {
                 scene: name.clone(),
                 config: config.id(),
@@ -510,6 +516,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 ms,
                 rays: frame.shadow_rays,
                 objects,
+                truth_key: key_at(t),
             });
             summary.budget_measured += 1;
             budget::write_rows(&budget_file, &budget_rows)?;

@@ -78,7 +78,7 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
             r.pixel_l2.map_or(String::new(), |v| v.0.to_string()),
             r.pixel_l2.map_or(String::new(), |v| v.1.to_string()),
             field(&objects_field(r)),
-            r.truth_key.map_or(String::new(), |k| format!("{k:016x}"))
+            key_field(r.truth_key)
         );
         for (name, e, n) in &r.objects {
             o += &format!("{},{},{},{},{e},{n}\n", field(&r.scene), field(&r.config), r.time, field(name));
@@ -113,6 +113,22 @@ pub(crate) fn read_csv(path: &Path, headers: &[(&str, usize)], kind: &str) -> Re
             Ok((k + 2, f))
         })
         .collect()
+}
+
+/// The `truth_key` field of line `n` of `path` (`None` when the file has no such column or
+/// the row no key).
+pub(crate) fn truth_key(path: &Path, n: usize, field: Option<&String>) -> Result<Option<u64>> {
+    match field.map(String::as_str) {
+        None | Some("") => Ok(None),
+        Some(k) => u64::from_str_radix(k, 16)
+            .map(Some)
+            .map_err(|_| anyhow::anyhow!("{}: line {n}: truth_key `{k}` is not a key rsl writes", path.display())),
+    }
+}
+
+/// A truth key as the CSV files write it.
+pub(crate) fn key_field(key: Option<u64>) -> String {
+    key.map_or(String::new(), |k| format!("{k:016x}"))
 }
 
 /// The error for line `n` of `path`.
@@ -179,12 +195,7 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
                 mc_ms: if f[16].is_empty() { None } else { Some(num(16)?) },
                 pixel_l2: if f[17].is_empty() { None } else { Some((num(17)?, num(18)?)) },
                 objects,
-                truth_key: match f.get(20).map(String::as_str) {
-                    None | Some("") => None,
-                    Some(k) => Some(u64::from_str_radix(k, 16).map_err(|_| {
-                        anyhow::anyhow!("{}: line {n}: truth_key `{k}` is not a key rsl writes", path.display())
-                    })?),
-                },
+                truth_key: truth_key(path, n, f.get(20))?,
             })
         })
         .collect()

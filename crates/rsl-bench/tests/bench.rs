@@ -124,6 +124,14 @@ fn bad_options_are_clear_errors() {
     assert!(format!("{:#}", run(&o).unwrap_err()).contains("missing.toml"));
 }
 
+/// Rewrites a CSV file as written before rows carried their truth's key (its last column).
+fn unkey(file: &std::path::Path) {
+    let text = std::fs::read_to_string(file).unwrap();
+    let unkeyed: Vec<String> =
+        text.lines().map(|l| l.rsplit_once(',').expect("a truth_key column").0.to_string()).collect();
+    std::fs::write(file, unkeyed.join("\n") + "\n").unwrap();
+}
+
 #[test]
 fn rows_measured_against_another_truth_or_scene_are_measured_again() {
     let d = dir("rekey");
@@ -140,11 +148,7 @@ fn rows_measured_against_another_truth_or_scene_are_measured_again() {
     ball_scene(&scene, 0.5);
     assert_eq!(run(&o).unwrap().measured, 1, "another scene: measured again");
     // Results written before rows carried their truth's key are read, and measured again.
-    let results = d.join("out/results.csv");
-    let text = std::fs::read_to_string(&results).unwrap();
-    let unkeyed: Vec<String> =
-        text.lines().map(|l| l.rsplit_once(',').expect("a truth_key column").0.to_string()).collect();
-    std::fs::write(&results, unkeyed.join("\n") + "\n").unwrap();
+    unkey(&d.join("out/results.csv"));
     assert_eq!(run(&o).unwrap().measured, 1, "an unkeyed row: measured again");
     assert_eq!(run(&o).unwrap().measured, 0);
 }
@@ -199,6 +203,16 @@ fn an_error_budget_measures_every_oracle_once_and_all_of_them_approach_the_truth
     // Run again: nothing is measured twice.
     let again = run(&o).unwrap();
     assert_eq!(again.budget_measured, 0);
+    // Another truth (fewer samples): every oracle is measured again, each row replaced.
+    o.truth_spp = 256;
+    assert_eq!(run(&o).unwrap().budget_measured, 7);
+    let rekeyed = rsl_bench::budget::read_rows(&out.join("budget.csv")).unwrap();
+    assert_eq!(rekeyed.len(), 7);
+    assert!(rekeyed.iter().all(|r| r.truth_key.is_some() && r.truth_key != rows[0].truth_key));
+    // A budget written before rows carried their truth's key is read, and measured again.
+    unkey(&out.join("budget.csv"));
+    assert_eq!(run(&o).unwrap().budget_measured, 7, "unkeyed rows: measured again");
+    assert_eq!(run(&o).unwrap().budget_measured, 0);
 }
 
 #[test]
