@@ -35,7 +35,8 @@ impl<'a> FrameSetup<'a> {
 
     /// Light `l`'s cover at vertex `v` of object `i` from the visibility fields (a light that
     /// is not traced): self-visibility at hemisphere point `q` of the vertex's visibility
-    /// frame (with its face mask), times the occluder fields at `nears`, as the terms ask.
+    /// frame (with its face mask), times the occluder fields at `nears`, as the terms ask —
+    /// as `(the object's own part, the whole cover)`.
     pub(crate) fn fields_cover(
         &self,
         nears: &mut [(Near, Lazy<'a>)],
@@ -43,17 +44,15 @@ impl<'a> FrameSetup<'a> {
         q: Vec2,
         (self_vis, mask): (&SvdfVertex<'_>, &VertexMask<'_>),
         stats: &mut FrameStats,
-    ) -> f32 {
+    ) -> (f32, f32) {
         let r = self.lights[l].half_diagonal;
-        let mut cover = 1.0;
+        let mut own = 1.0;
         if self.terms.self_visibility {
             stats.self_lookups += 1;
-            cover = self_cover((self_vis, mask), q, r, self.reaches[l]);
+            own = self_cover((self_vis, mask), q, r, self.reaches[l]);
         }
-        if self.terms.occluders {
-            cover = self.others_cover(nears, i, v, l, cover, stats);
-        }
-        cover
+        let cover = if self.terms.occluders { self.others_cover(nears, i, v, l, own, stats) } else { own };
+        (own, cover)
     }
 
     /// `cover` times the occluder fields' coverages of light `l` at a vertex whose occluders

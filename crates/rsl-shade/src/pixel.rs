@@ -362,15 +362,18 @@ pub fn point_radiance(
         // at the point are summed here (the latter as the change from their interpolation).
         let mut radiance = point.fragment.interpolate(mesh.indices, &covers.untraced);
         if !refined.is_empty() {
-            for pick in [0, 1] {
-                buf.iter_mut().for_each(|c| *c = 0.0);
-                refined.iter().for_each(|r| buf[r.0] = if pick == 0 { r.2 } else { r.1 });
-                let sum = setup.point(point.object, point.position, &point.frame, buf, stats);
-                radiance += if pick == 0 { sum } else { -sum };
-            }
+            // Those lights' terms with the covers found at the point, less their terms with
+            // the covers interpolated.
+            let mut sum_with = |cover: fn(&(usize, f32, f32)) -> f32| {
+                buf.fill(0.0);
+                refined.iter().for_each(|r| buf[r.0] = cover(r));
+                setup.point(point.object, point.position, &point.frame, buf, stats)
+            };
+            radiance += sum_with(|r| r.2);
+            radiance -= sum_with(|r| r.1);
         }
         if setup.traces_any() {
-            buf.iter_mut().for_each(|c| *c = 0.0);
+            buf.fill(0.0);
             trace_at(setup, mesh, point, buf, stats);
             radiance += setup.point(point.object, point.position, &point.frame, buf, stats);
         }
@@ -394,7 +397,8 @@ pub fn occluders_at_point(
     stats: &mut FrameStats,
 ) -> Vec<(usize, f32, f32)> {
     let mut refined = Vec::new();
-    if !setup.terms.occluders || covers.own.len() != covers.values.len() {
+    // Alone, or without occluders, an object's covers are its own part alone.
+    if !setup.terms.occluders || setup.placed.len() < 2 || covers.own.len() != covers.values.len() {
         return refined;
     }
     let t = point.fragment.triangle as usize;

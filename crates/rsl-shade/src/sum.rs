@@ -16,7 +16,6 @@
 //! [`crate::shade::shade_reference`] keeps the formula written out with nothing shared, as
 //! the independent answer these are tested against.
 
-use crate::covers::self_cover;
 use crate::frame::{Near, Placed};
 use crate::pixel::UNDEFINED;
 use crate::shade::{FrameSetup, FrameStats, Lazy};
@@ -144,7 +143,7 @@ impl<'a> FrameSetup<'a> {
             self.traced_cover(i, v, l, &mut stats.traced_rays)
         } else {
             let q = self.light_on_hemi(i, fields, l);
-            self.fields_cover(nears, (i, v, l), q, (&fields.own, &fields.mask), stats)
+            self.fields_cover(nears, (i, v, l), q, (&fields.own, &fields.mask), stats).1
         }
     }
 
@@ -209,12 +208,9 @@ impl<'a> FrameSetup<'a> {
             if self.is_traced(l) {
                 return self.traced_cover(i, v, l, &mut stats.traced_rays);
             }
-            // `fields_cover`, its two factors kept apart.
-            if self.terms.self_visibility {
-                stats.self_lookups += 1;
-                own[l] = self_cover((&fields.own, &fields.mask), q, r, self.reaches[l]);
-            }
-            if self.terms.occluders { self.occluder_cover(nears, l, own[l], stats) } else { own[l] }
+            let cover;
+            (own[l], cover) = self.fields_cover(nears, (i, v, l), q, (&fields.own, &fields.mask), stats);
+            cover
         };
         self.rsl_sum(&mut (nears, stats, own), Order::CoverFirst, brdf, cover, Some(out))
     }
