@@ -10,7 +10,7 @@ use crate::engine::{Engine, ShadedFrame};
 use anyhow::{Context, Result};
 use glam::Mat3;
 use rsl_gpu::draw::{Backdrop, GpuDraw};
-use rsl_gpu::shade::{GpuShading, PassTime, Uploads};
+use rsl_gpu::shade::{GpuShading, PassTime, PixelFrame, Uploads};
 use rsl_gpu::{GpuContext, GpuError};
 use rsl_scene::Scene;
 use rsl_shade::Image;
@@ -120,17 +120,27 @@ impl GpuRenderer {
     }
 
     /// Shades and draws `scene` at time `t`: the linear image (read back) and its
-    /// tonemapped 8-bit form at `exposure` (`None`: automatic, from the linear image).
+    /// tonemapped 8-bit form at `exposure` (`None`: automatic, from the linear image). Per
+    /// pixel, the RSL sum is evaluated at every pixel (the CPU's `pixel` drawing,
+    /// `shaders/draw/pixels.wgsl`) over every light's cover kept at the vertices; else the
+    /// vertices' radiance is interpolated.
     pub fn render(
         &mut self,
         engine: &Engine,
         scene: &Scene,
         t: f32,
-        exposure: Option<f32>,
-        auto_exposure: impl Fn(&Image) -> f32,
+        per_pixel: bool,
+        (exposure, auto_exposure): (Option<f32>, impl Fn(&Image) -> f32),
     ) -> Result<GpuImage> {
-        let shade = self.dispatch(engine, scene, t, Terms::default())?;
-        let draw = self.draw_shaded(engine, scene, t)?;
+        let (shade, draw) = if per_pixel {
+            let shade = self.dispatch_covers(engine, scene, t, Terms::default())?;
+            self.set_backdrop(engine)?;
+            let env_from_world = Mat3::from_quat(scene.at(t).world_from_env.inverse());
+            (shade, self.draw.draw_pixels(&self.shading, &scene.camera, env_from_world)?)
+        } else {
+            let shade = self.dispatch(engine, scene, t, Terms::default())?;
+            (shade, self.draw_shaded(engine, scene, t)?)
+        };
         let start = Instant::now();
         let (pixels, covered) = self.draw.read_linear()?;
         let readback_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -216,6 +226,18 @@ impl GpuRenderer {
     /// Loads what changed and runs the shading pass for `scene` at `t`, leaving the result on
     /// the GPU (for the draw pass); returns the pass time.
     pub fn dispatch(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms) -> Result<PassTime> {
+        self.dispatch_with(engine, scene, t, terms, false)
+    }
+
+    /// [`GpuRenderer::dispatch`] keeping every light's cover at every vertex, and what the
+    /// RSL sum per pixel reads besides ([`rsl_gpu::shade::GpuShading::shade_covers`]): which
+    /// objects are drawn per pixel (as the CPU's `pixel` drawing chooses,
+    /// [`rsl_shade::drawn_per_pixel`]) and the traced lights' rays.
+    pub fn dispatch_covers(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms) -> Result<PassTime> {
+        self.dispatch_with(engine, scene, t, terms, true)
+    }
+
+    fn dispatch_with(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms, covers: bool) -> Result<PassTime> {
         let state = scene.at(t);
         let objects = engine.objects(scene, &state)?;
         let g = geometry_key(engine);
@@ -235,8 +257,23 @@ impl GpuRenderer {
         let lights = engine.lights(&state);
         // Traced lights' shadow rays run on the CPU (the engine's own frame setup); the
         // shader reads their covers.
-        let covers = engine.setup(scene, &state, scene.camera.eye, terms)?.traced_covers();
-        self.last = self.shading.shade(&objects, &lights, scene.camera.eye, terms, &covers)?;
+        let setup = engine.setup(scene, &state, scene.camera.eye, terms)?;
+        let traced = setup.traced_covers();
+        self.last = if covers {
+            let per_pixel: Vec<bool> = (0..objects.len())
+                .map(|i| rsl_shade::drawn_per_pixel(&setup, !engine.brdf(i).is_lambertian()))
+                .collect();
+            crate::lobe::check_covers_size(engine, &setup, &vec![true; objects.len()])?;
+            let pixel = PixelFrame {
+                per_pixel,
+                rays: (0..lights.len()).map(|l| setup.traced_rays(l).to_vec()).collect(),
+                pixel_rays: rsl_shade::PIXEL_RAYS as u32,
+                lift: setup.traced_lift(),
+            };
+            self.shading.shade_covers(&objects, &lights, scene.camera.eye, terms, &traced, &pixel)?
+        } else {
+            self.shading.shade(&objects, &lights, scene.camera.eye, terms, &traced)?
+        };
         Ok(self.last)
     }
 }

@@ -474,29 +474,64 @@ impl Method for CpuRslPixels {
     }
 }
 
-/// The GPU RSL path: the wgpu compute pass and draw pass.
+/// The GPU RSL path: the wgpu compute pass and draw pass, drawing the vertices' radiance
+/// interpolated (method `rsl`) or the RSL sum per pixel (method `pixel`: the shading pass
+/// keeps every light's cover at the vertices, and the draw pass evaluates each pixel as
+/// [`CpuRslPixels`] does, `shaders/draw/pixels.wgsl`, traced lights through the objects'
+/// BVHs). One sample per pixel: the quality's antialiasing is not drawn on the GPU yet (a
+/// warning says so).
 pub struct GpuRsl {
     /// The renderer (uploads follow the engine's content keys).
     pub renderer: GpuRenderer,
+    /// Whether the image is drawn per pixel.
+    pub per_pixel: bool,
+    /// Whether the warning about antialiasing was given.
+    warned: bool,
+}
+
+impl GpuRsl {
+    /// The vertices interpolated (`rsl`) on `renderer`.
+    pub fn vertices(renderer: GpuRenderer) -> Self {
+        Self { renderer, per_pixel: false, warned: false }
+    }
+
+    /// The RSL sum per pixel (`pixel`) on `renderer`.
+    pub fn per_pixel(renderer: GpuRenderer) -> Self {
+        Self { renderer, per_pixel: true, warned: false }
+    }
 }
 
 impl Method for GpuRsl {
     fn describe(&self) -> String {
-        format!("RSL on the GPU ({})", self.renderer.describe())
+        let drawing = if self.per_pixel { "RSL per pixel" } else { "RSL" };
+        format!("{drawing} on the GPU ({})", self.renderer.describe())
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
         let mut timings = Timings::default();
         let (image, encoded) = if request.image {
-            let g = self.renderer.render(engine, scene, request.time, request.exposure, exposure_for)?;
+            if engine.antialias() > 1 && !self.warned {
+                tracing::warn!(
+                    "the GPU draws one sample at each pixel's centre: antialiasing (aa = {}) is drawn on the CPU only (--device cpu)",
+                    engine.antialias()
+                );
+                self.warned = true;
+            }
+            let g =
+                self.renderer.render(engine, scene, request.time, self.per_pixel, (request.exposure, exposure_for))?;
             let t = g.timings;
             timings.add("shade", t.shade.wall_ms, t.shade.gpu_ms);
-            timings.add("draw", t.draw.wall_ms, t.draw.gpu_ms);
+            timings.add(if self.per_pixel { "draw per pixel" } else { "draw" }, t.draw.wall_ms, t.draw.gpu_ms);
             timings.add("image readback", t.readback_ms, None);
             timings.add("tonemap", t.tonemap.wall_ms, t.tonemap.gpu_ms);
             (Some(g.image), Some(Encoded { rgb: g.rgb, exposure: g.exposure }))
         } else {
-            let p = self.renderer.dispatch(engine, scene, request.time, rsl_shade::Terms::default())?;
+            let terms = rsl_shade::Terms::default();
+            let p = if self.per_pixel {
+                self.renderer.dispatch_covers(engine, scene, request.time, terms)?
+            } else {
+                self.renderer.dispatch(engine, scene, request.time, terms)?
+            };
             timings.add("shade", p.wall_ms, p.gpu_ms);
             (None, None)
         };

@@ -473,13 +473,16 @@ const LOBES: Capabilities =
 
 fn make_rsl(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
     Ok(match gpu_context(o)? {
-        Some(ctx) => Box::new(GpuRsl { renderer: GpuRenderer::with_context(ctx)? }),
+        Some(ctx) => Box::new(GpuRsl::vertices(GpuRenderer::with_context(ctx)?)),
         None => Box::new(CpuRsl),
     })
 }
 
-fn make_pixel(_: &Engine, _: &MethodOptions) -> Result<Box<dyn Method>> {
-    Ok(Box::new(CpuRslPixels))
+fn make_pixel(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
+    Ok(match gpu_context(o)? {
+        Some(ctx) => Box::new(GpuRsl::per_pixel(GpuRenderer::with_context(ctx)?)),
+        None => Box::new(CpuRslPixels),
+    })
 }
 
 fn lobes_on(o: &MethodOptions) -> Result<Composite> {
@@ -529,7 +532,6 @@ static BUILT_IN: [Registration; 7] = [
         when: "final images with glossy objects: the closest to the truth per pixel on the bundled accuracy scenes, at about 3× the cost of `rsl`",
         capabilities: Capabilities {
             image: ImageKind::PerPixel,
-            gpu: false,
             oracles: false,
             incremental: Incremental::PixelCovers,
             ..CPU_RSL

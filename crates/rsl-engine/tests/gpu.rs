@@ -230,7 +230,7 @@ fn gpu_image_matches_the_cpu_rasteriser_and_tonemapper() {
     let scene = default_scene();
     let engine = engine(&scene);
     let t = 1.7;
-    let frame = gpu.render(&engine, &scene, t, None, rsl_engine::method::exposure_for).unwrap();
+    let frame = gpu.render(&engine, &scene, t, false, (None, rsl_engine::method::exposure_for)).unwrap();
     let cpu_frame = engine.shade(&scene, t).unwrap();
     let cpu =
         rsl_engine::method::rasterise(&engine, &scene, &cpu_frame.state, &cpu_frame.positions, &cpu_frame.radiance);
@@ -479,7 +479,7 @@ fn tonemapping_into_a_texture_matches_the_read_back_encoding() {
     let Some(mut gpu) = renderer("tonemapping_into_a_texture_matches_the_read_back_encoding") else { return };
     let scene = default_scene();
     let engine = engine(&scene);
-    let frame = gpu.render(&engine, &scene, 0.8, None, rsl_engine::method::exposure_for).unwrap();
+    let frame = gpu.render(&engine, &scene, 0.8, false, (None, rsl_engine::method::exposure_for)).unwrap();
     let texture = gpu.draw().display_texture().unwrap();
     gpu.draw_mut().tonemap_into(frame.exposure, &texture).unwrap();
     let rgb = gpu.draw().read_display(&texture).unwrap();

@@ -358,25 +358,9 @@ fn the_gpu_draws_the_lobes_per_pixel_as_the_cpu_does() {
     assert_eq!(g.radiance, c.radiance, "the same vertices");
     // The two rasterisers may give a pixel on a silhouette to different sides; inside, the
     // same interpolation and the same lookups in f32.
-    let (mut num, mut den, mut both, mut differ) = (0.0f64, 0.0f64, 0usize, 0usize);
-    let mut worst = 0.0f32;
-    for k in 0..ci.pixels.len() {
-        if ci.covered[k] != gi.covered[k] {
-            differ += 1;
-            continue;
-        }
-        if !ci.covered[k] {
-            continue;
-        }
-        both += 1;
-        let (a, b) = (gi.pixels[k], ci.pixels[k]);
-        num += f64::from((a - b).length_squared());
-        den += f64::from(b.length_squared());
-        worst = worst.max((a - b).abs().max_element() / b.abs().max_element().max(1e-3));
-    }
-    let l2 = (num / den).sqrt();
+    let (differ, both, apart, l2) = gpu_against_cpu(&gi, &ci, 1e-3);
     println!(
-        "GPU against CPU per pixel: relative L2 {l2:.2e}, worst pixel {worst:.2e}, {both} pixels, {differ} covered by one only"
+        "GPU against CPU per pixel: relative L2 {l2:.2e}, {apart} pixels more than 1e-3 apart, {both} pixels, {differ} covered by one only"
     );
     assert!(both > 4000, "{both} pixels covered");
     assert!(differ * 200 <= both, "{differ} pixels covered by one rasteriser only");
@@ -419,4 +403,64 @@ fn the_hybrids_ratio_at_each_pixel_keeps_the_suns_self_shadows() {
     assert_eq!(at_pixels.radiance, at_vertices.radiance, "the same vertices");
     assert!(p < 0.6 * v, "ratio at each pixel {p} against {v} from the vertices");
     assert!(p < 0.08, "{p}");
+}
+
+/// Per covered pixel, how the GPU's image `g` differs from the CPU's `c`: the pixels
+/// covered by one only, those covered by both, those further apart than `tolerance`
+/// relative (to the larger channel, at least 1e-3 absolute), and the relative L2.
+fn gpu_against_cpu(g: &Image, c: &Image, tolerance: f32) -> (usize, usize, usize, f64) {
+    let (mut num, mut den, mut both, mut differ, mut apart) = (0.0f64, 0.0f64, 0usize, 0usize, 0usize);
+    for k in 0..c.pixels.len() {
+        if c.covered[k] != g.covered[k] {
+            differ += 1;
+            continue;
+        }
+        if !c.covered[k] {
+            continue;
+        }
+        both += 1;
+        let (a, b) = (g.pixels[k], c.pixels[k]);
+        num += f64::from((a - b).length_squared());
+        den += f64::from(b.length_squared());
+        if (a - b).abs().max_element() > tolerance * b.abs().max_element().max(1e-3) {
+            apart += 1;
+        }
+    }
+    (differ, both, apart, (num / den.max(f64::MIN_POSITIVE)).sqrt())
+}
+
+#[test]
+fn the_gpu_draws_the_rsl_sum_per_pixel_as_the_cpu_does() {
+    let Some(ctx) = rsl_gpu::testing::context_or_skip("the_gpu_draws_the_rsl_sum_per_pixel_as_the_cpu_does") else {
+        return;
+    };
+    let ctx = std::sync::Arc::new(ctx);
+    // A glossy ball on a Lambert floor under a traced sun (the floor per pixel for its
+    // shadows: the Lambertian branch, its other lights' covers found at the pixel where the
+    // ball's shadow edges cross its triangles); then without traced lights; then two balls
+    // (α = 0.3 and 0.03) on a floor under sunrise.exr.
+    let mut untraced = ball_scene();
+    untraced.quality.settings.traced_lights = 0;
+    let scenes = [
+        ("ball, sun traced", ball_scene()),
+        ("ball, nothing traced", untraced),
+        ("two balls", mixed_scene("rsl_pixel", "rsl_pixel")),
+    ];
+    for (name, s) in scenes {
+        let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
+        assert_eq!(engine.antialias(), 1, "one sample per pixel on both");
+        let renderer = rsl_engine::gpu::GpuRenderer::with_context(ctx.clone()).expect("renderer");
+        let mut gpu = rsl_engine::method::GpuRsl::per_pixel(renderer);
+        let g = render(&mut gpu, &engine, &s, true);
+        let c = render(&mut CpuRslPixels, &engine, &s, true);
+        let (gi, ci) = (g.image.expect("GPU image"), c.image.expect("CPU image"));
+        let (differ, both, apart, l2) = gpu_against_cpu(&gi, &ci, 1e-3);
+        println!(
+            "{name}: GPU against CPU per pixel: relative L2 {l2:.2e}, {apart} of {both} pixels more than 1e-3 apart, {differ} covered by one only"
+        );
+        assert!(both > 3000, "{name}: {both} pixels covered");
+        assert!(differ * 200 <= both, "{name}: {differ} pixels covered by one rasteriser only");
+        assert!(apart * 1000 <= both, "{name}: {apart} of {both} pixels more than 1e-3 apart");
+        assert!(l2 < 1e-4, "{name}: relative L2 {l2}");
+    }
 }

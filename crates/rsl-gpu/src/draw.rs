@@ -5,7 +5,7 @@
 //! to 8-bit sRGB (`shaders/draw/tonemap.wgsl`); both can be read back.
 
 use crate::lobes::{LobeObject, LobeParams, LobeVertex, pack_environment, pack_objects};
-use crate::shade::{GpuShading, PassTime, columns};
+use crate::shade::{GpuShading, PassTime, PixelLayout, columns, shading_constants};
 use crate::{GpuContext, GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat3, Vec3};
@@ -52,6 +52,38 @@ pub struct ToneParams {
     pub height: u32,
     /// Padding.
     pub pad: u32,
+}
+
+/// Mirrors WGSL `PixelParams` in `shaders/draw/pixels.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct PixelParams {
+    /// xyz: the eye; w: θ_max of isotropic tables.
+    pub eye: [f32; 4],
+    /// Vertices of all objects.
+    pub vertex_count: u32,
+    /// Objects.
+    pub object_count: u32,
+    /// RSLs.
+    pub light_count: u32,
+    /// Bit 0: self visibility; bit 1: occluders.
+    pub terms: u32,
+    /// Rays per traced light at a pixel.
+    pub pixel_rays: u32,
+    /// Directions stored per traced light.
+    pub rays_per_light: u32,
+    /// Where they start in the frame buffer.
+    pub rays_at: u32,
+    /// Rays' lift off the surface.
+    pub lift: f32,
+    /// Where the objects' flags start in the frame buffer.
+    pub objects_at: u32,
+    /// Padding.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
 }
 
 /// The environment behind the objects.
@@ -111,6 +143,9 @@ pub struct GpuDraw {
     target: Option<Target>,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     lobes: Option<LobePass>,
+    /// The RSL sum per pixel's pipeline and parameters ([`GpuDraw::draw_pixels`]), made on
+    /// first use.
+    pixels: Option<(wgpu::RenderPipeline, wgpu::Buffer)>,
     /// Vertices shaded elsewhere ([`GpuDraw::draw_meshes`]): positions, then radiance, one
     /// vec4 each; and their indices.
     meshes: (wgpu::Buffer, wgpu::Buffer),
@@ -145,6 +180,8 @@ enum Objects<'a> {
     Shaded(&'a GpuShading),
     /// The lobe path per pixel, from the buffers [`GpuDraw::draw_lobes`] filled.
     Lobes(u32),
+    /// The RSL sum per pixel over the shading pass's covers ([`GpuDraw::draw_pixels`]).
+    Pixels(&'a GpuShading),
     /// Vertices shaded elsewhere, from the buffers [`GpuDraw::draw_meshes`] filled: the
     /// vertex count and the index count.
     Meshes(u32, u32),
@@ -179,7 +216,7 @@ impl GpuDraw {
         ];
         let objects = render_pipeline(&ctx, &shaders::DRAW_OBJECTS, &buffers, true)?;
         let objects_again =
-            render_pipeline_with(&ctx, &shaders::DRAW_OBJECTS, &buffers, false, wgpu::CompareFunction::Equal)?;
+            render_pipeline_with(&ctx, &shaders::DRAW_OBJECTS, &buffers, false, wgpu::CompareFunction::Equal, &[])?;
         // Both tonemap passes read the parameters and the linear image; they differ in
         // where the encoded pixels go (a storage buffer read back, or a storage texture).
         let (tone_layout, tonemap) = tone_pipeline(
@@ -225,6 +262,7 @@ impl GpuDraw {
             target: None,
             timestamps,
             lobes: None,
+            pixels: None,
             meshes: (
                 buffer("shaded meshes", 32, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
                 buffer("shaded mesh indices", 4, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
@@ -429,6 +467,48 @@ impl GpuDraw {
         self.pass(Objects::Shaded(shading), camera, env_from_world)
     }
 
+    /// Draws the objects of `shading` per pixel by the RSL sum (`shaders/draw/pixels.wgsl`,
+    /// rsl-shade's `point_radiance`) over what its last [`GpuShading::shade_covers`] kept,
+    /// seen by `camera` (the eye that pass shaded for), with the environment behind, into the
+    /// linear image; waits for it. Objects not drawn per pixel interpolate their vertices.
+    pub fn draw_pixels(
+        &mut self,
+        shading: &GpuShading,
+        camera: &Camera,
+        env_from_world: Mat3,
+    ) -> Result<PassTime, GpuError> {
+        let Some(layout) = shading.pixel_layout() else {
+            return Err(GpuError::Scene("draw_pixels needs the covers of shade_covers first".into()));
+        };
+        let limit = self.ctx.device.limits().max_storage_buffers_per_shader_stage;
+        if limit < 10 {
+            return Err(GpuError::Scene(format!(
+                "{} binds {limit} storage buffers per shader stage; the RSL sum per pixel needs 10 (use the CPU)",
+                self.ctx.info.name
+            )));
+        }
+        if self.pixels.is_none() {
+            let pipeline = render_pipeline_with(
+                &self.ctx,
+                &shaders::DRAW_PIXELS,
+                &[],
+                true,
+                wgpu::CompareFunction::Greater,
+                &shading_constants()[1..],
+            )?;
+            let params = self.buffer(
+                "pixel params",
+                std::mem::size_of::<PixelParams>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            );
+            self.pixels = Some((pipeline, params));
+        }
+        let params = pixel_params(&layout, shading.vertex_count());
+        let (_, buffer) = self.pixels.as_ref().expect("just made");
+        self.ctx.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&params));
+        self.pass(Objects::Pixels(shading), camera, env_from_world)
+    }
+
     /// Draws meshes whose vertices were shaded elsewhere (the CPU path: world positions and
     /// radiance per vertex) seen by `camera`, with the environment behind, into the linear
     /// image, as [`GpuDraw::draw`] draws the shading pass's vertices; waits for it. A mesh
@@ -575,6 +655,28 @@ impl GpuDraw {
                 }),
             ),
             (Objects::Lobes(_), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
+            (Objects::Pixels(shading), _) => {
+                let Some((pipeline, params)) = &self.pixels else {
+                    return Err(GpuError::Scene("the per-pixel pass is not set up".into()));
+                };
+                let mut entries = vec![
+                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
+                ];
+                entries.extend(
+                    shading
+                        .pixel_buffers()
+                        .into_iter()
+                        .enumerate()
+                        .map(|(k, b)| wgpu::BindGroupEntry { binding: 2 + k as u32, resource: b.as_entire_binding() }),
+                );
+                let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("draw pixels"),
+                    layout: &pipeline.get_bind_group_layout(0),
+                    entries: &entries,
+                });
+                (pipeline.clone(), bind)
+            }
         };
         let keeps = matches!(objects, Objects::Meshes(..) | Objects::MeshesAgain(..));
         let lobe_buffers = self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone()));
@@ -692,6 +794,14 @@ impl GpuDraw {
                         pass.draw_indexed(0..count, 0, 0..1);
                     }
                 }
+                Objects::Pixels(shading) => {
+                    let (_, count) = shading.index_buffer();
+                    if count > 0 {
+                        pass.set_pipeline(&obj_pipeline);
+                        pass.set_bind_group(0, &obj_bind, &[]);
+                        pass.draw(0..count, 0..1);
+                    }
+                }
                 Objects::Lobes(count) => {
                     if let (Some((vertices, indices)), true) = (&lobe_buffers, count > 0) {
                         pass.set_pipeline(&obj_pipeline);
@@ -735,7 +845,7 @@ fn render_pipeline(
     depth_test: bool,
 ) -> Result<wgpu::RenderPipeline, GpuError> {
     let compare = if depth_test { wgpu::CompareFunction::Greater } else { wgpu::CompareFunction::Always };
-    render_pipeline_with(ctx, shader, buffers, depth_test, compare)
+    render_pipeline_with(ctx, shader, buffers, depth_test, compare, &[])
 }
 
 /// A render pipeline writing depth or not, with depth comparison `compare`.
@@ -745,6 +855,7 @@ fn render_pipeline_with(
     buffers: &[wgpu::VertexBufferLayout<'_>],
     depth_write: bool,
     compare: wgpu::CompareFunction,
+    constants: &[(&str, f64)],
 ) -> Result<wgpu::RenderPipeline, GpuError> {
     let [vertex, fragment] = shader.entry_points else {
         return Err(GpuError::Shader { name: shader.name, message: "needs a vertex and a fragment entry".into() });
@@ -761,7 +872,7 @@ fn render_pipeline_with(
         vertex: wgpu::VertexState {
             module: &module,
             entry_point: Some(vertex),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
             buffers: &buffers.iter().cloned().map(Some).collect::<Vec<_>>(),
         },
         primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
@@ -776,7 +887,7 @@ fn render_pipeline_with(
         fragment: Some(wgpu::FragmentState {
             module: &module,
             entry_point: Some(fragment),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
             targets: &[Some(wgpu::ColorTargetState { format: COLOR, blend: None, write_mask: wgpu::ColorWrites::ALL })],
         }),
         multiview_mask: None,
@@ -785,6 +896,23 @@ fn render_pipeline_with(
     match pollster::block_on(scope.pop()) {
         Some(e) => Err(GpuError::Shader { name: shader.name, message: e.to_string() }),
         None => Ok(pipeline),
+    }
+}
+
+/// The per-pixel pass's parameters from where the shading pass put its data.
+fn pixel_params(layout: &PixelLayout, vertex_count: u32) -> PixelParams {
+    PixelParams {
+        eye: layout.eye,
+        vertex_count,
+        object_count: layout.object_count,
+        light_count: layout.light_count,
+        terms: layout.terms,
+        pixel_rays: layout.pixel_rays,
+        rays_per_light: layout.rays_per_light,
+        rays_at: layout.rays_at,
+        lift: layout.lift,
+        objects_at: layout.objects_at,
+        ..Default::default()
     }
 }
 

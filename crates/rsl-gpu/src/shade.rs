@@ -198,6 +198,57 @@ pub struct ShadedVertices {
     pub radiance: Vec<Vec<Vec3>>,
 }
 
+/// The pipeline constants of the passes that read the visibility fields.
+pub(crate) fn shading_constants() -> [(&'static str, f64); 4] {
+    [
+        ("WORKGROUP_SIZE", f64::from(WORKGROUP_SIZE)),
+        ("COVERAGE_SAMPLES", rsl_vis::coverage::SAMPLES as f64),
+        ("OVDF_INNER", f64::from(rsl_vis::ovdf::INNER)),
+        ("OVDF_OUTER", f64::from(rsl_vis::ovdf::OUTER)),
+    ]
+}
+
+/// What the RSL sum per pixel needs of a frame besides the vertices' covers
+/// ([`GpuShading::shade_covers`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PixelFrame {
+    /// Per object, whether its pixels are shaded one by one (else its vertices' radiance is
+    /// interpolated).
+    pub per_pixel: Vec<bool>,
+    /// Per light, its ray directions when traced (world; the centre first), else none.
+    pub rays: Vec<Vec<Vec3>>,
+    /// Rays per traced light at a pixel (rsl-shade's `PIXEL_RAYS`).
+    pub pixel_rays: u32,
+    /// How far rays start off the surface (world units).
+    pub lift: f32,
+}
+
+/// Where [`GpuShading::shade_covers`] put the per-pixel data (the draw pass's parameters).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelLayout {
+    /// The eye (xyz) and θ_max of isotropic tables (w).
+    pub eye: [f32; 4],
+    /// Lights.
+    pub light_count: u32,
+    /// Objects.
+    pub object_count: u32,
+    /// Terms, as the shading pass's bits.
+    pub terms: u32,
+    /// Rays per traced light at a pixel.
+    pub pixel_rays: u32,
+    /// Directions stored per traced light.
+    pub rays_per_light: u32,
+    /// Where the directions start in the frame buffer (vec4 units).
+    pub rays_at: u32,
+    /// Where the objects' flags start in the frame buffer.
+    pub objects_at: u32,
+    /// Rays' lift off the surface.
+    pub lift: f32,
+}
+
+/// The deepest BVH the per-pixel pass traverses (`BVH_STACK` in `shaders/draw/pixels.wgsl`).
+pub const BVH_STACK: usize = 64;
+
 /// Where an object's static data lives on the GPU.
 #[derive(Clone, Copy, Debug, Default)]
 struct Placement {
@@ -221,6 +272,9 @@ struct TablePlacement {
 
 const HAS_SVDF: u32 = 1;
 const HAS_OVDF: u32 = 2;
+/// `shaders/draw/pixels.wgsl`: an object drawn per pixel, an object with a BVH.
+const PER_PIXEL: u32 = 1;
+const HAS_BVH: u32 = 2;
 
 fn vec4(v: Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
@@ -252,7 +306,20 @@ pub struct GpuShading {
     traced: Slot,
     indices: Slot,
     index_count: u32,
+    /// Every light's cover at every vertex, for the RSL sum per pixel
+    /// ([`GpuShading::shade_covers`]).
+    covers: Slot,
+    /// Per object its BVH's place, then every object's BVH nodes and triangles
+    /// (`shaders/draw/pixels.wgsl`'s `scene_bvh`).
+    scene_bvh: Slot,
+    /// Whether `scene_bvh` holds the loaded geometry's BVHs.
+    bvh_loaded: bool,
     bind: Option<wgpu::BindGroup>,
+    /// The pipeline of `shade_vertex_covers` (made on first use) and its bind group.
+    covers_pipeline: Option<wgpu::ComputePipeline>,
+    covers_bind: Option<wgpu::BindGroup>,
+    /// Where the last [`GpuShading::shade_covers`] put its per-pixel data in the frame.
+    pixel_layout: Option<PixelLayout>,
     placements: Vec<Placement>,
     table_placements: Vec<TablePlacement>,
     vertex_count: u32,
@@ -263,15 +330,7 @@ pub struct GpuShading {
 impl GpuShading {
     /// Builds the shading pipeline on `ctx` (a shader that fails to build is an error).
     pub fn new(ctx: Arc<GpuContext>) -> Result<Self, GpuError> {
-        let pipeline = ctx.compute_pipeline(
-            &shaders::SHADE_VERTICES,
-            &[
-                ("WORKGROUP_SIZE", f64::from(WORKGROUP_SIZE)),
-                ("COVERAGE_SAMPLES", rsl_vis::coverage::SAMPLES as f64),
-                ("OVDF_INNER", f64::from(rsl_vis::ovdf::INNER)),
-                ("OVDF_OUTER", f64::from(rsl_vis::ovdf::OUTER)),
-            ],
-        )?;
+        let pipeline = ctx.compute_pipeline(&shaders::SHADE_VERTICES, &shading_constants())?;
         let d = &ctx.device;
         let params = d.create_buffer(&wgpu::BufferDescriptor {
             label: Some("shade params"),
@@ -304,9 +363,15 @@ impl GpuShading {
                 wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_SRC,
             ),
             traced: slot("shade traced covers", storage),
-            indices: slot("scene indices", wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
+            indices: slot("scene indices", wgpu::BufferUsages::INDEX | storage),
             index_count: 0,
+            covers: slot("vertex covers", wgpu::BufferUsages::STORAGE),
+            scene_bvh: slot("scene BVH", storage),
+            bvh_loaded: false,
             bind: None,
+            covers_pipeline: None,
+            covers_bind: None,
+            pixel_layout: None,
             placements: Vec::new(),
             table_placements: Vec::new(),
             vertex_count: 0,
@@ -365,6 +430,7 @@ impl GpuShading {
             });
             slot.size = size;
             self.bind = None;
+            self.covers_bind = None;
         }
         Ok(())
     }
@@ -475,13 +541,16 @@ impl GpuShading {
         self.upload(|s| &mut s.indices, "scene indices", &indices)?;
         self.upload(|s| &mut s.fields, "visibility fields", &fields)?;
         self.upload(|s| &mut s.segments, "occluder segments", &segments)?;
-        // Two vec4 per vertex: world position, radiance.
-        self.reserve(|s| &mut s.shaded, "shaded vertices", vertices.len() as u64 * 32)?;
+        // Three vec4 per vertex: world position, radiance, and the untraced lights' radiance
+        // (written when the covers are kept).
+        self.reserve(|s| &mut s.shaded, "shaded vertices", vertices.len() as u64 * 48)?;
         self.uploads.geometry_bytes += bytes.iter().sum::<usize>() as u64;
         self.uploads.geometry_loads += 1;
         self.placements = placements;
         self.vertex_count = vertex_count;
         self.index_count = indices.len() as u32;
+        self.bvh_loaded = false;
+        self.pixel_layout = None;
         Ok(())
     }
 
@@ -504,11 +573,15 @@ impl GpuShading {
         Ok(())
     }
 
-    fn bind_group(&mut self) -> wgpu::BindGroup {
-        if let Some(b) = &self.bind {
+    /// The bind group of the shading pass, or with `covers` of `shade_vertex_covers` (made
+    /// again after a buffer grew).
+    fn bind_group(&mut self, covers: bool) -> wgpu::BindGroup {
+        if let Some(b) = if covers { &self.covers_bind } else { &self.bind } {
             return b.clone();
         }
-        let entries: Vec<wgpu::BindGroupEntry<'_>> = [
+        let pipeline =
+            if covers { self.covers_pipeline.as_ref().expect("made by shade_covers") } else { &self.pipeline };
+        let mut buffers = vec![
             &self.params,
             &self.frame.buffer,
             &self.objects.buffer,
@@ -518,17 +591,21 @@ impl GpuShading {
             &self.segments.buffer,
             &self.shaded.buffer,
             &self.traced.buffer,
-        ]
-        .iter()
-        .enumerate()
-        .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
-        .collect();
+        ];
+        if covers {
+            buffers.push(&self.covers.buffer);
+        }
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry { binding: k as u32, resource: b.as_entire_binding() })
+            .collect();
         let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shade vertices"),
-            layout: &self.pipeline.get_bind_group_layout(0),
+            label: Some(if covers { "shade vertex covers" } else { "shade vertices" }),
+            layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
-        self.bind = Some(bind.clone());
+        *(if covers { &mut self.covers_bind } else { &mut self.bind }) = Some(bind.clone());
         bind
     }
 
@@ -543,6 +620,89 @@ impl GpuShading {
         eye: Vec3,
         terms: Terms,
         traced: &TracedCovers,
+    ) -> Result<PassTime, GpuError> {
+        self.run(objects, lights, eye, terms, traced, None)
+    }
+
+    /// [`GpuShading::shade`], keeping every light's cover at every vertex and the part of
+    /// it the object itself leaves, and the radiance of the lights that are not traced
+    /// (rsl-shade's `shade_covers`, `shade_vertex_covers` in `shaders/shade/vertices.wgsl`),
+    /// with what `pixel` gives: for the RSL sum per pixel ([`crate::draw::GpuDraw::draw_pixels`]).
+    /// The first call after [`GpuShading::load_geometry`] uploads the objects' BVHs too.
+    pub fn shade_covers(
+        &mut self,
+        objects: &[ShadeObject<'_>],
+        lights: &[Light],
+        eye: Vec3,
+        terms: Terms,
+        traced: &TracedCovers,
+        pixel: &PixelFrame,
+    ) -> Result<PassTime, GpuError> {
+        if pixel.per_pixel.len() != objects.len() || pixel.rays.len() != lights.len() {
+            return Err(GpuError::Scene("the per-pixel flags or rays do not fit the objects and lights".into()));
+        }
+        if self.covers_pipeline.is_none() {
+            self.covers_pipeline =
+                Some(self.ctx.compute_pipeline(&shaders::SHADE_VERTEX_COVERS, &shading_constants())?);
+        }
+        if !self.bvh_loaded {
+            self.load_bvhs(objects)?;
+        }
+        self.run(objects, lights, eye, terms, traced, Some(pixel))
+    }
+
+    /// Uploads every object's BVH (each distinct occluder once) for the per-pixel pass's
+    /// shadow rays.
+    fn load_bvhs(&mut self, objects: &[ShadeObject<'_>]) -> Result<(), GpuError> {
+        let n = objects.len() as u32;
+        let mut header = vec![[0u32; 4]; objects.len()];
+        let mut body: Vec<[u32; 4]> = Vec::new();
+        let mut seen: HashMap<*const rsl_vis::Occluder, [u32; 2]> = HashMap::new();
+        for (i, o) in objects.iter().enumerate() {
+            let Some(occluder) = o.occluder else { continue };
+            let at = match seen.get(&std::ptr::from_ref(occluder)) {
+                Some(at) => *at,
+                None => {
+                    let flat = occluder.flat_bvh();
+                    if flat.depth > BVH_STACK {
+                        return Err(GpuError::Scene(format!(
+                            "object {i}: its BVH is {} nodes deep; the GPU traverses at most {BVH_STACK}",
+                            flat.depth
+                        )));
+                    }
+                    let nodes = n + body.len() as u32;
+                    for node in &flat.nodes {
+                        let [a, b, c] = node.min.map(f32::to_bits);
+                        let [d, e, f] = node.max.map(f32::to_bits);
+                        body.extend([[a, b, c, node.count], [d, e, f, node.first]]);
+                    }
+                    let triangles = n + body.len() as u32;
+                    body.extend(flat.triangles.iter().flatten().map(|v| {
+                        let [x, y, z] = v.to_array().map(f32::to_bits);
+                        [x, y, z, 0]
+                    }));
+                    *seen.entry(std::ptr::from_ref(occluder)).or_insert([nodes, triangles])
+                }
+            };
+            header[i] = [HAS_BVH, at[0], at[1], 0];
+        }
+        header.extend(body);
+        let bytes = std::mem::size_of_val(header.as_slice()) as u64;
+        self.upload(|s| &mut s.scene_bvh, "scene BVH", &header)?;
+        self.uploads.geometry_bytes += bytes;
+        self.bvh_loaded = true;
+        Ok(())
+    }
+
+    /// The shading pass, with `pixel`: keeping the covers (`shade_vertex_covers`).
+    fn run(
+        &mut self,
+        objects: &[ShadeObject<'_>],
+        lights: &[Light],
+        eye: Vec3,
+        terms: Terms,
+        traced: &TracedCovers,
+        pixel: Option<&PixelFrame>,
     ) -> Result<PassTime, GpuError> {
         self.ctx.check_alive()?;
         if objects.len() != self.placements.len()
@@ -564,7 +724,7 @@ impl GpuShading {
         if !traced_ok {
             return Err(GpuError::Scene("the traced covers do not fit the lights and the loaded vertices".into()));
         }
-        let mut frame: Vec<[f32; 4]> = Vec::with_capacity(3 * nl + objects.len() * nl);
+        let mut frame: Vec<[f32; 4]> = Vec::with_capacity(3 * nl + objects.len() * (nl + 1));
         for (k, l) in lights.iter().enumerate() {
             let alpha = l.cone_half_angle();
             // w: the light's slot among the traced lights plus one (0: not traced).
@@ -624,6 +784,42 @@ impl GpuShading {
             traced_count: traced.count,
             ..Default::default()
         };
+        self.pixel_layout = None;
+        let layout = match pixel {
+            None => None,
+            Some(p) => {
+                // Each object's flags, then every traced light's rays.
+                let objects_at = frame.len() as u32;
+                frame.extend(
+                    p.per_pixel.iter().map(|&on| [f32::from_bits(if on { PER_PIXEL } else { 0 }), 0.0, 0.0, 0.0]),
+                );
+                let rays_at = frame.len() as u32;
+                let rays_per_light = p.rays.iter().map(Vec::len).max().unwrap_or(0);
+                for (l, slot) in traced.slots.iter().enumerate() {
+                    if slot.is_some() {
+                        let rays = &p.rays[l];
+                        if rays.is_empty() {
+                            return Err(GpuError::Scene(format!("traced light {l} has no rays")));
+                        }
+                        frame.extend((0..rays_per_light).map(|k| vec4(rays[k.min(rays.len() - 1)], 0.0)));
+                    }
+                }
+                let least = p.rays.iter().filter(|r| !r.is_empty()).map(Vec::len).min().unwrap_or(0);
+                let bytes = u64::from(self.vertex_count) * nl as u64 * 8;
+                self.reserve(|s| &mut s.covers, "vertex covers", bytes)?;
+                Some(PixelLayout {
+                    eye: params.eye,
+                    light_count: nl as u32,
+                    object_count: objects.len() as u32,
+                    terms: params.terms,
+                    pixel_rays: p.pixel_rays.max(1).min(least as u32),
+                    rays_per_light: rays_per_light as u32,
+                    rays_at,
+                    objects_at,
+                    lift: p.lift,
+                })
+            }
+        };
         self.upload(|s| &mut s.frame, "shade frame", &frame)?;
         self.upload(|s| &mut s.traced, "shade traced covers", &traced.covers)?;
         self.upload(|s| &mut s.objects, "shade objects", &gpu_objects)?;
@@ -633,7 +829,11 @@ impl GpuShading {
             + std::mem::size_of_val(traced.covers.as_slice())
             + std::mem::size_of::<Params>()) as u64;
         self.uploads.frames += 1;
-        let bind = self.bind_group();
+        let bind = self.bind_group(layout.is_some());
+        let pipeline = match layout {
+            None => self.pipeline.clone(),
+            Some(_) => self.covers_pipeline.clone().expect("made by shade_covers"),
+        };
         let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut enc =
             self.ctx.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shade vertices") });
@@ -645,7 +845,7 @@ impl GpuShading {
             });
             let mut pass = enc
                 .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shade vertices"), timestamp_writes });
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &bind, &[]);
             pass.dispatch_workgroups(gx, gy, 1);
         }
@@ -667,7 +867,31 @@ impl GpuShading {
             Some((_, resolve)) => Some(self.ctx.pass_ms(resolve)?),
             None => None,
         };
+        self.pixel_layout = layout;
         Ok(PassTime { gpu_ms, wall_ms })
+    }
+
+    /// Where the last shading pass put what the RSL sum per pixel reads: `None` unless it was
+    /// a [`GpuShading::shade_covers`] of the geometry loaded.
+    pub fn pixel_layout(&self) -> Option<PixelLayout> {
+        self.pixel_layout
+    }
+
+    /// The buffers the per-pixel pass binds after its parameters, in its binding order
+    /// (`shaders/draw/pixels.wgsl`, bindings 2 to 11).
+    pub(crate) fn pixel_buffers(&self) -> [&wgpu::Buffer; 10] {
+        [
+            &self.frame.buffer,
+            &self.objects.buffer,
+            &self.vertices.buffer,
+            &self.tables.buffer,
+            &self.fields.buffer,
+            &self.segments.buffer,
+            &self.shaded.buffer,
+            &self.covers.buffer,
+            &self.indices.buffer,
+            &self.scene_bvh.buffer,
+        ]
     }
 
     /// The last frame's per-vertex world positions and radiance, per object (one readback).

@@ -38,6 +38,7 @@ const COVERAGE: (&str, &str) = ("common/coverage.wgsl", include_str!("../../../s
 const BRDF: (&str, &str) = ("common/brdf.wgsl", include_str!("../../../shaders/common/brdf.wgsl"));
 const TONE: (&str, &str) = ("common/tone.wgsl", include_str!("../../../shaders/common/tone.wgsl"));
 const VISIBILITY: (&str, &str) = ("common/visibility.wgsl", include_str!("../../../shaders/common/visibility.wgsl"));
+const SCENE: (&str, &str) = ("common/scene.wgsl", include_str!("../../../shaders/common/scene.wgsl"));
 
 /// GPU smoke test: the hemisphere map and its inverse over an array of directions.
 pub const HEMI_MAP: Shader = Shader {
@@ -52,10 +53,14 @@ pub const HEMI_MAP: Shader = Shader {
 pub const SHADE_VERTICES: Shader = Shader {
     name: "shade/vertices",
     path: "shade/vertices.wgsl",
-    common: &[MATH, HEMI, FRAME, COVERAGE, BRDF, VISIBILITY],
+    common: &[MATH, HEMI, FRAME, COVERAGE, BRDF, VISIBILITY, SCENE],
     text: include_str!("../../../shaders/shade/vertices.wgsl"),
     entry_points: &["shade_vertices"],
 };
+
+/// The same pass keeping every light's cover at every vertex, for the RSL sum per pixel.
+pub const SHADE_VERTEX_COVERS: Shader =
+    Shader { name: "shade/vertex_covers", entry_points: &["shade_vertex_covers"], ..SHADE_VERTICES };
 
 /// The environment behind the objects: a full-screen triangle looking up the lat-long map.
 pub const DRAW_BACKGROUND: Shader = Shader {
@@ -85,6 +90,17 @@ pub const DRAW_LOBES: Shader = Shader {
     entry_points: &["vs_lobes", "fs_lobes"],
 };
 
+/// The RSL sum per pixel: the BRDF's square integrals for each pixel's own normal and view,
+/// covers interpolated from the vertices or found at the pixel, traced lights' shadow rays
+/// through the objects' BVHs (`rsl_gpu::draw::GpuDraw::draw_pixels`).
+pub const DRAW_PIXELS: Shader = Shader {
+    name: "draw/pixels",
+    path: "draw/pixels.wgsl",
+    common: &[MATH, HEMI, FRAME, COVERAGE, BRDF, VISIBILITY, SCENE, DRAW],
+    text: include_str!("../../../shaders/draw/pixels.wgsl"),
+    entry_points: &["vs_pixels", "fs_pixels"],
+};
+
 /// Exposure, the filmic curve and sRGB encoding of the linear image into 8-bit pixels.
 pub const TONEMAP: Shader = Shader {
     name: "draw/tonemap",
@@ -104,8 +120,17 @@ pub const TONEMAP_TEXTURE: Shader = Shader {
 };
 
 /// Every registered shader.
-pub const ALL: &[Shader] =
-    &[HEMI_MAP, SHADE_VERTICES, DRAW_BACKGROUND, DRAW_OBJECTS, DRAW_LOBES, TONEMAP, TONEMAP_TEXTURE];
+pub const ALL: &[Shader] = &[
+    HEMI_MAP,
+    SHADE_VERTICES,
+    SHADE_VERTEX_COVERS,
+    DRAW_BACKGROUND,
+    DRAW_OBJECTS,
+    DRAW_LOBES,
+    DRAW_PIXELS,
+    TONEMAP,
+    TONEMAP_TEXTURE,
+];
 
 /// Looks a shader up by name.
 pub fn by_name(name: &str) -> Option<&'static Shader> {

@@ -139,4 +139,24 @@ fn draw_layouts_match_wgsl() {
     );
     assert_layout!(shaders::TONEMAP, "ToneParams", ToneParams, [exposure, width, height, pad]);
     assert_layout!(shaders::DRAW_LOBES, "LobeParams", rsl_gpu::lobes::LobeParams, [eye, levels, pad0, pad1, pad2]);
+    assert_layout!(
+        shaders::DRAW_PIXELS,
+        "PixelParams",
+        rsl_gpu::draw::PixelParams,
+        [
+            eye,
+            vertex_count,
+            object_count,
+            light_count,
+            terms,
+            pixel_rays,
+            rays_per_light,
+            rays_at,
+            lift,
+            objects_at,
+            pad0,
+            pad1,
+            pad2
+        ]
+    );
 }

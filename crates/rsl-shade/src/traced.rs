@@ -63,6 +63,17 @@ impl<'a> FrameSetup<'a> {
         self.traced.flags.get(l).copied().unwrap_or(false)
     }
 
+    /// Traced light `l`'s ray directions (world; its square's pattern, the centre first),
+    /// none for a light that is not traced.
+    pub fn traced_rays(&self, l: usize) -> &[Vec3] {
+        if self.is_traced(l) { &self.traced.dirs[self.traced.index[l]] } else { &[] }
+    }
+
+    /// How far traced rays start off the surface, along its normal (world units).
+    pub fn traced_lift(&self) -> f32 {
+        self.traced.lift
+    }
+
     /// The lights that are traced, in light order.
     pub fn traced_lights(&self) -> Vec<usize> {
         (0..self.lights.len()).filter(|&l| self.is_traced(l)).collect()

@@ -29,6 +29,46 @@ pub enum VisError {
     Params(String),
 }
 
+/// One node of a [`FlatBvh`] (the layout a shader reads: 32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BvhNode {
+    /// The bounds' least corner.
+    pub min: [f32; 3],
+    /// Triangles in the leaf; 0 for an inner node.
+    pub count: u32,
+    /// The bounds' greatest corner.
+    pub max: [f32; 3],
+    /// A leaf's first triangle, or an inner node's first child (the second follows it).
+    pub first: u32,
+}
+
+/// An object's triangles in a binary BVH ([`Occluder::flat_bvh`]).
+#[derive(Clone, Debug, Default)]
+pub struct FlatBvh {
+    /// The nodes, the root first.
+    pub nodes: Vec<BvhNode>,
+    /// Object-space corners, in leaf order.
+    pub triangles: Vec<[Vec3; 3]>,
+    /// The most nodes from the root to a leaf (a traversal's stack needs no more).
+    pub depth: usize,
+}
+
+/// The most nodes on a path from the root to a leaf of a binary BVH.
+fn bvh_depth(nodes: &[obvhs::bvh2::node::Bvh2Node]) -> usize {
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((k, d)) = stack.pop() {
+        deepest = deepest.max(d);
+        let n = &nodes[k];
+        if n.prim_count == 0 {
+            let c = n.first_index as usize;
+            stack.extend([(c, d + 1), (c + 1, d + 1)]);
+        }
+    }
+    deepest
+}
+
 /// An object's triangles in a BVH, for any-hit shadow rays.
 pub struct Occluder {
     bvh: CwBvh,
@@ -108,6 +148,42 @@ impl Occluder {
     /// Number of triangles in the BVH.
     pub fn triangles(&self) -> usize {
         self.tris.len()
+    }
+
+    /// The triangles in a binary BVH for a shader to traverse (a GPU's shadow rays), in
+    /// object space as [`Occluder::occluded`] takes its rays: per node its bounds (widened by
+    /// a few ulp, so that no ray that meets a triangle misses its boxes) with its primitive
+    /// count (0: an inner node, whose children are `first` and `first + 1`) or its first
+    /// triangle; the triangles in the order the leaves take them. Node 0 is the root.
+    pub fn flat_bvh(&self) -> FlatBvh {
+        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(
+            &self.tris,
+            BvhBuildParams::fast_build(),
+            &mut std::time::Duration::default(),
+        );
+        let unscale = 1.0 / self.scale;
+        let widen = |lo: Vec3, hi: Vec3| {
+            let pad = (hi - lo).max(lo.abs().max(hi.abs())) * 4.0 * f32::EPSILON;
+            (lo - pad, hi + pad)
+        };
+        let nodes = bvh
+            .nodes
+            .iter()
+            .map(|n| {
+                let (lo, hi) = widen(Vec3::from(n.aabb.min) * unscale, Vec3::from(n.aabb.max) * unscale);
+                BvhNode { min: lo.to_array(), count: n.prim_count, max: hi.to_array(), first: n.first_index }
+            })
+            .collect();
+        let triangles = bvh
+            .primitive_indices
+            .iter()
+            .map(|&k| {
+                let t = &self.tris[k as usize];
+                [t.v0, t.v1, t.v2].map(|v| Vec3::from(v) * unscale)
+            })
+            .collect();
+        let depth = bvh_depth(&bvh.nodes);
+        FlatBvh { nodes, triangles, depth }
     }
 
     /// Whether the segment from `origin` along unit `dir` up to `tmax` hits any triangle.
