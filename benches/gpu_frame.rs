@@ -1,6 +1,7 @@
 //! `gpu_frame`: one GPU frame of the benchmark scene of `shade_frame` (data/scenes/bench.toml:
 //! 59,551 vertices in 12 objects, 30 RSLs, paper preset): the shading compute pass (per-frame
-//! uploads, dispatch, wait) with terms left out for a breakdown, and the draw pass. Prints
+//! uploads, dispatch, wait) with terms left out for a breakdown, the draw pass, and the RSL
+//! sum per pixel (the shading pass keeping every light's cover, the per-pixel pass). Prints
 //! the GPU's own timestamps per pass where the adapter has them. Skips (with a message)
 //! without an adapter.
 //!
@@ -50,8 +51,14 @@ fn bench(c: &mut Criterion) {
         let kind = if gpu.last_pass().gpu_ms.is_some() { "GPU timestamps" } else { "wall" };
         eprintln!("gpu_frame/{name}: shading pass {:.3} ms median ({kind})", ms[ms.len() / 2]);
     }
-    let frame = gpu.render(&engine, &scene, t, Some(1.0), |_| 1.0).expect("frame");
-    eprintln!("gpu_frame: draw pass {:?}, tonemap {:?}", frame.timings.draw, frame.timings.tonemap);
+    for per_pixel in [false, true] {
+        let frame = gpu.render(&engine, &scene, t, per_pixel, (Some(1.0), |_: &_| 1.0)).expect("frame");
+        let t = frame.timings;
+        eprintln!(
+            "gpu_frame (per pixel: {per_pixel}): shading pass {:?}, draw pass {:?}, tonemap {:?}",
+            t.shade, t.draw, t.tonemap
+        );
+    }
     let mut g = c.benchmark_group("gpu_frame");
     g.sample_size(20);
     for (name, terms) in variants {
@@ -59,9 +66,11 @@ fn bench(c: &mut Criterion) {
             b.iter(|| black_box(gpu.dispatch(&engine, &scene, t, terms).expect("shading pass")))
         });
     }
-    g.bench_function("shade_and_draw", |b| {
-        b.iter(|| black_box(gpu.render(&engine, &scene, t, Some(1.0), |_| 1.0).expect("frame")))
-    });
+    for (name, per_pixel) in [("shade_and_draw", false), ("shade_and_draw_per_pixel", true)] {
+        g.bench_function(name, |b| {
+            b.iter(|| black_box(gpu.render(&engine, &scene, t, per_pixel, (Some(1.0), |_: &_| 1.0)).expect("frame")))
+        });
+    }
     g.finish();
 }
 

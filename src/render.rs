@@ -74,7 +74,7 @@ pub struct RenderArgs {
     /// How radiance is computed: any registered method (`rsl methods` lists them; `truth`
     /// is the Monte Carlo reference, per pixel through the camera and per vertex for
     /// --vertex-out). By default `auto` (each object by its most accurate drawing per
-    /// pixel; CPU only), or `rsl` with `--device gpu`.
+    /// pixel), on the CPU or the GPU.
     #[arg(long)]
     pub method: Option<MethodId>,
     /// Print which method draws each object, and why, before rendering.

@@ -431,7 +431,7 @@ fn a_run_that_works_prints_no_error_without_a_runtime_dir() {
 }
 
 #[test]
-fn the_default_method_is_auto_on_the_cpu_and_rsl_where_a_gpu_is_asked_for() {
+fn the_default_method_is_auto_on_the_cpu_and_on_a_gpu() {
     let dir = out_dir("default-method");
     let scene = common::small_scene(&dir);
     let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--device", "cpu", "--out"]).arg(dir.join("a.png")));
@@ -444,13 +444,12 @@ fn the_default_method_is_auto_on_the_cpu_and_rsl_where_a_gpu_is_asked_for() {
         .args(["--device", "cpu", "--oracle", "brdf", "--out"])
         .arg(dir.join("o.png")));
     assert!(ok, "{err}");
-    // Where only a GPU is asked for, the default is a method that runs there.
-    if rsl_gpu::testing::context_or_skip("the_default_method_is_auto_on_the_cpu_and_rsl_where_a_gpu_is_asked_for")
-        .is_some()
-    {
+    // Where a GPU is asked for, auto runs there: the RSL sum per pixel shaded and drawn on it.
+    if rsl_gpu::testing::context_or_skip("the_default_method_is_auto_on_the_cpu_and_on_a_gpu").is_some() {
         let (ok, _, err) =
             run(rsl().arg("render").arg(&scene).args(["--device", "gpu", "--out"]).arg(dir.join("g.png")));
         assert!(ok, "--device gpu without --method: {err}");
+        assert!(err.contains("each object's own method: the lobes' vertices on the CPU"), "auto on the GPU:\n{err}");
     }
 }
 

@@ -79,10 +79,16 @@ impl Composite {
 
     /// A hybrid whose images are drawn per pixel on the GPU of `ctx` (the fragment shader
     /// `shaders/draw/lobes.wgsl`); the vertices' RSL shading, the visibility ratio, stays on
-    /// the CPU. Objects drawn with the RSL sum per pixel are drawn on the CPU, as without a
-    /// GPU; Lambertian ones from their vertices.
+    /// the CPU. Objects drawn with the RSL sum per pixel are shaded and drawn on the GPU
+    /// (`shaders/draw/pixels.wgsl`), in the same pass.
     pub fn on_gpu(ctx: Arc<GpuContext>) -> Result<Self> {
         Ok(Self { gpu: Some(GpuLobes::new(ctx)?), ..Self::hybrid() })
+    }
+
+    /// `auto` ([`Composite::auto`]) with its images drawn on the GPU of `ctx`, as
+    /// [`Composite::on_gpu`] draws them.
+    pub fn auto_on_gpu(ctx: Arc<GpuContext>) -> Result<Self> {
+        Ok(Self { rule: Rule::PerObject, ..Self::on_gpu(ctx)? })
     }
 
     /// This method with the transport lobes fitted as if the object did not shadow itself
@@ -165,17 +171,7 @@ impl Composite {
                 return Ok(drawn);
             }
         };
-        // On the GPU a Lambertian object is drawn from its vertices: the RSL sum per pixel,
-        // which would trace its shadows of the traced lights pixel by pixel, is CPU-only.
-        let gpu = self.gpu.is_some();
-        (0..engine.object_count())
-            .map(|i| {
-                Ok(match drawn_by(method, engine.brdf(i))? {
-                    MethodId::PIXEL if gpu && engine.brdf(i).is_lambertian() => MethodId::RSL,
-                    d => d,
-                })
-            })
-            .collect()
+        (0..engine.object_count()).map(|i| drawn_by(method, engine.brdf(i))).collect()
     }
 
     /// The drawing of per-object method `id` (built from the registry on first use).
@@ -267,10 +263,12 @@ impl Method for Composite {
         let what = match self.rule {
             Rule::Hybrid => "vMF lobes × RSL visibility",
             Rule::Lobe => "vMF lobes shadowed by the fields",
-            Rule::PerObject => return format!("each object's own method on the CPU ({threads} threads)"),
+            Rule::PerObject => "each object's own method",
         };
         match self.gpu_adapter() {
-            Some(a) => format!("{what}: vertices on the CPU ({threads} threads), pixels on {a}"),
+            Some(a) => format!(
+                "{what}: the lobes' vertices on the CPU ({threads} threads), the RSL sum's vertices and the pixels on {a}"
+            ),
             None => format!("{what} on the CPU ({threads} threads)"),
         }
     }

@@ -33,6 +33,9 @@ pub struct FrameContext<'f> {
     pub setup: &'f FrameSetup<'f>,
     /// Whether the image is drawn per pixel (else every object's vertices are interpolated).
     pub per_pixel: bool,
+    /// Whether the image is drawn on the GPU, the RSL sum per pixel included: its objects'
+    /// covers are shaded there, not on the CPU ([`Part::on_gpu`]).
+    pub gpu: bool,
     /// Per object, its vertices' world positions.
     pub positions: &'f [Vec<Vec3>],
     /// Per object, its vertices' world normals.
@@ -58,12 +61,25 @@ pub struct Part<'f> {
     pub radiance: Vec<Vec3>,
     /// The shader of its pixels (`None`: its vertices are interpolated).
     pub pixels: Option<Box<dyn PixelShader + 'f>>,
+    /// Drawn by the GPU's RSL sum per pixel, its vertices shaded there too (radiance empty
+    /// until the GPU's vertices are read back).
+    pub on_gpu: bool,
 }
 
-impl Part<'_> {
+impl<'f> Part<'f> {
     /// An object drawn from its vertices alone.
     pub fn vertices(radiance: Vec<Vec3>) -> Self {
-        Self { radiance, pixels: None }
+        Self { radiance, pixels: None, on_gpu: false }
+    }
+
+    /// An object whose pixels `shader` shades.
+    pub fn per_pixel(radiance: Vec<Vec3>, shader: Box<dyn PixelShader + 'f>) -> Self {
+        Self { radiance, pixels: Some(shader), on_gpu: false }
+    }
+
+    /// An object the GPU shades and draws by the RSL sum per pixel.
+    pub fn on_gpu() -> Self {
+        Self { radiance: Vec::new(), pixels: None, on_gpu: true }
     }
 }
 
@@ -97,12 +113,15 @@ pub struct GpuLobe<'a> {
     pub env: (&'a Prefiltered, (u64, u32)),
 }
 
-/// An object as the GPU draws it: with its lobes, or its vertices' `values` interpolated.
+/// An object as the GPU draws it: with its lobes, by the RSL sum per pixel, or its
+/// vertices' `values` interpolated.
 pub struct GpuObject<'a> {
     /// Its lobes, if it is drawn with them.
     pub lobes: Option<GpuLobe<'a>>,
     /// Per vertex, what its pixels interpolate (with lobes, what multiplies them).
     pub values: &'a [Vec3],
+    /// Shaded and drawn by the GPU's RSL sum per pixel ([`Part::on_gpu`]).
+    pub rsl_pixels: bool,
 }
 
 /// A way to draw objects: the part of a frame of the objects assigned to it. A per-object
@@ -118,6 +137,12 @@ pub trait ObjectDrawing: Send {
         Ok(())
     }
 
+    /// Whether the GPU's draw pass can draw its objects (their parts interpolate vertices,
+    /// give lobes, or are [`Part::on_gpu`] when the frame is drawn on the GPU).
+    fn on_gpu(&self) -> bool {
+        false
+    }
+
     /// The parts of the objects `which` selects (`None` for the others), with their costs
     /// added to `stats`.
     fn shade<'f>(
@@ -128,10 +153,11 @@ pub trait ObjectDrawing: Send {
     ) -> Result<Vec<Option<Part<'f>>>>;
 }
 
-/// The image drawn on the GPU, for a method that has it (the lobe methods on a GPU:
+/// The image drawn on the GPU, for a method that has it (the per-object methods on a GPU:
 /// [`crate::lobe::Composite::on_gpu`]).
 pub trait GpuImage {
-    /// Draws the frame's objects.
+    /// Draws the frame's objects: the image, and the vertices' radiance of the objects
+    /// shaded on the GPU ([`GpuObject::rsl_pixels`]; `None` for the others).
     fn draw(
         &mut self,
         ctx: &FrameContext<'_>,
@@ -139,12 +165,13 @@ pub trait GpuImage {
         positions: &[Vec<Vec3>],
         normals: &[Vec<Vec3>],
         timings: &mut Timings,
-    ) -> Result<Image>;
+    ) -> Result<(Image, Vec<Option<Vec<Vec3>>>)>;
 }
 
 /// A frame with object `i` drawn by `drawings[assigned[i]]`; with `per_pixel` false, the
 /// image interpolates every object's vertices; with `gpu`, the image is drawn there when
-/// every object drawn per pixel can be.
+/// every drawing assigned an object can draw there ([`ObjectDrawing::on_gpu`]), the RSL sum
+/// per pixel shaded there too.
 pub fn compose(
     (engine, scene, request): (&Engine, &Scene, &Request),
     assigned: &[usize],
@@ -168,6 +195,10 @@ pub fn compose(
     let setup = engine.setup(scene, &state, scene.camera.eye, Terms::default())?;
     let positions: Vec<Vec<Vec3>> = (0..n).map(|i| setup.positions(i)).collect();
     let normals: Vec<Vec<Vec3>> = (0..n).map(|i| setup.normals(i)).collect();
+    let on_gpu = gpu.is_some()
+        && request.image
+        && per_pixel
+        && drawings.iter().enumerate().all(|(d, drawing)| drawing.on_gpu() || !which(d).contains(&true));
     let ctx = FrameContext {
         engine,
         scene,
@@ -175,6 +206,7 @@ pub fn compose(
         state: &state,
         setup: &setup,
         per_pixel,
+        gpu: on_gpu,
         positions: &positions,
         normals: &normals,
     };
@@ -191,7 +223,8 @@ pub fn compose(
             }
         }
     }
-    let (radiance, shaders): (Vec<Vec<Vec3>>, Vec<Option<Shader<'_>>>) = parts
+    let rsl_pixels: Vec<bool> = parts.iter().map(|p| p.as_ref().is_some_and(|p| p.on_gpu)).collect();
+    let (mut radiance, shaders): (Vec<Vec<Vec3>>, Vec<Option<Shader<'_>>>) = parts
         .into_iter()
         .enumerate()
         .map(|(i, p)| {
@@ -203,24 +236,34 @@ pub fn compose(
         .unzip();
     timings.add("shade", start.elapsed().as_secs_f64() * 1e3, None);
 
-    let per_pixel = per_pixel && shaders.iter().any(Option::is_some);
-    let on_gpu: Option<Vec<GpuObject<'_>>> = shaders
+    let per_pixel = per_pixel && (shaders.iter().any(Option::is_some) || rsl_pixels.contains(&true));
+    let objects: Option<Vec<GpuObject<'_>>> = shaders
         .iter()
         .zip(&radiance)
-        .map(|(s, r)| match s {
-            None => Some(GpuObject { lobes: None, values: r }),
-            Some(s) => s.gpu_lobes().map(|l| GpuObject { values: l.values, lobes: Some(l) }),
+        .zip(&rsl_pixels)
+        .map(|((s, r), &rsl_pixels)| match s {
+            None => Some(GpuObject { lobes: None, values: r, rsl_pixels }),
+            Some(s) => s.gpu_lobes().map(|l| GpuObject { values: l.values, lobes: Some(l), rsl_pixels: false }),
         })
         .collect();
-    let image = match (gpu, on_gpu) {
+    let mut gpu_radiance = Vec::new();
+    let image = match (gpu, objects) {
         (Some(gpu), Some(objects)) if request.image && per_pixel => {
-            Some(gpu.draw(&ctx, &objects, &positions, &normals, &mut timings)?)
+            let (image, radiance) = gpu.draw(&ctx, &objects, &positions, &normals, &mut timings)?;
+            gpu_radiance = radiance;
+            Some(image)
         }
+        _ if rsl_pixels.contains(&true) => anyhow::bail!("objects shaded on the GPU, and the image not drawn there"),
         _ if !request.image => None,
         _ if !per_pixel => Some(timings.time("draw", || rasterise(engine, scene, &state, &positions, &radiance))),
         _ => Some(timings.time("draw per pixel", || draw_per_pixel(&ctx, &shaders, &radiance))),
     };
     drop(shaders);
+    for (i, r) in gpu_radiance.into_iter().enumerate() {
+        if let Some(r) = r {
+            radiance[i] = r;
+        }
+    }
     Ok(Frame {
         state,
         positions,
@@ -275,6 +318,10 @@ impl ObjectDrawing for VertexDrawing {
         "RSL at the vertices, interpolated".into()
     }
 
+    fn on_gpu(&self) -> bool {
+        true
+    }
+
     fn shade<'f>(
         &mut self,
         ctx: &FrameContext<'f>,
@@ -318,12 +365,31 @@ impl ObjectDrawing for PixelDrawing {
         if brdf.is_lambertian() { "RSL at the vertices, interpolated" } else { "the RSL sum per pixel" }.into()
     }
 
+    fn on_gpu(&self) -> bool {
+        true
+    }
+
     fn shade<'f>(
         &mut self,
         ctx: &FrameContext<'f>,
         which: &[bool],
         stats: &mut FrameStats,
     ) -> Result<Vec<Option<Part<'f>>>> {
+        if ctx.gpu {
+            // The GPU shades the objects drawn per pixel, covers and all; the others here.
+            let n = which.len();
+            let per_pixel: Vec<bool> = (0..n)
+                .map(|i| which[i] && rsl_shade::drawn_per_pixel(ctx.setup, !ctx.engine.brdf(i).is_lambertian()))
+                .collect();
+            let plain: Vec<bool> = (0..n).map(|i| which[i] && !per_pixel[i]).collect();
+            let (radiance, s) = rsl_shade::shade_objects(ctx.setup, &plain);
+            *stats = stats.plus(s);
+            return Ok(radiance
+                .into_iter()
+                .enumerate()
+                .map(|(i, r)| which[i].then(|| if per_pixel[i] { Part::on_gpu() } else { Part::vertices(r) }))
+                .collect());
+        }
         let (radiance, covers, s) = shade_for_pixels(ctx.engine, ctx.setup, which)?;
         *stats = stats.plus(s);
         Ok(radiance
@@ -334,9 +400,7 @@ impl ObjectDrawing for PixelDrawing {
                 which[i].then(|| match covers {
                     None => Part::vertices(radiance),
                     Some(covers) => {
-                        let shader: Box<dyn PixelShader + 'f> =
-                            Box::new(CoverShader { setup: ctx.setup, object: i, covers });
-                        Part { radiance, pixels: Some(shader) }
+                        Part::per_pixel(radiance, Box::new(CoverShader { setup: ctx.setup, object: i, covers }))
                     }
                 })
             })

@@ -172,6 +172,23 @@ impl GpuRenderer {
         Ok(self.draw.draw(&self.shading, &scene.camera, env_from_world)?)
     }
 
+    /// Draws `objects` through the lobe path with the environment behind, the objects
+    /// `pixels` selects by the RSL sum per pixel over the last
+    /// [`GpuRenderer::dispatch_covers`] in the same pass
+    /// ([`rsl_gpu::draw::GpuDraw::draw_lobes_and_pixels`]); `(eye, intensity)`: the camera's
+    /// eye and the environment's intensity.
+    pub fn draw_lobes_and_pixels(
+        &mut self,
+        objects: &[rsl_gpu::lobes::LobeObject<'_>],
+        pixels: Option<&[bool]>,
+        camera: &rsl_scene::Camera,
+        env_from_world: Mat3,
+        view: (glam::Vec3, f32),
+    ) -> Result<PassTime> {
+        let pixels = pixels.map(|p| (&self.shading, p));
+        Ok(self.draw.draw_lobes_and_pixels(objects, pixels, camera, env_from_world, view)?)
+    }
+
     /// The adapter, in words.
     pub fn describe(&self) -> String {
         self.shading.context().describe()
@@ -237,7 +254,14 @@ impl GpuRenderer {
         self.dispatch_with(engine, scene, t, terms, true)
     }
 
-    fn dispatch_with(&mut self, engine: &Engine, scene: &Scene, t: f32, terms: Terms, covers: bool) -> Result<PassTime> {
+    fn dispatch_with(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        t: f32,
+        terms: Terms,
+        covers: bool,
+    ) -> Result<PassTime> {
         let state = scene.at(t);
         let objects = engine.objects(scene, &state)?;
         let g = geometry_key(engine);

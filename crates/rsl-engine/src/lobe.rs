@@ -25,17 +25,18 @@
 //! interpolated from the vertices, a traced light's traced from the pixel), over the same
 //! sum unshadowed ([`rsl_shade::draw_pixels`]). With a GPU ([`Composite::on_gpu`]) its draw pass
 //! (`shaders/draw/lobes.wgsl`) looks the lobes up per pixel and interpolates the ratio from
-//! the vertices (the RSL sum per pixel has no GPU pass).
+//! the vertices; the objects drawn by the RSL sum per pixel are shaded and drawn on the GPU
+//! in the same pass (`shaders/draw/pixels.wgsl`).
 
 use crate::compose::{FrameContext, GpuImage, GpuLobe, GpuObject, ObjectDrawing, Part, PixelShader};
 use crate::engine::{Engine, EnvRadiance};
+use crate::gpu::GpuRenderer;
 use crate::progress::Timings;
 use anyhow::{Context, Result};
 use glam::Vec3;
 use rayon::prelude::*;
 use rsl_brdf::Brdf;
 use rsl_gpu::GpuContext;
-use rsl_gpu::draw::GpuDraw;
 use rsl_gpu::lobes::LobeObject;
 use rsl_lobe::{
     FitParams, MaterialLobes, PackedEnvironment, PackedMaterial, PrefilterParams, Prefiltered, TransportLobes,
@@ -80,13 +81,12 @@ struct PreparedFrame {
     transport: Vec<Option<Arc<TransportLobes>>>,
 }
 
-/// The GPU draw pass of [`Composite::on_gpu`] and what it holds.
+/// The GPU passes of [`Composite::on_gpu`] and what they hold: the shading pass (for the
+/// objects drawn by the RSL sum per pixel) and the draw pass.
 pub(crate) struct GpuLobes {
-    draw: GpuDraw,
+    renderer: GpuRenderer,
     /// The prefiltered environment uploaded: (content key, top κ).
     lobe_env: Option<(u64, u32)>,
-    /// The backdrop uploaded: (content key, intensity bits).
-    backdrop: Option<(u64, u32)>,
 }
 
 impl LobeDrawing {
@@ -379,6 +379,10 @@ impl ObjectDrawing for LobeDrawing {
         if self.fields { "transport lobes shadowed by the fields" } else { "vMF lobes × RSL visibility" }.into()
     }
 
+    fn on_gpu(&self) -> bool {
+        true
+    }
+
     /// Each object's lobes (its transport lobes for the lobe path) and the environment
     /// prefiltered for the sharpest.
     fn prepare(&mut self, engine: &Engine, which: &[bool], timings: &mut Timings) -> Result<()> {
@@ -480,7 +484,7 @@ impl ObjectDrawing for LobeDrawing {
                 *stats = per_vertex.iter().fold(*stats, |a, p| a.plus(p.2));
                 let shader = shader(l, nor, per_vertex.iter().map(|p| p.1).collect(), None);
                 let radiance = per_vertex.iter().map(|p| p.0).collect();
-                parts[i] = Some(Part { radiance, pixels: Some(Box::new(shader)) });
+                parts[i] = Some(Part::per_pixel(radiance, Box::new(shader)));
             }
             return Ok(parts);
         }
@@ -508,7 +512,7 @@ impl ObjectDrawing for LobeDrawing {
                 })
                 .collect();
             let shader = shader(l, nor, ratio, ratio_at_pixels.then_some((untraced, bare_untraced)));
-            parts[i] = Some(Part { radiance, pixels: Some(Box::new(shader)) });
+            parts[i] = Some(Part::per_pixel(radiance, Box::new(shader)));
         }
         Ok(parts)
     }
@@ -562,13 +566,13 @@ impl PixelShader for LobeShader<'_> {
 impl GpuLobes {
     /// The draw pass on `ctx`.
     pub(crate) fn new(ctx: Arc<GpuContext>) -> Result<Self> {
-        let draw = GpuDraw::new(ctx).context("building the GPU draw pass")?;
-        Ok(Self { draw, lobe_env: None, backdrop: None })
+        let renderer = GpuRenderer::with_context(ctx).context("building the GPU passes")?;
+        Ok(Self { renderer, lobe_env: None })
     }
 
     /// The adapter, in words.
     pub(crate) fn adapter(&self) -> String {
-        self.draw.context().describe()
+        self.renderer.describe()
     }
 }
 
@@ -580,43 +584,65 @@ impl GpuImage for GpuLobes {
         positions: &[Vec<Vec3>],
         normals: &[Vec<Vec3>],
         timings: &mut Timings,
-    ) -> Result<rsl_shade::Image> {
+    ) -> Result<(rsl_shade::Image, Vec<Option<Vec<Vec3>>>)> {
         let engine = ctx.engine;
-        let env_key = engine.environment_key();
         // The environment the lobes were drawn with (prefiltered up to the sharpest of them).
         if let Some(GpuLobe { env: (prefiltered, key), .. }) = objects.iter().find_map(|o| o.lobes.as_ref())
             && self.lobe_env != Some(*key)
         {
             self.lobe_env = None;
-            self.draw
+            self.renderer
+                .draw_mut()
                 .set_lobe_environment(&PackedEnvironment::new(prefiltered))
                 .context("uploading the prefiltered environment")?;
             self.lobe_env = Some(*key);
         }
-        let backdrop = (env_key, engine.intensity().to_bits());
-        if self.backdrop != Some(backdrop) {
-            self.backdrop = None;
-            self.draw.set_backdrop(&crate::gpu::backdrop(engine)).context("uploading the environment map")?;
-            self.backdrop = Some(backdrop);
+        self.renderer.set_backdrop(engine)?;
+        // The objects drawn by the RSL sum per pixel: shaded here, covers and all.
+        let rsl_pixels: Vec<bool> = objects.iter().map(|o| o.rsl_pixels).collect();
+        let mut radiance = vec![None; objects.len()];
+        if rsl_pixels.contains(&true) {
+            let time = ctx.request.time;
+            let pass = self.renderer.dispatch_covers(engine, ctx.scene, time, Terms::default())?;
+            timings.add("shade (GPU)", pass.wall_ms, pass.gpu_ms);
+            let start = Instant::now();
+            let shaded = self.renderer.read_frame(engine, ctx.scene, time)?;
+            timings.add("vertex readback", start.elapsed().as_secs_f64() * 1e3, None);
+            for (i, r) in shaded.radiance.into_iter().enumerate() {
+                if rsl_pixels[i] {
+                    radiance[i] = Some(r);
+                }
+            }
         }
         let packed: Vec<Option<PackedMaterial>> =
             objects.iter().map(|o| o.lobes.as_ref().map(|l| PackedMaterial::new(l.material))).collect();
+        // The lobe pass draws the others: the objects drawn per pixel by the RSL sum get no
+        // triangles there.
         let lobe_objects: Vec<LobeObject<'_>> = (0..objects.len())
-            .map(|i| LobeObject {
-                positions: &positions[i],
-                normals: &normals[i],
-                indices: &ctx.scene.objects[i].mesh.indices,
-                material: packed[i].as_ref(),
-                values: objects[i].values,
+            .map(|i| match rsl_pixels[i] {
+                true => LobeObject { positions: &[], normals: &[], indices: &[], material: None, values: &[] },
+                false => LobeObject {
+                    positions: &positions[i],
+                    normals: &normals[i],
+                    indices: &ctx.scene.objects[i].mesh.indices,
+                    material: packed[i].as_ref(),
+                    values: objects[i].values,
+                },
             })
             .collect();
         let env_from_world = glam::Mat3::from_quat(ctx.state.world_from_env.inverse());
         let start = Instant::now();
-        let eye = ctx.eye();
         let camera = &ctx.scene.camera;
-        let pass = self.draw.draw_lobes(&lobe_objects, camera, env_from_world, eye, engine.intensity())?;
-        let (pixels, covered) = self.draw.read_linear()?;
+        let pixels = rsl_pixels.contains(&true).then_some(rsl_pixels.as_slice());
+        let pass = self.renderer.draw_lobes_and_pixels(
+            &lobe_objects,
+            pixels,
+            camera,
+            env_from_world,
+            (ctx.eye(), engine.intensity()),
+        )?;
+        let (pixels, covered) = self.renderer.draw_mut().read_linear()?;
         timings.add("draw per pixel (GPU)", start.elapsed().as_secs_f64() * 1e3, pass.gpu_ms);
-        Ok(rsl_shade::Image { width: camera.width, height: camera.height, pixels, covered })
+        Ok((rsl_shade::Image { width: camera.width, height: camera.height, pixels, covered }, radiance))
     }
 }

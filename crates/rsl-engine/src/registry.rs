@@ -254,8 +254,7 @@ impl MethodId {
     pub const DEFAULTS: [MethodId; 2] = [MethodId::AUTO, MethodId::RSL];
 
     /// The default method of `rsl render`, `rsl demo` and the viewer on `device`: the first
-    /// of [`MethodId::DEFAULTS`] that runs there (`auto`, which is CPU-only, except where a
-    /// GPU is asked for).
+    /// of [`MethodId::DEFAULTS`] that runs there (`auto`, on the CPU and the GPU alike).
     pub fn default_on(device: Device) -> MethodId {
         let runs = |m: &MethodId| {
             let c = m.capabilities();
@@ -500,8 +499,11 @@ fn make_lobe(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
     Ok(Box::new(lobes_on(o)?.with_fields(true)))
 }
 
-fn make_auto(_: &Engine, _: &MethodOptions) -> Result<Box<dyn Method>> {
-    Ok(Box::new(Composite::auto()))
+fn make_auto(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
+    Ok(Box::new(match gpu_context(o)? {
+        Some(ctx) => Composite::auto_on_gpu(ctx)?,
+        None => Composite::auto(),
+    }))
 }
 
 fn make_truth(engine: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
@@ -564,7 +566,6 @@ static BUILT_IN: [Registration; 7] = [
         when: "scenes that mix materials; `rsl render --explain` says what each object got and why",
         capabilities: Capabilities {
             image: ImageKind::PerPixel,
-            gpu: false,
             oracles: false,
             incremental: Incremental::Frames,
             ..CPU_RSL
@@ -629,12 +630,11 @@ mod tests {
     }
 
     #[test]
-    fn the_default_is_auto_where_it_runs_and_rsl_on_a_gpu() {
-        assert_eq!(MethodId::default_on(Device::Cpu), MethodId::AUTO);
-        assert_eq!(MethodId::default_on(Device::Auto), MethodId::AUTO);
-        let on_gpu = MethodId::default_on(Device::Gpu);
-        assert!(on_gpu.capabilities().gpu, "{on_gpu} runs on the GPU");
-        assert_eq!(on_gpu, if MethodId::AUTO.capabilities().gpu { MethodId::AUTO } else { MethodId::RSL });
+    fn the_default_is_auto_on_every_device() {
+        for device in Device::ALL {
+            assert_eq!(MethodId::default_on(device), MethodId::AUTO, "{device}");
+        }
+        assert!(MethodId::AUTO.capabilities().gpu && MethodId::PIXEL.capabilities().gpu);
     }
 
     #[test]

@@ -199,3 +199,13 @@ fn hybrid_gpu() {
 fn lobe_gpu() {
     golden("lobe-gpu");
 }
+
+#[test]
+fn pixel_gpu() {
+    golden("pixel-gpu");
+}
+
+#[test]
+fn auto_gpu() {
+    golden("auto-gpu");
+}

@@ -178,8 +178,10 @@ struct LobePass {
 enum Objects<'a> {
     /// The shading pass's vertices, their radiance interpolated.
     Shaded(&'a GpuShading),
-    /// The lobe path per pixel, from the buffers [`GpuDraw::draw_lobes`] filled.
-    Lobes(u32),
+    /// The lobe path per pixel, from the buffers [`GpuDraw::draw_lobes`] filled (their index
+    /// count), and the objects the RSL sum per pixel draws beside them (their ranges in the
+    /// shading pass's index buffer).
+    Lobes(u32, Option<(&'a GpuShading, Vec<std::ops::Range<u32>>)>),
     /// The RSL sum per pixel over the shading pass's covers ([`GpuDraw::draw_pixels`]).
     Pixels(&'a GpuShading),
     /// Vertices shaded elsewhere, from the buffers [`GpuDraw::draw_meshes`] filled: the
@@ -293,34 +295,7 @@ impl GpuDraw {
         if bytes > limit {
             return Err(GpuError::TooLarge { what: "the prefiltered environment".into(), bytes, limit });
         }
-        if self.lobes.is_none() {
-            let attrs = [
-                wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 0, shader_location: 0 },
-                wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 16, shader_location: 1 },
-                wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 32, shader_location: 2 },
-            ];
-            let layout = wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<LobeVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &attrs,
-            };
-            let pipeline = render_pipeline(&self.ctx, &shaders::DRAW_LOBES, &[layout], true)?;
-            let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-            self.lobes = Some(LobePass {
-                pipeline,
-                params: self.buffer(
-                    "lobe params",
-                    std::mem::size_of::<LobeParams>() as u64,
-                    wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                ),
-                levels: self.buffer("prefiltered levels", 16, storage),
-                texels: self.buffer("prefiltered texels", 16, storage),
-                level_count: 0,
-                materials: self.buffer("material lobes", 16, storage),
-                vertices: self.buffer("lobe vertices", 48, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
-                indices: self.buffer("lobe indices", 4, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
-            });
-        }
+        self.lobe_pass()?;
         let level_bytes: Vec<u8> = bytemuck::cast_slice(&levels).to_vec();
         let texel_bytes: Vec<u8> = bytemuck::cast_slice(&texels).to_vec();
         let (ctx, lobes) = (self.ctx.clone(), self.lobes.as_mut().expect("just made"));
@@ -330,11 +305,47 @@ impl GpuDraw {
         Ok(())
     }
 
+    /// Builds the lobe path's pipeline and buffers on first use (no environment yet: objects
+    /// without lobes can be drawn before one is set).
+    fn lobe_pass(&mut self) -> Result<(), GpuError> {
+        if self.lobes.is_some() {
+            return Ok(());
+        }
+        let attrs = [
+            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 0, shader_location: 0 },
+            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 16, shader_location: 1 },
+            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 32, shader_location: 2 },
+        ];
+        let layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<LobeVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attrs,
+        };
+        let pipeline = render_pipeline(&self.ctx, &shaders::DRAW_LOBES, &[layout], true)?;
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        self.lobes = Some(LobePass {
+            pipeline,
+            params: self.buffer(
+                "lobe params",
+                std::mem::size_of::<LobeParams>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            levels: self.buffer("prefiltered levels", 16, storage),
+            texels: self.buffer("prefiltered texels", 16, storage),
+            level_count: 0,
+            materials: self.buffer("material lobes", 16, storage),
+            vertices: self.buffer("lobe vertices", 48, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
+            indices: self.buffer("lobe indices", 4, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
+        });
+        Ok(())
+    }
+
     /// Draws `objects` per pixel through the lobe path (`shaders/draw/lobes.wgsl`: each
     /// pixel's own normal and view, one prefiltered lookup per lobe, times its interpolated
     /// visibility ratio; objects without a material interpolate their radiance), with the
     /// environment behind, into the linear image; waits for it. `eye` is the camera's eye and
-    /// `intensity` the environment's. Needs [`GpuDraw::set_lobe_environment`] first.
+    /// `intensity` the environment's. Objects with lobes need [`GpuDraw::set_lobe_environment`]
+    /// first.
     pub fn draw_lobes(
         &mut self,
         objects: &[LobeObject<'_>],
@@ -343,24 +354,54 @@ impl GpuDraw {
         eye: Vec3,
         intensity: f32,
     ) -> Result<PassTime, GpuError> {
+        self.draw_lobes_and_pixels(objects, None, camera, env_from_world, (eye, intensity))
+    }
+
+    /// [`GpuDraw::draw_lobes`] in one pass with [`GpuDraw::draw_pixels`]: the objects
+    /// `pixels` selects drawn by the RSL sum per pixel over what `shading`'s last
+    /// [`GpuShading::shade_covers`] kept (give them no triangles in `objects`), the others
+    /// through the lobe path.
+    pub fn draw_lobes_and_pixels(
+        &mut self,
+        objects: &[LobeObject<'_>],
+        pixels: Option<(&GpuShading, &[bool])>,
+        camera: &Camera,
+        env_from_world: Mat3,
+        (eye, intensity): (Vec3, f32),
+    ) -> Result<PassTime, GpuError> {
         self.ctx.check_alive()?;
+        let pixels = match pixels {
+            None => None,
+            Some((shading, which)) => {
+                self.prepare_pixels(shading)?;
+                let ranges = (0..which.len())
+                    .filter(|&i| which[i])
+                    .map(|i| {
+                        shading.object_indices(i).ok_or_else(|| GpuError::Scene(format!("object {i} is not loaded")))
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                Some((shading, ranges))
+            }
+        };
         let (vertices, indices, materials) = pack_objects(objects).map_err(GpuError::Scene)?;
         let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
         let bytes = (materials.len() * 16) as u64;
         if bytes > limit {
             return Err(GpuError::TooLarge { what: "the material lobes".into(), bytes, limit });
         }
-        let ctx = self.ctx.clone();
-        let Some(lobes) = self.lobes.as_mut() else {
+        if objects.iter().any(|o| o.material.is_some()) && self.lobes.as_ref().is_none_or(|l| l.level_count == 0) {
             return Err(GpuError::Scene("draw_lobes before set_lobe_environment".into()));
-        };
+        }
+        self.lobe_pass()?;
+        let ctx = self.ctx.clone();
+        let lobes = self.lobes.as_mut().expect("just made");
         let params =
             LobeParams { eye: eye.extend(intensity).to_array(), levels: lobes.level_count, ..Default::default() };
         ctx.queue.write_buffer(&lobes.params, 0, bytemuck::bytes_of(&params));
         upload(&ctx, &mut lobes.materials, bytemuck::cast_slice(&materials), "material lobes");
         upload(&ctx, &mut lobes.vertices, bytemuck::cast_slice(&vertices), "lobe vertices");
         upload(&ctx, &mut lobes.indices, bytemuck::cast_slice(&indices), "lobe indices");
-        self.pass(Objects::Lobes(indices.len() as u32), camera, env_from_world)
+        self.pass(Objects::Lobes(indices.len() as u32, pixels), camera, env_from_world)
     }
 
     fn buffer(&self, label: &str, size: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
@@ -477,6 +518,13 @@ impl GpuDraw {
         camera: &Camera,
         env_from_world: Mat3,
     ) -> Result<PassTime, GpuError> {
+        self.prepare_pixels(shading)?;
+        self.pass(Objects::Pixels(shading), camera, env_from_world)
+    }
+
+    /// Builds the per-pixel pipeline on first use and writes its parameters from what
+    /// `shading`'s last [`GpuShading::shade_covers`] put where.
+    fn prepare_pixels(&mut self, shading: &GpuShading) -> Result<(), GpuError> {
         let Some(layout) = shading.pixel_layout() else {
             return Err(GpuError::Scene("draw_pixels needs the covers of shade_covers first".into()));
         };
@@ -506,7 +554,7 @@ impl GpuDraw {
         let params = pixel_params(&layout, shading.vertex_count());
         let (_, buffer) = self.pixels.as_ref().expect("just made");
         self.ctx.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&params));
-        self.pass(Objects::Pixels(shading), camera, env_from_world)
+        Ok(())
     }
 
     /// Draws meshes whose vertices were shaded elsewhere (the CPU path: world positions and
@@ -590,6 +638,30 @@ impl GpuDraw {
         Ok((vertices as u32, indices.len() as u32))
     }
 
+    /// The per-pixel pipeline and its bind group over `shading`'s buffers.
+    fn pixel_bind(&self, shading: &GpuShading) -> Result<(wgpu::RenderPipeline, wgpu::BindGroup), GpuError> {
+        let Some((pipeline, params)) = &self.pixels else {
+            return Err(GpuError::Scene("the per-pixel pass is not set up".into()));
+        };
+        let mut entries = vec![
+            wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
+        ];
+        entries.extend(
+            shading
+                .pixel_buffers()
+                .into_iter()
+                .enumerate()
+                .map(|(k, b)| wgpu::BindGroupEntry { binding: 2 + k as u32, resource: b.as_entire_binding() }),
+        );
+        let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("draw pixels"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        Ok((pipeline.clone(), bind))
+    }
+
     /// One draw pass: the background, then `objects`.
     /// The draw parameters of `camera` and `env_from_world` with the environment held.
     fn params(&self, camera: &Camera, env_from_world: Mat3) -> DrawParams {
@@ -640,7 +712,7 @@ impl GpuDraw {
                 });
                 (pipeline, bind)
             }
-            (Objects::Lobes(_), Some(l)) => (
+            (Objects::Lobes(..), Some(l)) => (
                 l.pipeline.clone(),
                 d.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("draw lobes"),
@@ -654,29 +726,13 @@ impl GpuDraw {
                     ],
                 }),
             ),
-            (Objects::Lobes(_), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
-            (Objects::Pixels(shading), _) => {
-                let Some((pipeline, params)) = &self.pixels else {
-                    return Err(GpuError::Scene("the per-pixel pass is not set up".into()));
-                };
-                let mut entries = vec![
-                    wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
-                ];
-                entries.extend(
-                    shading
-                        .pixel_buffers()
-                        .into_iter()
-                        .enumerate()
-                        .map(|(k, b)| wgpu::BindGroupEntry { binding: 2 + k as u32, resource: b.as_entire_binding() }),
-                );
-                let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("draw pixels"),
-                    layout: &pipeline.get_bind_group_layout(0),
-                    entries: &entries,
-                });
-                (pipeline.clone(), bind)
-            }
+            (Objects::Lobes(..), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
+            (Objects::Pixels(shading), _) => self.pixel_bind(shading)?,
+        };
+        // The RSL sum per pixel beside the lobes.
+        let beside = match &objects {
+            Objects::Lobes(_, Some((shading, ranges))) => Some((self.pixel_bind(shading)?, ranges.clone())),
+            _ => None,
         };
         let keeps = matches!(objects, Objects::Meshes(..) | Objects::MeshesAgain(..));
         let lobe_buffers = self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone()));
@@ -802,13 +858,20 @@ impl GpuDraw {
                         pass.draw(0..count, 0..1);
                     }
                 }
-                Objects::Lobes(count) => {
+                Objects::Lobes(count, _) => {
                     if let (Some((vertices, indices)), true) = (&lobe_buffers, count > 0) {
                         pass.set_pipeline(&obj_pipeline);
                         pass.set_bind_group(0, &obj_bind, &[]);
                         pass.set_vertex_buffer(0, vertices.slice(..));
                         pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
                         pass.draw_indexed(0..count, 0, 0..1);
+                    }
+                    if let Some(((pipeline, bind), ranges)) = &beside {
+                        pass.set_pipeline(pipeline);
+                        pass.set_bind_group(0, bind, &[]);
+                        for r in ranges.iter().filter(|r| !r.is_empty()) {
+                            pass.draw(r.clone(), 0..1);
+                        }
                     }
                 }
             }

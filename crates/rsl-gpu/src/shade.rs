@@ -254,6 +254,8 @@ pub const BVH_STACK: usize = 64;
 struct Placement {
     vertex_offset: u32,
     vertex_count: u32,
+    /// The object's first index in the scene's index buffer, and its index count.
+    indices: (u32, u32),
     fields: u32,
     svdf: (Compressed, u32, u32),
     ovdf: Option<(Vec3, f32, [u32; 5])>,
@@ -481,6 +483,7 @@ impl GpuShading {
                     vis_n: vec4(f.n, o.mask.sin_tilt(v)),
                 });
             }
+            let first_index = indices.len() as u32;
             indices.extend(o.mesh.indices.iter().map(|&k| k + offset));
             let svdf = *svdfs.entry(std::ptr::from_ref(o.svdf)).or_insert_with(|| match o.svdf {
                 Svdf::Convex { .. } => None,
@@ -524,6 +527,7 @@ impl GpuShading {
             placements.push(Placement {
                 vertex_offset: offset,
                 vertex_count: n as u32,
+                indices: (first_index, o.mesh.indices.len() as u32),
                 fields: if svdf.is_some() { HAS_SVDF } else { 0 } | if ovdf.is_some() { HAS_OVDF } else { 0 },
                 svdf: svdf.unwrap_or_default(),
                 ovdf,
@@ -919,6 +923,11 @@ impl GpuShading {
     /// radiances (vec4); usable as vertex data.
     pub fn shaded_buffer(&self) -> &wgpu::Buffer {
         &self.shaded.buffer
+    }
+
+    /// Where object `i`'s triangles are in the index buffer ([`GpuShading::index_buffer`]).
+    pub fn object_indices(&self, i: usize) -> Option<std::ops::Range<u32>> {
+        self.placements.get(i).map(|p| p.indices.0..p.indices.0 + p.indices.1)
     }
 
     /// The index buffer of all loaded triangles (u32, global vertex indices) and its length.
