@@ -28,11 +28,10 @@ fn render_on_the_gpu_writes_the_same_outputs() {
     let cache = std::env::temp_dir().join(format!("rsl-gpu-test-{}", std::process::id()));
     let cache = cache.to_str().unwrap();
     let common = ["--time", "1.0", "--cache", cache, "--timings"];
-    run(&[&["render", scene, "--device", "gpu", "--out", &out("g.exr"), "--vertex-out", &out("g.ply")], &common[..]]
-        .concat())
-    .unwrap();
-    run(&[&["render", scene, "--device", "gpu", "--out", &out("g.png")], &common[..]].concat()).unwrap();
-    // The same method on both devices (`--device gpu` draws `rsl` by default; the CPU `auto`).
+    let gpu = ["render", scene, "--device", "gpu", "--method", "rsl"];
+    run(&[&gpu[..], &["--out", &out("g.exr"), "--vertex-out", &out("g.ply")], &common[..]].concat()).unwrap();
+    run(&[&gpu[..], &["--out", &out("g.png")], &common[..]].concat()).unwrap();
+    // The same method on both devices.
     run(&[
         &["render", scene, "--device", "cpu", "--method", "rsl", "--out", &out("c.exr"), "--vertex-out", &out("c.ply")],
         &common[..],
