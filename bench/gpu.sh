@@ -44,7 +44,7 @@ run() { # method device frames
 }
 
 mkdir -p "$out/img"
-for m in rsl pixel hybrid lobe; do
+for m in rsl pixel auto hybrid lobe; do
     run "$m" gpu "$frames"
     rm -f "$out"/img/*
 done
