@@ -240,7 +240,15 @@ fn others_cover(nears: ptr<function, Nears>, i: u32, x: vec3<f32>, l: u32, r: f3
         }
         cover *= occluder_coverage((*nears).items[k], l, r);
     }
-    for (var j = (*nears).overflow; j < object_count; j++) {
+    return occluders_from((*nears).overflow, i, x, l, r, cover, object_count);
+}
+
+// `cover` times the occluder fields of objects `first..` (all but i) for light l at world
+// point x, each located there (culled by the light's cone; nothing looked up once it is
+// zero).
+fn occluders_from(first: u32, i: u32, x: vec3<f32>, l: u32, r: f32, cover_in: f32, object_count: u32) -> f32 {
+    var cover = cover_in;
+    for (var j = first; j < object_count; j++) {
         if cover <= 0.0 {
             break;
         }

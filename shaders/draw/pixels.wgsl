@@ -268,29 +268,6 @@ fn mean_cover(a: Interpolated) -> f32 {
     return select(0.0, clamp(a.value / a.weight, 0.0, 1.0), a.weight > 0.0);
 }
 
-// rsl_shade's occluder_cover at world point x of object i: `cover` times every other
-// object's occluder field for light l (culled by its cone; nothing looked up once it is
-// zero). The occluders are located here for each light found at the pixel, rather than
-// kept in a list as at a vertex: few pixels find any, and a list of them would hold the
-// fragment's registers.
-fn occluders_at(i: u32, x: vec3<f32>, l: u32, cover_in: f32) -> f32 {
-    var cover = cover_in;
-    for (var j = 0u; j < pixel.object_count; j++) {
-        if cover <= 0.0 {
-            break;
-        }
-        if j == i || (objects[j].fields & HAS_OVDF) == 0u {
-            continue;
-        }
-        let n = near(j, x);
-        if !n.found || culled(n, l) {
-            continue;
-        }
-        cover *= occluder_coverage(n, l, frame[3u * l].w);
-    }
-    return cover;
-}
-
 // occluders_at_point's rough share of a light in the point's irradiance (normal n).
 fn light_share(l: u32, n: vec3<f32>) -> f32 {
     let r = frame[3u * l].w;
@@ -370,7 +347,10 @@ fn fs_pixels(v: PixelVertexOut) -> @location(0) vec4<f32> {
             cover = traced_at(i, x, sf.n, face, l, slot - 1u);
             found = true;
         } else if spreads && s.hi - s.lo > COVER_SPREAD && (s.hi - s.lo) * light_share(l, sf.n) > least && s.weight > 0.0 {
-            let here = occluders_at(i, x, l, clamp(s.own / s.weight, 0.0, 1.0));
+            // The occluders located here (few pixels refine any: a list of them, as a vertex
+            // keeps, would hold the fragment's registers).
+            let own = clamp(s.own / s.weight, 0.0, 1.0);
+            let here = occluders_from(0u, i, x, l, frame[3u * l].w, own, pixel.object_count);
             change = here - cover;
             cover = here;
             found = true;
