@@ -474,6 +474,10 @@ impl Method for CpuRslPixels {
     }
 }
 
+/// The warning of a GPU method whose quality asks for antialiasing (`{aa}`: the samples).
+pub(crate) const GPU_ONE_SAMPLE: &str =
+    "the GPU draws one sample at each pixel's centre: antialiasing (aa = {aa}) is drawn on the CPU only (--device cpu)";
+
 /// The GPU RSL path: the wgpu compute pass and draw pass, drawing the vertices' radiance
 /// interpolated (method `rsl`) or the RSL sum per pixel (method `pixel`: the shading pass
 /// keeps every light's cover at the vertices, and the draw pass evaluates each pixel as
@@ -510,12 +514,8 @@ impl Method for GpuRsl {
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
         let mut timings = Timings::default();
         let (image, encoded) = if request.image {
-            if engine.antialias() > 1 && !self.warned {
-                tracing::warn!(
-                    "the GPU draws one sample at each pixel's centre: antialiasing (aa = {}) is drawn on the CPU only (--device cpu)",
-                    engine.antialias()
-                );
-                self.warned = true;
+            if engine.antialias() > 1 && !std::mem::replace(&mut self.warned, true) {
+                tracing::warn!("{}", GPU_ONE_SAMPLE.replace("{aa}", &engine.antialias().to_string()));
             }
             let g =
                 self.renderer.render(engine, scene, request.time, self.per_pixel, (request.exposure, exposure_for))?;
