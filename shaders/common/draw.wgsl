@@ -13,8 +13,10 @@ struct DrawParams {
     constant: vec4<f32>,
     map_width: u32,
     map_height: u32,
-    pad0: u32,
-    pad1: u32,
+    // Where this pass samples each pixel, as a shift of the image in pixels (x right, y
+    // down): 0.5 − o for the sample at offset o in the pixel's square (an antialiased
+    // image's samples, rsl_shade::antialias); 0 at the centre.
+    shift: vec2<f32>,
 }
 
 @group(0) @binding(0) var<uniform> draw: DrawParams;

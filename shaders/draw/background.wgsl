@@ -81,9 +81,11 @@ fn vs_background(@builtin(vertex_index) k: u32) -> @builtin(position) vec4<f32> 
 
 @fragment
 fn fs_background(@builtin(position) pixel: vec4<f32>) -> @location(0) vec4<f32> {
-    // pixel.xy is the pixel centre (x + ½, y + ½), row 0 at the top.
-    let nx = (2.0 * pixel.x / draw.lens.z - 1.0) * draw.lens.x;
-    let ny = (1.0 - 2.0 * pixel.y / draw.lens.w) * draw.lens.y;
+    // pixel.xy is the pixel centre (x + ½, y + ½), row 0 at the top; the sample is shifted
+    // from it by −shift (the pass's sub-pixel offset).
+    let at = pixel.xy - draw.shift;
+    let nx = (2.0 * at.x / draw.lens.z - 1.0) * draw.lens.x;
+    let ny = (1.0 - 2.0 * at.y / draw.lens.w) * draw.lens.y;
     let d = normalize(draw.world_from_camera * vec3<f32>(nx, ny, -1.0));
     var l = draw.constant.xyz;
     if draw.map_width > 0u {

@@ -35,6 +35,8 @@ struct VertexOut {
     @location(1) normal: vec3<f32>,
     @location(2) ratio: vec3<f32>,
     @location(3) @interpolate(flat) material: u32,
+    // The object's index + 1 (the position's w).
+    @location(4) @interpolate(flat) object: f32,
 }
 
 @vertex
@@ -49,6 +51,7 @@ fn vs_lobes(
         normal.xyz,
         ratio.xyz,
         bitcast<u32>(normal.w),
+        position.w,
     );
 }
 
@@ -221,11 +224,11 @@ fn lobe_radiance(base: u32, f: Frame, view: vec3<f32>) -> vec3<f32> {
 @fragment
 fn fs_lobes(v: VertexOut) -> @location(0) vec4<f32> {
     if v.material == NO_MATERIAL {
-        return vec4<f32>(v.ratio, 1.0);
+        return vec4<f32>(v.ratio, v.object);
     }
     let f = frame_from_normal(v.normal);
     let view = normalize_or_zero(lobe.eye.xyz - v.position);
     let radiance = lobe_radiance(v.material, f, to_local(f, view)) * lobe.eye.w * v.ratio;
-    // Alpha 1: covered by an object.
-    return vec4<f32>(radiance, 1.0);
+    // Alpha: the object's index + 1 (covered by an object).
+    return vec4<f32>(radiance, v.object);
 }

@@ -277,13 +277,20 @@ fn light_share(l: u32, n: vec3<f32>) -> f32 {
 
 @fragment
 fn fs_pixels(v: PixelVertexOut) -> @location(0) vec4<f32> {
+    // Alpha: the object's index + 1 (covered by an object).
+    let object = vertices[indices[3u * v.triangle]].object;
+    return vec4<f32>(pixel_radiance(v), f32(object + 1u));
+}
+
+// The radiance the fragment `v` shows.
+fn pixel_radiance(v: PixelVertexOut) -> vec3<f32> {
     let t = v.triangle;
     let c = vec3<u32>(indices[3u * t], indices[3u * t + 1u], indices[3u * t + 2u]);
     let w = v.weights;
     let nv = pixel.vertex_count;
     let i = vertices[c.x].object;
     if (object_flags(i) & PER_PIXEL) == 0u {
-        return vec4<f32>(w.x * shaded[nv + c.x].xyz + w.y * shaded[nv + c.y].xyz + w.z * shaded[nv + c.z].xyz, 1.0);
+        return w.x * shaded[nv + c.x].xyz + w.y * shaded[nv + c.y].xyz + w.z * shaded[nv + c.z].xyz;
     }
     let o = objects[i];
     let a = shaded[c.x].xyz;
@@ -308,7 +315,7 @@ fn fs_pixels(v: PixelVertexOut) -> @location(0) vec4<f32> {
         radiance = w.x * shaded[2u * nv + c.x].xyz + w.y * shaded[2u * nv + c.y].xyz + w.z * shaded[2u * nv + c.z].xyz;
     }
     if lookup.kind == VIEW_BELOW {
-        return vec4<f32>(radiance, 1.0);
+        return radiance;
     }
     // occluders_at_point: the lights whose other objects' part spreads over the corners.
     var spreads = false;
@@ -370,5 +377,5 @@ fn fs_pixels(v: PixelVertexOut) -> @location(0) vec4<f32> {
         let light = frame[3u * l];
         radiance += frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), light.w) * cover;
     }
-    return vec4<f32>(radiance, 1.0);
+    return radiance;
 }

@@ -65,7 +65,8 @@ fn at_vertex(g: u32) -> AtVertex {
     let vert = vertices[g];
     let o = objects[vert.object];
     let x = o.translation.xyz + o.linear_to_world * vert.position;
-    shaded[g] = vec4<f32>(x, 1.0);
+    // w: the object's index + 1, which the draw pass writes as each pixel's alpha.
+    shaded[g] = vec4<f32>(x, f32(vert.object + 1u));
     let sf = frame_from_normal_tangent(o.normal_to_world * vert.shade_n, o.linear_to_world * vert.shade_t.xyz);
     let view = to_local(sf, normalize_or_zero(params.eye.xyz - x));
     return AtVertex(vert, x, sf, view_lookup(table_of(o), view, params.eye.w));

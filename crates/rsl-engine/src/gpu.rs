@@ -120,8 +120,8 @@ impl GpuRenderer {
     }
 
     /// Shades and draws `scene` at time `t`: the linear image (read back) and its
-    /// tonemapped 8-bit form at `exposure` (`None`: automatic, from the linear image). Per
-    /// pixel, the RSL sum is evaluated at every pixel (the CPU's `pixel` drawing,
+    /// tonemapped 8-bit form at `exposure` (`None`: automatic, from the linear image),
+    /// antialiased as `engine`'s quality asks. Per pixel, the RSL sum is evaluated at every pixel (the CPU's `pixel` drawing,
     /// `shaders/draw/pixels.wgsl`) over every light's cover kept at the vertices; else the
     /// vertices' radiance is interpolated.
     pub fn render(
@@ -132,6 +132,7 @@ impl GpuRenderer {
         per_pixel: bool,
         (exposure, auto_exposure): (Option<f32>, impl Fn(&Image) -> f32),
     ) -> Result<GpuImage> {
+        self.draw.set_antialias(engine.antialias())?;
         let (shade, draw) = if per_pixel {
             let shade = self.dispatch_covers(engine, scene, t, Terms::default())?;
             self.set_backdrop(engine)?;

@@ -87,8 +87,6 @@ pub(crate) struct GpuLobes {
     renderer: GpuRenderer,
     /// The prefiltered environment uploaded: (content key, top κ).
     lobe_env: Option<(u64, u32)>,
-    /// Whether the warning about antialiasing was given.
-    warned: bool,
 }
 
 impl LobeDrawing {
@@ -569,7 +567,7 @@ impl GpuLobes {
     /// The draw pass on `ctx`.
     pub(crate) fn new(ctx: Arc<GpuContext>) -> Result<Self> {
         let renderer = GpuRenderer::with_context(ctx).context("building the GPU passes")?;
-        Ok(Self { renderer, lobe_env: None, warned: false })
+        Ok(Self { renderer, lobe_env: None })
     }
 
     /// The adapter, in words.
@@ -588,9 +586,7 @@ impl GpuImage for GpuLobes {
         timings: &mut Timings,
     ) -> Result<(rsl_shade::Image, Vec<Option<Vec<Vec3>>>)> {
         let engine = ctx.engine;
-        if engine.antialias() > 1 && !std::mem::replace(&mut self.warned, true) {
-            tracing::warn!("{}", crate::method::GPU_ONE_SAMPLE.replace("{aa}", &engine.antialias().to_string()));
-        }
+        self.renderer.draw_mut().set_antialias(engine.antialias())?;
         // The environment the lobes were drawn with (prefiltered up to the sharpest of them).
         if let Some(GpuLobe { env: (prefiltered, key), .. }) = objects.iter().find_map(|o| o.lobes.as_ref())
             && self.lobe_env != Some(*key)

@@ -474,34 +474,28 @@ impl Method for CpuRslPixels {
     }
 }
 
-/// The warning of a GPU method whose quality asks for antialiasing (`{aa}`: the samples).
-pub(crate) const GPU_ONE_SAMPLE: &str =
-    "the GPU draws one sample at each pixel's centre: antialiasing (aa = {aa}) is drawn on the CPU only (--device cpu)";
-
 /// The GPU RSL path: the wgpu compute pass and draw pass, drawing the vertices' radiance
 /// interpolated (method `rsl`) or the RSL sum per pixel (method `pixel`: the shading pass
 /// keeps every light's cover at the vertices, and the draw pass evaluates each pixel as
 /// [`CpuRslPixels`] does, `shaders/draw/pixels.wgsl`, traced lights through the objects'
-/// BVHs). One sample per pixel: the quality's antialiasing is not drawn on the GPU yet (a
-/// warning says so).
+/// BVHs), antialiased as the quality asks (`rsl_gpu::draw`'s antialias module, the CPU's
+/// samples).
 pub struct GpuRsl {
     /// The renderer (uploads follow the engine's content keys).
     pub renderer: GpuRenderer,
     /// Whether the image is drawn per pixel.
     pub per_pixel: bool,
-    /// Whether the warning about antialiasing was given.
-    warned: bool,
 }
 
 impl GpuRsl {
     /// The vertices interpolated (`rsl`) on `renderer`.
     pub fn vertices(renderer: GpuRenderer) -> Self {
-        Self { renderer, per_pixel: false, warned: false }
+        Self { renderer, per_pixel: false }
     }
 
     /// The RSL sum per pixel (`pixel`) on `renderer`.
     pub fn per_pixel(renderer: GpuRenderer) -> Self {
-        Self { renderer, per_pixel: true, warned: false }
+        Self { renderer, per_pixel: true }
     }
 }
 
@@ -514,9 +508,6 @@ impl Method for GpuRsl {
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
         let mut timings = Timings::default();
         let (image, encoded) = if request.image {
-            if engine.antialias() > 1 && !std::mem::replace(&mut self.warned, true) {
-                tracing::warn!("{}", GPU_ONE_SAMPLE.replace("{aa}", &engine.antialias().to_string()));
-            }
             let g =
                 self.renderer.render(engine, scene, request.time, self.per_pixel, (request.exposure, exposure_for))?;
             let t = g.timings;

@@ -451,17 +451,6 @@ pub fn gpu_context(options: &MethodOptions) -> Result<Option<Arc<GpuContext>>> {
     }
 }
 
-/// The GPU a method that draws per pixel runs on: as [`gpu_context`], except that on
-/// [`Device::Auto`] a quality that antialiases keeps it on the CPU (the GPU draws one sample
-/// per pixel; `--device gpu` asks for it anyway).
-fn per_pixel_gpu(engine: &Engine, options: &MethodOptions) -> Result<Option<Arc<GpuContext>>> {
-    if options.device == Device::Auto && engine.antialias() > 1 {
-        tracing::debug!("antialiasing (aa = {}) is drawn on the CPU only: drawing there", engine.antialias());
-        return Ok(None);
-    }
-    gpu_context(options)
-}
-
 const CPU_RSL: Capabilities = Capabilities {
     image: ImageKind::Vertices,
     cpu: true,
@@ -488,15 +477,15 @@ fn make_rsl(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
     })
 }
 
-fn make_pixel(engine: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
-    Ok(match per_pixel_gpu(engine, o)? {
+fn make_pixel(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
+    Ok(match gpu_context(o)? {
         Some(ctx) => Box::new(GpuRsl::per_pixel(GpuRenderer::with_context(ctx)?)),
         None => Box::new(CpuRslPixels),
     })
 }
 
-fn lobes_on(engine: &Engine, o: &MethodOptions) -> Result<Composite> {
-    Ok(match per_pixel_gpu(engine, o)? {
+fn lobes_on(_: &Engine, o: &MethodOptions) -> Result<Composite> {
+    Ok(match gpu_context(o)? {
         Some(ctx) => Composite::on_gpu(ctx)?,
         None => Composite::hybrid(),
     })
@@ -510,8 +499,8 @@ fn make_lobe(engine: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
     Ok(Box::new(lobes_on(engine, o)?.with_fields(true)))
 }
 
-fn make_auto(engine: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
-    Ok(Box::new(match per_pixel_gpu(engine, o)? {
+fn make_auto(_: &Engine, o: &MethodOptions) -> Result<Box<dyn Method>> {
+    Ok(Box::new(match gpu_context(o)? {
         Some(ctx) => Composite::auto_on_gpu(ctx)?,
         None => Composite::auto(),
     }))

@@ -21,8 +21,8 @@ fn engine(scene: &Scene) -> Engine {
     let cache = std::env::temp_dir().join(format!("rsl-gpu-test-{}", std::process::id()));
     let mut engine =
         Engine::new(scene, EngineOptions { cache_dir: Some(cache), ..Default::default() }).expect("engine");
-    // The GPU draws each pixel's centre (it does not antialias yet): the CPU images it is
-    // held to do the same.
+    // Each pixel's centre on both: these tests hold the GPU's shading and drawing to the
+    // CPU's (antialiasing is held to the CPU's in pixels.rs, the_gpu_antialiases_as_the_cpu_does).
     engine.set_antialias(1).unwrap();
     engine
 }

@@ -505,3 +505,48 @@ fn auto_on_the_gpu_draws_each_object_as_the_cpu_does() {
     assert!(apart * 1000 <= both, "{apart} of {both} pixels more than 1e-3 apart");
     assert!(l2 < 1e-4, "relative L2 {l2}");
 }
+
+#[test]
+fn the_gpu_antialiases_as_the_cpu_does() {
+    let Some(ctx) = rsl_gpu::testing::context_or_skip("the_gpu_antialiases_as_the_cpu_does") else {
+        return;
+    };
+    let ctx = std::sync::Arc::new(ctx);
+    // Two balls and a floor at 16 samples per pixel where the centre is not enough: the
+    // GPU's samples are the CPU's (the same edge pixels, the same offsets, the same second
+    // round), drawn by each GPU method against its CPU counterpart.
+    let mut s = mixed_scene_sized("auto", "hybrid", 96, 72);
+    s.quality.settings.aa = 16;
+    let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
+    assert_eq!(engine.antialias(), 16);
+    let renderer = || rsl_engine::gpu::GpuRenderer::with_context(ctx.clone()).expect("renderer");
+    // Each GPU method, and the CPU method it is held to.
+    type Pair = (&'static str, Box<dyn Method>, Box<dyn Method>);
+    let pairs: Vec<Pair> = vec![
+        ("rsl", Box::new(rsl_engine::method::GpuRsl::vertices(renderer())), Box::new(CpuRsl)),
+        ("pixel", Box::new(rsl_engine::method::GpuRsl::per_pixel(renderer())), Box::new(CpuRslPixels)),
+        (
+            "auto",
+            Box::new(Composite::auto_on_gpu(ctx.clone()).expect("the GPU passes build")),
+            Box::new(Composite::auto().with_vertex_ratios()),
+        ),
+    ];
+    for (name, mut gpu, mut cpu) in pairs {
+        let (g, c) = (render(gpu.as_mut(), &engine, &s, true), render(cpu.as_mut(), &engine, &s, true));
+        let (gi, ci) = (g.image.expect("GPU image"), c.image.expect("CPU image"));
+        // Against the same method's image of one sample per pixel: antialiasing changed it.
+        let mut one = s.clone();
+        one.quality.settings.aa = 1;
+        let centres = render(cpu.as_mut(), &Engine::new(&one, EngineOptions::default()).expect("engine"), &one, true);
+        let changed = pixel_l2(&ci, centres.image.as_ref().expect("image"));
+        let (differ, both, apart, l2) = gpu_against_cpu(&gi, &ci, 1e-3);
+        println!(
+            "{name}, aa = 16: GPU against CPU per pixel: relative L2 {l2:.2e}, {apart} of {both} pixels more than 1e-3 apart, {differ} covered by one only; antialiasing moved the CPU's image by {changed:.2e}"
+        );
+        assert!(changed > 1e-2, "{name}: antialiasing changed the image by {changed} only");
+        assert!(both > 2000, "{name}: {both} pixels covered");
+        assert!(differ * 200 <= both, "{name}: {differ} pixels covered by one rasteriser only");
+        assert!(apart * 1000 <= both, "{name}: {apart} of {both} pixels more than 1e-3 apart");
+        assert!(l2 < 1e-4, "{name}: relative L2 {l2}");
+    }
+}

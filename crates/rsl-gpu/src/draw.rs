@@ -13,7 +13,9 @@ use rsl_scene::Camera;
 use std::sync::Arc;
 use std::time::Instant;
 
+mod antialias;
 mod readback;
+pub use antialias::AaParams;
 use readback::tone_pipeline;
 
 /// Mirrors WGSL `DrawParams` in `shaders/common/draw.wgsl`.
@@ -34,10 +36,9 @@ pub struct DrawParams {
     pub map_width: u32,
     /// Map height.
     pub map_height: u32,
-    /// Padding.
-    pub pad0: u32,
-    /// Padding.
-    pub pad1: u32,
+    /// Where the pass samples each pixel, as a shift of the image in pixels (x right, y
+    /// down): `0.5 − o` for the sample at offset `o` in the pixel's square; 0 at the centre.
+    pub shift: [f32; 2],
 }
 
 /// Mirrors WGSL `ToneParams` in `shaders/draw/tonemap.wgsl`.
@@ -160,6 +161,10 @@ pub struct GpuDraw {
     /// The parameters of the last whole drawing of meshes, whose depths are kept for
     /// [`GpuDraw::redraw_meshes`]; `None` after any other pass.
     redrawable: Option<(DrawParams, u64)>,
+    /// Samples per pixel ([`GpuDraw::set_antialias`]).
+    aa: u32,
+    /// The antialiasing pipelines and buffers, made on first use.
+    aa_pass: Option<antialias::AaPass>,
 }
 
 /// The lobe path's pipeline and buffers ([`GpuDraw::draw_lobes`]), made on first use.
@@ -217,8 +222,15 @@ impl GpuDraw {
             },
         ];
         let objects = render_pipeline(&ctx, &shaders::DRAW_OBJECTS, &buffers, true)?;
-        let objects_again =
-            render_pipeline_with(&ctx, &shaders::DRAW_OBJECTS, &buffers, false, wgpu::CompareFunction::Equal, &[])?;
+        let objects_again = render_pipeline_full(
+            &ctx,
+            &shaders::DRAW_OBJECTS,
+            &buffers,
+            false,
+            wgpu::CompareFunction::Equal,
+            &[],
+            true,
+        )?;
         // Both tonemap passes read the parameters and the linear image; they differ in
         // where the encoded pixels go (a storage buffer read back, or a storage texture).
         let (tone_layout, tonemap) = tone_pipeline(
@@ -273,6 +285,8 @@ impl GpuDraw {
             backdrops: 0,
             backdrop_draws: (0, 0),
             redrawable: None,
+            aa: 1,
+            aa_pass: None,
             ctx,
         })
     }
@@ -489,7 +503,8 @@ impl GpuDraw {
                     | wgpu::TextureUsages::COPY_SRC
                     | wgpu::TextureUsages::COPY_DST,
             );
-            let depth = texture("depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT);
+            let depth =
+                texture("depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING);
             let encoded = d.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("encoded image"),
                 size: u64::from(width) * u64::from(height) * 4,
@@ -536,13 +551,14 @@ impl GpuDraw {
             )));
         }
         if self.pixels.is_none() {
-            let pipeline = render_pipeline_with(
+            let pipeline = render_pipeline_full(
                 &self.ctx,
                 &shaders::DRAW_PIXELS,
                 &[],
                 true,
                 wgpu::CompareFunction::Greater,
                 &shading_constants()[1..],
+                true,
             )?;
             let params = self.buffer(
                 "pixel params",
@@ -568,7 +584,7 @@ impl GpuDraw {
         camera: &Camera,
         env_from_world: Mat3,
     ) -> Result<PassTime, GpuError> {
-        let (vertices, indices) = self.upload_meshes(meshes.iter())?;
+        let (vertices, indices) = self.upload_meshes(meshes.iter().enumerate())?;
         self.pass(Objects::Meshes(vertices, indices), camera, env_from_world)
     }
 
@@ -591,18 +607,19 @@ impl GpuDraw {
             return self.draw_meshes(meshes, camera, env_from_world);
         }
         let (vertices, indices) =
-            self.upload_meshes(meshes.iter().zip(changed).filter(|(_, c)| **c).map(|(m, _)| m))?;
+            self.upload_meshes(meshes.iter().enumerate().zip(changed).filter(|(_, c)| **c).map(|(m, _)| m))?;
         self.pass(Objects::MeshesAgain(vertices, indices), camera, env_from_world)
     }
 
-    /// Packs and uploads meshes for a drawing: the vertex and index counts.
+    /// Packs and uploads meshes (each with its index among all the drawing's meshes) for a
+    /// drawing: the vertex and index counts.
     fn upload_meshes<'a>(
         &mut self,
-        meshes: impl Iterator<Item = &'a rsl_frame::RasterMesh<'a>> + Clone,
+        meshes: impl Iterator<Item = (usize, &'a rsl_frame::RasterMesh<'a>)> + Clone,
     ) -> Result<(u32, u32), GpuError> {
         self.ctx.check_alive()?;
-        let vertices: usize = meshes.clone().map(|m| m.positions.len()).sum();
-        let index_count: usize = meshes.clone().map(|m| m.indices.len()).sum();
+        let vertices: usize = meshes.clone().map(|(_, m)| m.positions.len()).sum();
+        let index_count: usize = meshes.clone().map(|(_, m)| m.indices.len()).sum();
         let limit = self.ctx.device.limits().max_buffer_size;
         let bytes = (vertices as u64) * 32;
         if bytes > limit || u32::try_from(vertices).is_err() || u32::try_from(index_count).is_err() {
@@ -610,7 +627,7 @@ impl GpuDraw {
         }
         let mut data: Vec<[f32; 4]> = Vec::with_capacity(2 * vertices);
         let mut indices: Vec<u32> = Vec::with_capacity(index_count);
-        for (i, m) in meshes.clone().enumerate() {
+        for (i, m) in meshes.clone() {
             let n = m.positions.len();
             if m.radiance.len() != n {
                 return Err(GpuError::Scene(format!(
@@ -628,10 +645,11 @@ impl GpuDraw {
                 }
                 indices.push(base + k);
             }
-            data.extend(m.positions.iter().map(|p| p.extend(1.0).to_array()));
+            // w: the mesh's index + 1, the pixels' alpha.
+            data.extend(m.positions.iter().map(|p| p.extend((i + 1) as f32).to_array()));
         }
         // Radiance after every position: the two vertex buffers are the halves.
-        data.extend(meshes.flat_map(|m| m.radiance.iter().map(|r| r.extend(1.0).to_array())));
+        data.extend(meshes.flat_map(|(_, m)| m.radiance.iter().map(|r| r.extend(1.0).to_array())));
         let ctx = self.ctx.clone();
         upload(&ctx, &mut self.meshes.0, bytemuck::cast_slice(&data), "shaded meshes");
         upload(&ctx, &mut self.meshes.1, bytemuck::cast_slice(&indices), "shaded mesh indices");
@@ -660,6 +678,51 @@ impl GpuDraw {
             entries: &entries,
         });
         Ok((pipeline.clone(), bind))
+    }
+
+    /// What draws `objects`: their pipelines bound to this pass's parameters and buffers.
+    fn bind_objects(&self, objects: &Objects<'_>) -> Result<Bound, GpuError> {
+        let again = matches!(objects, Objects::MeshesAgain(..));
+        let d = &self.ctx.device;
+        let (pipeline, bind) = match (objects, &self.lobes) {
+            (Objects::Shaded(_) | Objects::Meshes(..) | Objects::MeshesAgain(..), _) => {
+                let pipeline = if again { self.objects_again.clone() } else { self.objects.clone() };
+                let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("draw objects"),
+                    layout: &pipeline.get_bind_group_layout(0),
+                    entries: &[wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() }],
+                });
+                (pipeline, bind)
+            }
+            (Objects::Lobes(..), Some(l)) => (
+                l.pipeline.clone(),
+                d.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("draw lobes"),
+                    layout: &l.pipeline.get_bind_group_layout(0),
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: l.params.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: l.levels.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 3, resource: l.texels.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 4, resource: l.materials.as_entire_binding() },
+                    ],
+                }),
+            ),
+            (Objects::Lobes(..), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
+            (Objects::Pixels(shading), _) => self.pixel_bind(shading)?,
+        };
+        // The RSL sum per pixel beside the lobes.
+        let beside = match objects {
+            Objects::Lobes(_, Some((shading, ranges))) => Some((self.pixel_bind(shading)?, ranges.clone())),
+            _ => None,
+        };
+        Ok(Bound {
+            pipeline,
+            bind,
+            beside,
+            lobe_buffers: self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone())),
+            mesh_buffers: self.meshes.clone(),
+        })
     }
 
     /// One draw pass: the background, then `objects`.
@@ -702,41 +765,14 @@ impl GpuDraw {
                 wgpu::BindGroupEntry { binding: 1, resource: self.texels.as_entire_binding() },
             ],
         });
-        let (obj_pipeline, obj_bind) = match (&objects, &self.lobes) {
-            (Objects::Shaded(_) | Objects::Meshes(..) | Objects::MeshesAgain(..), _) => {
-                let pipeline = if again { self.objects_again.clone() } else { self.objects.clone() };
-                let bind = d.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("draw objects"),
-                    layout: &pipeline.get_bind_group_layout(0),
-                    entries: &[wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() }],
-                });
-                (pipeline, bind)
-            }
-            (Objects::Lobes(..), Some(l)) => (
-                l.pipeline.clone(),
-                d.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("draw lobes"),
-                    layout: &l.pipeline.get_bind_group_layout(0),
-                    entries: &[
-                        wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: l.params.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: l.levels.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 3, resource: l.texels.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 4, resource: l.materials.as_entire_binding() },
-                    ],
-                }),
-            ),
-            (Objects::Lobes(..), None) => return Err(GpuError::Scene("the lobe pass is not set up".into())),
-            (Objects::Pixels(shading), _) => self.pixel_bind(shading)?,
-        };
-        // The RSL sum per pixel beside the lobes.
-        let beside = match &objects {
-            Objects::Lobes(_, Some((shading, ranges))) => Some((self.pixel_bind(shading)?, ranges.clone())),
-            _ => None,
-        };
-        let keeps = matches!(objects, Objects::Meshes(..) | Objects::MeshesAgain(..));
-        let lobe_buffers = self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone()));
-        let mesh_buffers = self.meshes.clone();
+        let bound = self.bind_objects(&objects)?;
+        // Antialiased where asked, but for a redraw (over an image already antialiased or
+        // not), whose depths would no longer be the first drawing's after.
+        let antialiased = self.aa > 1 && !again;
+        if antialiased {
+            self.prepare_antialias(width, height)?;
+        }
+        let keeps = !antialiased && matches!(objects, Objects::Meshes(..) | Objects::MeshesAgain(..));
         let background = self.background.clone();
         let timestamps = self.timestamps.as_ref().map(|(s, r)| (s.clone(), r.clone()));
         // The environment behind: looked up again only when the camera, its orientation or
@@ -802,85 +838,23 @@ impl GpuDraw {
             );
         }
         {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("draw"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: if again { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) },
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: timestamps.as_ref().map(|(set, _)| wgpu::RenderPassTimestampWrites {
-                    query_set: set,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
-                }),
-                occlusion_query_set: None,
-                multiview_mask: None,
+            let load = if again { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) };
+            let stamps = timestamps.as_ref().map(|(set, _)| wgpu::RenderPassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(0),
+                end_of_pass_write_index: Some(1),
             });
-            match objects {
-                Objects::Shaded(shading) => {
-                    let (indices, count) = shading.index_buffer();
-                    let n = u64::from(shading.vertex_count()) * 16;
-                    if count > 0 {
-                        pass.set_pipeline(&obj_pipeline);
-                        pass.set_bind_group(0, &obj_bind, &[]);
-                        pass.set_vertex_buffer(0, shading.shaded_buffer().slice(0..n));
-                        pass.set_vertex_buffer(1, shading.shaded_buffer().slice(n..2 * n));
-                        pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
-                        pass.draw_indexed(0..count, 0, 0..1);
-                    }
-                }
-                Objects::Meshes(vertices, count) | Objects::MeshesAgain(vertices, count) => {
-                    if count > 0 {
-                        let n = u64::from(vertices) * 16;
-                        pass.set_pipeline(&obj_pipeline);
-                        pass.set_bind_group(0, &obj_bind, &[]);
-                        pass.set_vertex_buffer(0, mesh_buffers.0.slice(0..n));
-                        pass.set_vertex_buffer(1, mesh_buffers.0.slice(n..2 * n));
-                        pass.set_index_buffer(mesh_buffers.1.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
-                        pass.draw_indexed(0..count, 0, 0..1);
-                    }
-                }
-                Objects::Pixels(shading) => {
-                    let (_, count) = shading.index_buffer();
-                    if count > 0 {
-                        pass.set_pipeline(&obj_pipeline);
-                        pass.set_bind_group(0, &obj_bind, &[]);
-                        pass.draw(0..count, 0..1);
-                    }
-                }
-                Objects::Lobes(count, _) => {
-                    if let (Some((vertices, indices)), true) = (&lobe_buffers, count > 0) {
-                        pass.set_pipeline(&obj_pipeline);
-                        pass.set_bind_group(0, &obj_bind, &[]);
-                        pass.set_vertex_buffer(0, vertices.slice(..));
-                        pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
-                        pass.draw_indexed(0..count, 0, 0..1);
-                    }
-                    if let Some(((pipeline, bind), ranges)) = &beside {
-                        pass.set_pipeline(pipeline);
-                        pass.set_bind_group(0, bind, &[]);
-                        for r in ranges.iter().filter(|r| !r.is_empty()) {
-                            pass.draw(r.clone(), 0..1);
-                        }
-                    }
-                }
-            }
+            let mut pass = image_pass(&mut enc, "draw", (&color, &depth), load, stamps);
+            bound.record(&mut pass, &objects);
         }
         if let Some((set, resolve)) = &timestamps {
             enc.resolve_query_set(set, 0..2, resolve, 0);
         }
         let start = Instant::now();
         self.ctx.queue.submit([enc.finish()]);
+        if antialiased {
+            self.antialias_image(&bound, &objects, camera, &params);
+        }
         d.poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::Operation { operation: "draw", message: e.to_string() })?;
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
@@ -891,12 +865,111 @@ impl GpuDraw {
             self.redrawable = Some((params, self.backdrops));
         }
         self.ctx.check_alive()?;
+        // The timestamps bracket the centres' pass alone: an antialiased image has its wall
+        // time only.
         let gpu_ms = match &timestamps {
-            Some((_, resolve)) => Some(self.ctx.pass_ms(resolve)?),
-            None => None,
+            Some((_, resolve)) if !antialiased => Some(self.ctx.pass_ms(resolve)?),
+            _ => None,
         };
         Ok(PassTime { gpu_ms, wall_ms })
     }
+}
+
+/// A pipeline and its bind group.
+type Binding = (wgpu::RenderPipeline, wgpu::BindGroup);
+
+/// The pipelines, bind groups and buffers that draw one pass's objects
+/// ([`GpuDraw::bind_objects`]).
+struct Bound {
+    pipeline: wgpu::RenderPipeline,
+    bind: wgpu::BindGroup,
+    /// The RSL sum per pixel beside the lobes: its pipeline and bind group, and the ranges of
+    /// the shading pass's indices it draws.
+    beside: Option<(Binding, Vec<std::ops::Range<u32>>)>,
+    lobe_buffers: Option<(wgpu::Buffer, wgpu::Buffer)>,
+    mesh_buffers: (wgpu::Buffer, wgpu::Buffer),
+}
+
+impl Bound {
+    /// Draws `objects` into `pass`.
+    fn record(&self, pass: &mut wgpu::RenderPass<'_>, objects: &Objects<'_>) {
+        match *objects {
+            Objects::Shaded(shading) => {
+                let (indices, count) = shading.index_buffer();
+                let n = u64::from(shading.vertex_count()) * 16;
+                if count > 0 {
+                    pass.set_pipeline(&self.pipeline);
+                    pass.set_bind_group(0, &self.bind, &[]);
+                    pass.set_vertex_buffer(0, shading.shaded_buffer().slice(0..n));
+                    pass.set_vertex_buffer(1, shading.shaded_buffer().slice(n..2 * n));
+                    pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..count, 0, 0..1);
+                }
+            }
+            Objects::Meshes(vertices, count) | Objects::MeshesAgain(vertices, count) => {
+                if count > 0 {
+                    let n = u64::from(vertices) * 16;
+                    pass.set_pipeline(&self.pipeline);
+                    pass.set_bind_group(0, &self.bind, &[]);
+                    pass.set_vertex_buffer(0, self.mesh_buffers.0.slice(0..n));
+                    pass.set_vertex_buffer(1, self.mesh_buffers.0.slice(n..2 * n));
+                    pass.set_index_buffer(self.mesh_buffers.1.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..count, 0, 0..1);
+                }
+            }
+            Objects::Pixels(shading) => {
+                let (_, count) = shading.index_buffer();
+                if count > 0 {
+                    pass.set_pipeline(&self.pipeline);
+                    pass.set_bind_group(0, &self.bind, &[]);
+                    pass.draw(0..count, 0..1);
+                }
+            }
+            Objects::Lobes(count, _) => {
+                if let (Some((vertices, indices)), true) = (&self.lobe_buffers, count > 0) {
+                    pass.set_pipeline(&self.pipeline);
+                    pass.set_bind_group(0, &self.bind, &[]);
+                    pass.set_vertex_buffer(0, vertices.slice(..));
+                    pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
+                    pass.draw_indexed(0..count, 0, 0..1);
+                }
+                if let Some(((pipeline, bind), ranges)) = &self.beside {
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, bind, &[]);
+                    for r in ranges.iter().filter(|r| !r.is_empty()) {
+                        pass.draw(r.clone(), 0..1);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A render pass drawing into the image over its depths (`depth_load`: kept, or cleared).
+fn image_pass<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    (color, depth): (&wgpu::TextureView, &wgpu::TextureView),
+    depth_load: wgpu::LoadOp<f32>,
+    timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) -> wgpu::RenderPass<'e> {
+    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: color,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+            stencil_ops: None,
+        }),
+        timestamp_writes,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }
 
 /// A render pipeline of a registered shader (entry points: vertex, fragment) drawing into
@@ -908,17 +981,19 @@ fn render_pipeline(
     depth_test: bool,
 ) -> Result<wgpu::RenderPipeline, GpuError> {
     let compare = if depth_test { wgpu::CompareFunction::Greater } else { wgpu::CompareFunction::Always };
-    render_pipeline_with(ctx, shader, buffers, depth_test, compare, &[])
+    render_pipeline_full(ctx, shader, buffers, depth_test, compare, &[], true)
 }
 
-/// A render pipeline writing depth or not, with depth comparison `compare`.
-fn render_pipeline_with(
+/// A render pipeline writing depth or not, with depth comparison `compare`, drawing into
+/// the image (`color`) or into the depth alone.
+fn render_pipeline_full(
     ctx: &GpuContext,
     shader: &shaders::Shader,
     buffers: &[wgpu::VertexBufferLayout<'_>],
     depth_write: bool,
     compare: wgpu::CompareFunction,
     constants: &[(&str, f64)],
+    color: bool,
 ) -> Result<wgpu::RenderPipeline, GpuError> {
     let [vertex, fragment] = shader.entry_points else {
         return Err(GpuError::Shader { name: shader.name, message: "needs a vertex and a fragment entry".into() });
@@ -951,7 +1026,11 @@ fn render_pipeline_with(
             module: &module,
             entry_point: Some(fragment),
             compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
-            targets: &[Some(wgpu::ColorTargetState { format: COLOR, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            targets: if color {
+                &[Some(wgpu::ColorTargetState { format: COLOR, blend: None, write_mask: wgpu::ColorWrites::ALL })]
+            } else {
+                &[]
+            },
         }),
         multiview_mask: None,
         cache: None,

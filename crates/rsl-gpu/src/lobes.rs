@@ -105,7 +105,8 @@ pub fn pack_objects(objects: &[LobeObject<'_>]) -> Result<PackedObjects, String>
         };
         let base = vertices.len() as u32;
         vertices.extend((0..n).map(|v| LobeVertex {
-            position: o.positions[v].extend(1.0).to_array(),
+            // w: the object's index + 1, the pixels' alpha.
+            position: o.positions[v].extend((i + 1) as f32).to_array(),
             normal: o.normals[v].extend(f32::from_bits(material)).to_array(),
             value: o.values[v].extend(0.0).to_array(),
         }));

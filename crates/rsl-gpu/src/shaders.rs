@@ -39,6 +39,7 @@ const BRDF: (&str, &str) = ("common/brdf.wgsl", include_str!("../../../shaders/c
 const TONE: (&str, &str) = ("common/tone.wgsl", include_str!("../../../shaders/common/tone.wgsl"));
 const VISIBILITY: (&str, &str) = ("common/visibility.wgsl", include_str!("../../../shaders/common/visibility.wgsl"));
 const SCENE: (&str, &str) = ("common/scene.wgsl", include_str!("../../../shaders/common/scene.wgsl"));
+const ANTIALIAS: (&str, &str) = ("common/antialias.wgsl", include_str!("../../../shaders/common/antialias.wgsl"));
 
 /// GPU smoke test: the hemisphere map and its inverse over an array of directions.
 pub const HEMI_MAP: Shader = Shader {
@@ -119,6 +120,44 @@ pub const TONEMAP_TEXTURE: Shader = Shader {
     entry_points: &["tonemap_texture"],
 };
 
+/// Antialiasing (`rsl_gpu::draw`, mirroring `rsl_shade::antialias`): each workgroup's sum
+/// of the image's luminance.
+pub const AA_PARTIAL_MEANS: Shader = Shader {
+    name: "draw/antialias/partial_means",
+    path: "draw/antialias.wgsl",
+    common: &[ANTIALIAS],
+    text: include_str!("../../../shaders/draw/antialias.wgsl"),
+    entry_points: &["partial_means"],
+};
+
+/// Antialiasing: the image's mean luminance from the partial sums.
+pub const AA_MEAN: Shader = Shader { name: "draw/antialias/mean", entry_points: &["mean"], ..AA_PARTIAL_MEANS };
+
+/// Antialiasing: the edge pixels, which the first round samples.
+pub const AA_FIND_EDGES: Shader =
+    Shader { name: "draw/antialias/find_edges", entry_points: &["find_edges"], ..AA_PARTIAL_MEANS };
+
+/// Antialiasing: a drawn sample added to the round's pixels.
+pub const AA_ACCUMULATE: Shader =
+    Shader { name: "draw/antialias/accumulate", entry_points: &["accumulate"], ..AA_PARTIAL_MEANS };
+
+/// Antialiasing: the pixels the second round samples.
+pub const AA_SELECT_AGAIN: Shader =
+    Shader { name: "draw/antialias/select_again", entry_points: &["select_again"], ..AA_PARTIAL_MEANS };
+
+/// Antialiasing: the depth mask that lets a round's samples through at its pixels only.
+pub const AA_MASK: Shader = Shader {
+    name: "draw/antialias/mask",
+    path: "draw/antialias_mask.wgsl",
+    common: &[ANTIALIAS],
+    text: include_str!("../../../shaders/draw/antialias_mask.wgsl"),
+    entry_points: &["vs_screen", "fs_mask"],
+};
+
+/// Antialiasing: a round's mean written into the image at its pixels.
+pub const AA_RESOLVE: Shader =
+    Shader { name: "draw/antialias/resolve", entry_points: &["vs_screen", "fs_resolve"], ..AA_MASK };
+
 /// Every registered shader.
 pub const ALL: &[Shader] = &[
     HEMI_MAP,
@@ -130,6 +169,13 @@ pub const ALL: &[Shader] = &[
     DRAW_PIXELS,
     TONEMAP,
     TONEMAP_TEXTURE,
+    AA_PARTIAL_MEANS,
+    AA_MEAN,
+    AA_FIND_EDGES,
+    AA_ACCUMULATE,
+    AA_SELECT_AGAIN,
+    AA_MASK,
+    AA_RESOLVE,
 ];
 
 /// Looks a shader up by name.

@@ -135,9 +135,12 @@ fn draw_layouts_match_wgsl() {
         shaders::DRAW_BACKGROUND,
         "DrawParams",
         DrawParams,
-        [clip_from_world, world_from_camera, env_from_world, lens, constant, map_width, map_height, pad0, pad1]
+        [clip_from_world, world_from_camera, env_from_world, lens, constant, map_width, map_height, shift]
     );
     assert_layout!(shaders::TONEMAP, "ToneParams", ToneParams, [exposure, width, height, pad]);
+    for shader in [shaders::AA_FIND_EDGES, shaders::AA_MASK] {
+        assert_layout!(shader, "AaParams", rsl_gpu::draw::AaParams, [width, height, groups, near, lens, count, pad]);
+    }
     assert_layout!(shaders::DRAW_LOBES, "LobeParams", rsl_gpu::lobes::LobeParams, [eye, levels, pad0, pad1, pad2]);
     assert_layout!(
         shaders::DRAW_PIXELS,

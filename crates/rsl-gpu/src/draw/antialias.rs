@@ -1,0 +1,367 @@
+//! Antialiasing on the GPU, as `rsl_shade::antialias` and `rsl_shade::draw_pixels` do it on
+//! the CPU (docs/conventions.md, "A pixel's value"): after the image is drawn with one
+//! sample at each pixel's centre, a compute pass finds the edge pixels (by the same rules,
+//! from what each centre sees — the object's index in the image's alpha, its distance from
+//! the eye from the depth buffer — and the image's mean luminance), and the draw pass is run
+//! again once per sample offset of the first round (a 2×2 grid), the image shifted by
+//! `0.5 − o` pixels and a depth mask letting fragments through at the edge pixels only (no
+//! other pixel is shaded again). Each sample is added to its pixel's sum, with the least and
+//! greatest luminance; the pixels whose samples span more than `SPREAD` × the image's mean
+//! then take the `k×k` grid of `aa` samples besides. The offsets are the CPU's, so the GPU's
+//! samples are the CPU's.
+
+use super::{Bound, DrawParams, GpuDraw, Objects, image_pass, render_pipeline_full};
+use crate::{GpuError, shaders};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use rsl_scene::Camera;
+use rsl_shade::antialias;
+
+/// Mirrors WGSL `AaParams` in `shaders/common/antialias.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct AaParams {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Workgroups of the partial sums of luminance.
+    pub groups: u32,
+    /// The camera's near distance.
+    pub near: f32,
+    /// tan(fov/2)·aspect and tan(fov/2).
+    pub lens: [f32; 2],
+    /// The samples each pixel of the round holds.
+    pub count: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// The most workgroups summing the image's luminance (each of 256 invocations).
+const MAX_GROUPS: u32 = 1024;
+
+/// The antialiasing pipelines and buffers, made on first use.
+pub(super) struct AaPass {
+    layout: wgpu::BindGroupLayout,
+    partial_means: wgpu::ComputePipeline,
+    mean: wgpu::ComputePipeline,
+    find_edges: wgpu::ComputePipeline,
+    accumulate: wgpu::ComputePipeline,
+    select_again: wgpu::ComputePipeline,
+    mask: wgpu::RenderPipeline,
+    resolve: wgpu::RenderPipeline,
+    /// The environment behind, drawn where the depth mask lets it.
+    background: wgpu::RenderPipeline,
+    params: wgpu::Buffer,
+    means: wgpu::Buffer,
+    /// Per pixel of an image of the size given: the samples' sums, their spans of
+    /// luminance and the round's mask.
+    pixels: Option<((u32, u32), [wgpu::Buffer; 3])>,
+}
+
+impl AaPass {
+    fn new(draw: &GpuDraw) -> Result<Self, GpuError> {
+        let ctx = &draw.ctx;
+        let d = &ctx.device;
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty,
+            count: None,
+        };
+        let storage = |binding| {
+            entry(
+                binding,
+                wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: false },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+            )
+        };
+        let texture = |binding, sample_type| {
+            entry(
+                binding,
+                wgpu::BindingType::Texture {
+                    sample_type,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
+            )
+        };
+        let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("antialias"),
+            entries: &[
+                entry(
+                    0,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                ),
+                texture(1, wgpu::TextureSampleType::Float { filterable: false }),
+                texture(2, wgpu::TextureSampleType::Depth),
+                storage(3),
+                storage(4),
+                storage(5),
+                storage(6),
+            ],
+        });
+        let pipeline_layout = d.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("antialias"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let constants = [
+            ("DEPTH_JUMP", f64::from(antialias::DEPTH_JUMP)),
+            ("CONTRAST", f64::from(antialias::CONTRAST)),
+            ("FLOOR", f64::from(antialias::FLOOR)),
+            ("SPREAD", f64::from(antialias::SPREAD)),
+        ];
+        let compute = |shader| ctx.compute_pipeline_with_layout(shader, &constants, Some(&pipeline_layout));
+        let buffer = |label, size, usage| {
+            d.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+        };
+        Ok(Self {
+            partial_means: compute(&shaders::AA_PARTIAL_MEANS)?,
+            mean: compute(&shaders::AA_MEAN)?,
+            find_edges: compute(&shaders::AA_FIND_EDGES)?,
+            accumulate: compute(&shaders::AA_ACCUMULATE)?,
+            select_again: compute(&shaders::AA_SELECT_AGAIN)?,
+            layout,
+            mask: render_pipeline_full(ctx, &shaders::AA_MASK, &[], true, wgpu::CompareFunction::Always, &[], false)?,
+            resolve: render_pipeline_full(
+                ctx,
+                &shaders::AA_RESOLVE,
+                &[],
+                false,
+                wgpu::CompareFunction::Always,
+                &[],
+                true,
+            )?,
+            background: render_pipeline_full(
+                ctx,
+                &shaders::DRAW_BACKGROUND,
+                &[],
+                false,
+                wgpu::CompareFunction::GreaterEqual,
+                &[],
+                true,
+            )?,
+            params: buffer(
+                "antialias params",
+                std::mem::size_of::<AaParams>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            means: buffer("mean luminance", u64::from(MAX_GROUPS + 1) * 8, wgpu::BufferUsages::STORAGE),
+            pixels: None,
+        })
+    }
+}
+
+/// `params` with the image shifted so that each pixel's centre samples offset `o` of its
+/// square (x right, y down, in pixels).
+fn shifted(params: &DrawParams, o: [f32; 2]) -> DrawParams {
+    let shift = [0.5 - o[0], 0.5 - o[1]];
+    let (width, height) = (params.lens[2], params.lens[3]);
+    // Normalised device coordinates: x right over 2 / width per pixel, y up.
+    let t = Mat4::from_translation(Vec3::new(2.0 * shift[0] / width, -2.0 * shift[1] / height, 0.0));
+    DrawParams {
+        clip_from_world: (t * Mat4::from_cols_array_2d(&params.clip_from_world)).to_cols_array_2d(),
+        shift,
+        ..*params
+    }
+}
+
+impl GpuDraw {
+    /// Antialiases every image drawn after this with `aa` samples per pixel where one at the
+    /// centre is not enough (`rsl_shade::antialias`: a square from 1, no antialiasing, to
+    /// 64). A redraw of changed meshes ([`GpuDraw::redraw_meshes`]) is not antialiased.
+    pub fn set_antialias(&mut self, aa: u32) -> Result<(), GpuError> {
+        if !antialias::valid_samples(aa) {
+            return Err(GpuError::Scene(format!(
+                "antialiasing with {aa} samples per pixel (a square from 1 to {})",
+                antialias::MAX_SAMPLES
+            )));
+        }
+        self.aa = aa;
+        Ok(())
+    }
+
+    /// The samples per pixel images are antialiased with (1: none).
+    pub fn antialias(&self) -> u32 {
+        self.aa
+    }
+
+    /// Makes the pipelines and per-pixel buffers for antialiasing an image of `width` ×
+    /// `height` pixels.
+    pub(super) fn prepare_antialias(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+        if self.aa_pass.is_none() {
+            self.aa_pass = Some(AaPass::new(self)?);
+        }
+        let pass = self.aa_pass.as_mut().expect("just made");
+        if pass.pixels.as_ref().is_none_or(|(size, _)| *size != (width, height)) {
+            let n = u64::from(width) * u64::from(height);
+            let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
+            if n * 16 > limit {
+                return Err(GpuError::TooLarge {
+                    what: format!("antialiasing a {width}×{height} image"),
+                    bytes: n * 16,
+                    limit,
+                });
+            }
+            let buffer = |label, size| {
+                self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                })
+            };
+            pass.pixels = Some((
+                (width, height),
+                [buffer("sample sums", n * 16), buffer("sample spans", n * 8), buffer("sample mask", n * 4)],
+            ));
+        }
+        Ok(())
+    }
+
+    /// Antialiases the image just drawn (`bound` drew `objects` with `params`, through
+    /// `camera`): submits the rounds without waiting for them. Needs
+    /// [`GpuDraw::prepare_antialias`] for the image's size first.
+    pub(super) fn antialias_image(&self, bound: &Bound, objects: &Objects<'_>, camera: &Camera, params: &DrawParams) {
+        let (Some(pass), Some(target)) = (&self.aa_pass, &self.target) else {
+            return;
+        };
+        let Some((_, [sums, spans, mask])) = &pass.pixels else {
+            return;
+        };
+        let (d, q) = (&self.ctx.device, &self.ctx.queue);
+        let (width, height) = (target.width, target.height);
+        let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
+        let depth = target.depth.create_view(&wgpu::TextureViewDescriptor::default());
+        let bind = |layout: &wgpu::BindGroupLayout, entries: &[(u32, wgpu::BindingResource<'_>)]| {
+            d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("antialias"),
+                layout,
+                entries: &entries
+                    .iter()
+                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding: *binding, resource: resource.clone() })
+                    .collect::<Vec<_>>(),
+            })
+        };
+        let compute_bind = bind(
+            &pass.layout,
+            &[
+                (0, pass.params.as_entire_binding()),
+                (1, wgpu::BindingResource::TextureView(&color)),
+                (2, wgpu::BindingResource::TextureView(&depth)),
+                (3, sums.as_entire_binding()),
+                (4, spans.as_entire_binding()),
+                (5, mask.as_entire_binding()),
+                (6, pass.means.as_entire_binding()),
+            ],
+        );
+        let mask_bind = bind(
+            &pass.mask.get_bind_group_layout(0),
+            &[(0, pass.params.as_entire_binding()), (5, mask.as_entire_binding())],
+        );
+        let resolve_bind = bind(
+            &pass.resolve.get_bind_group_layout(0),
+            &[(0, pass.params.as_entire_binding()), (3, sums.as_entire_binding()), (5, mask.as_entire_binding())],
+        );
+        let background_bind = bind(
+            &pass.background.get_bind_group_layout(0),
+            &[(0, self.params.as_entire_binding()), (1, self.texels.as_entire_binding())],
+        );
+        let groups = (u64::from(width) * u64::from(height)).div_ceil(256).clamp(1, u64::from(MAX_GROUPS)) as u32;
+        let aa_params = |count| AaParams {
+            width,
+            height,
+            groups,
+            near: camera.near(),
+            lens: [params.lens[0], params.lens[1]],
+            count,
+            pad: 0,
+        };
+        let tiles = (width.div_ceil(8), height.div_ceil(8));
+        let encoder = || d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("antialias") });
+        let run = |enc: &mut wgpu::CommandEncoder, steps: &[(&wgpu::ComputePipeline, (u32, u32))]| {
+            let mut cp = enc
+                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("antialias"), timestamp_writes: None });
+            cp.set_bind_group(0, &compute_bind, &[]);
+            for (pipeline, (x, y)) in steps {
+                cp.set_pipeline(pipeline);
+                cp.dispatch_workgroups(*x, *y, 1);
+            }
+        };
+        let mean = [(&pass.partial_means, (groups, 1)), (&pass.mean, (1, 1))];
+        // The edges of the centres' image.
+        q.write_buffer(&pass.params, 0, bytemuck::bytes_of(&aa_params(0)));
+        let mut enc = encoder();
+        run(&mut enc, &[mean[0], mean[1], (&pass.find_edges, tiles)]);
+        q.submit([enc.finish()]);
+        // One sample at offset `o` of every pixel of the round, added to its sums.
+        let sample = |o: [f32; 2]| {
+            q.write_buffer(&self.params, 0, bytemuck::bytes_of(&shifted(params, o)));
+            let mut enc = encoder();
+            {
+                let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("antialias mask"),
+                    color_attachments: &[],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: &depth,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(0.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                rp.set_pipeline(&pass.mask);
+                rp.set_bind_group(0, &mask_bind, &[]);
+                rp.draw(0..3, 0..1);
+            }
+            {
+                let mut rp = image_pass(&mut enc, "antialias", (&color, &depth), wgpu::LoadOp::Load, None);
+                rp.set_pipeline(&pass.background);
+                rp.set_bind_group(0, &background_bind, &[]);
+                rp.draw(0..3, 0..1);
+                bound.record(&mut rp, objects);
+            }
+            run(&mut enc, &[(&pass.accumulate, tiles)]);
+            q.submit([enc.finish()]);
+        };
+        // The round's pixels set to the mean of their samples (`count`), then `after`.
+        let resolve = |count: usize, after: &[(&wgpu::ComputePipeline, (u32, u32))]| {
+            q.write_buffer(&pass.params, 0, bytemuck::bytes_of(&aa_params(count as u32)));
+            let mut enc = encoder();
+            {
+                let mut rp = image_pass(&mut enc, "antialias", (&color, &depth), wgpu::LoadOp::Load, None);
+                rp.set_pipeline(&pass.resolve);
+                rp.set_bind_group(0, &resolve_bind, &[]);
+                rp.draw(0..3, 0..1);
+            }
+            if !after.is_empty() {
+                run(&mut enc, after);
+            }
+            q.submit([enc.finish()]);
+        };
+        let first = antialias::sample_offsets(self.aa.min(antialias::FIRST_ROUND));
+        first.iter().for_each(|&o| sample(o));
+        if self.aa > antialias::FIRST_ROUND {
+            // The image's mean after the first round picks the second round's pixels.
+            resolve(first.len(), &[mean[0], mean[1], (&pass.select_again, tiles)]);
+            let more = antialias::sample_offsets(self.aa);
+            more.iter().for_each(|&o| sample(o));
+            resolve(first.len() + more.len(), &[]);
+        } else {
+            resolve(first.len(), &[]);
+        }
+        q.write_buffer(&self.params, 0, bytemuck::bytes_of(params));
+    }
+}
