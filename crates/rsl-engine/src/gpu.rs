@@ -264,7 +264,35 @@ impl GpuRenderer {
         covers: bool,
     ) -> Result<PassTime> {
         let state = scene.at(t);
-        let objects = engine.objects(scene, &state)?;
+        // Traced lights' shadow rays run on the CPU (the engine's own frame setup); the
+        // shader reads their covers.
+        let setup = engine.setup(scene, &state, scene.camera.eye, terms)?;
+        self.dispatch_setup(engine, scene, &state, &setup, covers)
+    }
+
+    /// [`GpuRenderer::dispatch_covers`] of the frame `setup` (of `scene` at `state`, seen
+    /// from the camera) already set up on the CPU, its traced lights' rays traced: nothing
+    /// is set up again.
+    pub fn dispatch_covers_of(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        state: &rsl_scene::SceneState,
+        setup: &rsl_shade::FrameSetup<'_>,
+    ) -> Result<PassTime> {
+        self.dispatch_setup(engine, scene, state, setup, true)
+    }
+
+    fn dispatch_setup(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        state: &rsl_scene::SceneState,
+        setup: &rsl_shade::FrameSetup<'_>,
+        covers: bool,
+    ) -> Result<PassTime> {
+        let (terms, eye) = (setup.terms(), setup.eye());
+        let objects = engine.objects(scene, state)?;
         let g = geometry_key(engine);
         if self.geometry.as_ref() != Some(&g) {
             let start = Instant::now();
@@ -279,25 +307,22 @@ impl GpuRenderer {
             self.shading.load_tables(&objects).context("uploading BRDF tables")?;
             self.tables = Some(k);
         }
-        let lights = engine.lights(&state);
-        // Traced lights' shadow rays run on the CPU (the engine's own frame setup); the
-        // shader reads their covers.
-        let setup = engine.setup(scene, &state, scene.camera.eye, terms)?;
+        let lights = engine.lights(state);
         let traced = setup.traced_covers();
         self.last = if covers {
             let per_pixel: Vec<bool> = (0..objects.len())
-                .map(|i| rsl_shade::drawn_per_pixel(&setup, !engine.brdf(i).is_lambertian()))
+                .map(|i| rsl_shade::drawn_per_pixel(setup, !engine.brdf(i).is_lambertian()))
                 .collect();
-            crate::lobe::check_covers_size(engine, &setup, &vec![true; objects.len()])?;
+            crate::lobe::check_covers_size(engine, setup, &vec![true; objects.len()])?;
             let pixel = PixelFrame {
                 per_pixel,
                 rays: (0..lights.len()).map(|l| setup.traced_rays(l).to_vec()).collect(),
                 pixel_rays: rsl_shade::PIXEL_RAYS as u32,
                 lift: setup.traced_lift(),
             };
-            self.shading.shade_covers(&objects, &lights, scene.camera.eye, terms, &traced, &pixel)?
+            self.shading.shade_covers(&objects, &lights, eye, terms, &traced, &pixel)?
         } else {
-            self.shading.shade(&objects, &lights, scene.camera.eye, terms, &traced)?
+            self.shading.shade(&objects, &lights, eye, terms, &traced)?
         };
         Ok(self.last)
     }

@@ -604,7 +604,8 @@ impl GpuImage for GpuLobes {
         let mut radiance = vec![None; objects.len()];
         if rsl_pixels.contains(&true) {
             let time = ctx.request.time;
-            let pass = self.renderer.dispatch_covers(engine, ctx.scene, time, Terms::default())?;
+            // The frame the compositor set up (its traced lights' rays traced) shades here.
+            let pass = self.renderer.dispatch_covers_of(engine, ctx.scene, ctx.state, ctx.setup)?;
             timings.add("shade (GPU)", pass.wall_ms, pass.gpu_ms);
             let start = Instant::now();
             let shaded = self.renderer.read_frame(engine, ctx.scene, time)?;

@@ -77,6 +77,11 @@ impl Session {
         Self { options, slots: Vec::new(), job: None }
     }
 
+    /// What the session builds its methods with.
+    pub fn options(&self) -> &MethodOptions {
+        &self.options
+    }
+
     /// Where method `id` is in `slots`, built from the registry the first time.
     fn slot(&mut self, engine: &Engine, id: MethodId) -> Result<usize> {
         if let Some(at) = self.slots.iter().position(|s| s.id == id) {

@@ -59,6 +59,16 @@ pub struct FrameSetup<'a> {
 }
 
 impl<'a> FrameSetup<'a> {
+    /// The terms the frame is set up for.
+    pub fn terms(&self) -> Terms {
+        self.terms
+    }
+
+    /// The eye the frame is seen from.
+    pub fn eye(&self) -> Vec3 {
+        self.eye
+    }
+
     /// Places the objects and carries every light into every object's space.
     pub fn new(objects: &[ShadeObject<'a>], lights: &[Light], eye: Vec3, terms: Terms) -> Self {
         Self {

@@ -9,6 +9,8 @@
 //! tonemapping into the texture egui samples; skipped with a message where there is no
 //! adapter). The vertices are shaded on the CPU every time.
 //!
+//! Then an object dragged with the default drawing per pixel every frame ([`object_drag`]).
+//!
 //! `cargo bench -p rsl-view --bench material_drag` (run from anywhere; it uses the disk
 //! cache, `$RSL_CACHE_DIR` or the default folder, and prints the stage breakdown).
 
@@ -24,6 +26,70 @@ fn material_drag(c: &mut Criterion) {
     match rsl_view::headless_render_state() {
         Ok(state) => drag(c, Some(&state), None),
         Err(e) => eprintln!("material drag with wgpu: skipped: {e:#}"),
+    }
+}
+
+/// The viewer's frame while an object is dragged on the default scene with the default
+/// drawing (`auto`) per pixel every frame (`Viewer::set_live_budget`, no budget): each
+/// iteration moves the sphere along the ground and redraws — on the CPU, and with the
+/// drawing's GPU passes on a headless egui render state's device (`Viewer::set_pixels_on_gpu`).
+/// On a software adapter (llvmpipe) a GPU frame per pixel takes tens of seconds at the
+/// scene's 640×480; that case runs only with `RSL_BENCH_SOFTWARE_GPU=1`.
+fn object_drag(c: &mut Criterion) {
+    pixel_drag(c, None);
+    match rsl_view::headless_render_state() {
+        Ok(state) => {
+            let software = state.adapter.get_info().device_type == eframe::wgpu::DeviceType::Cpu;
+            if software && std::env::var_os("RSL_BENCH_SOFTWARE_GPU").is_none() {
+                eprintln!(
+                    "object drag per pixel on the GPU: skipped on a software adapter (RSL_BENCH_SOFTWARE_GPU=1 runs it)"
+                );
+            } else {
+                pixel_drag(c, Some(&state));
+            }
+        }
+        Err(e) => eprintln!("object drag per pixel on the GPU: skipped: {e:#}"),
+    }
+}
+
+/// An object dragged with the drawing per pixel every frame, on the CPU or on `wgpu`'s device.
+fn pixel_drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/default.toml");
+    let options = ViewerOptions { cache_dir: rsl_engine::cache::default_dir(), quality: None };
+    let mut viewer = Viewer::open(&scene, options).expect("the default scene opens");
+    viewer.wait_prepared().expect("the default scene prepares");
+    let device = match wgpu {
+        Some(state) => {
+            viewer.attach_wgpu(state).expect("rsl-gpu's passes on the render state's device");
+            viewer.set_pixels_on_gpu(true).expect("a device attached");
+            format!("GPU, {}", viewer.wgpu_adapter().unwrap_or("?"))
+        }
+        None => "CPU".to_string(),
+    };
+    viewer.set_live_budget(f64::INFINITY);
+    // The first frame from the vertices, then the drawing's own once it is prepared.
+    viewer.refresh().unwrap();
+    assert!(viewer.settle_pixels(true));
+    viewer.refresh().unwrap();
+    viewer.wait_drawing();
+    viewer.refresh().unwrap();
+    assert!(viewer.live_pixels(), "drawn per pixel");
+    let sphere = viewer.scene().objects.iter().position(|o| o.name == "sphere").unwrap();
+    viewer.select(sphere);
+    let before = viewer.counters().pixel_frames;
+    let mut k = 0u32;
+    c.bench_function(&format!("object drag frame per pixel on the {device} (default scene, sphere)"), |b| {
+        b.iter(|| {
+            k += 1;
+            // Back and forth, a few pixels a frame.
+            viewer.drag_selected(if k % 20 < 10 { 4.0 } else { -4.0 }, 0.0);
+            viewer.refresh().unwrap()
+        })
+    });
+    // (Nothing ran where criterion's filter left this one out.)
+    if k > 0 {
+        assert_eq!(viewer.counters().pixel_frames - before, u64::from(k), "every drag frame drawn per pixel");
+        report(&viewer, &format!("object drag per pixel on the {device}"));
     }
 }
 
@@ -107,6 +173,6 @@ fn report(viewer: &Viewer, what: &str) {
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20);
-    targets = material_drag
+    targets = material_drag, object_drag
 }
 criterion_main!(benches);

@@ -72,6 +72,8 @@ pub struct Counters {
     pub vertices_shaded: u64,
     /// Images rasterised.
     pub rasterised: u64,
+    /// Images drawn by the drawing's own method (per pixel), edits and rests together.
+    pub pixel_frames: u64,
     /// Engines prepared (on the worker thread).
     pub prepared: u64,
 }
@@ -194,6 +196,12 @@ pub struct Viewer {
     force_pixels: bool,
     /// When an edit was last drawn interpolated while drawing per pixel is on.
     pixels_pending: Option<Instant>,
+    /// The longest frame of the drawing per pixel, ms, at which edits are drawn per pixel
+    /// too ([`Viewer::set_live_budget`]).
+    live_budget_ms: f64,
+    /// What the last frame drawn per pixel took, ms (`None`: none since the drawing or its
+    /// device changed).
+    pixels_ms: Option<f64>,
     /// The gizmo handle a drag in the view holds, if it started on one.
     gizmo_drag: Option<GizmoPart>,
     /// Where the view's image was last laid out: its screen rectangle, and screen points per
@@ -257,6 +265,11 @@ const HISTORY: usize = 120;
 /// How long a material slider must rest before the edited object's real BRDF table
 /// replaces the preview shown while it moved.
 pub const PREVIEW_REST: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// The longest frame of a drawing per pixel at which the view is drawn per pixel while
+/// edits come (a drag, a slider) too: 20 frames a second. Slower, edits are drawn from the
+/// vertices and the view per pixel once they rest ([`PREVIEW_REST`]).
+pub const LIVE_BUDGET_MS: f64 = 50.0;
 
 /// Passes after which the progressive truth stops refining (4,096 spp).
 const MAX_TRUTH_PASSES: u32 = 4096 / TRUTH_PASS_SPP;

@@ -18,6 +18,7 @@ impl Viewer {
     pub fn set_drawing(&mut self, drawing: MethodId) {
         if self.drawing != drawing {
             self.drawing = drawing;
+            self.pixels_ms = None;
             self.force_pixels = !self.vertices_only();
             self.pixels_pending = None;
             self.mark_all();
@@ -57,10 +58,23 @@ impl Viewer {
         if self.vertices_only() { self.drawing } else { MethodId::RSL }
     }
 
-    /// Drawing per pixel costs hundreds of milliseconds a frame on 2 cores: while edits come
-    /// (a slider, a drag, the camera), frames are interpolated, and the view is drawn per
-    /// pixel again once it has rested for [`PREVIEW_REST`] (or at once with `now`); `true`
-    /// when that was started.
+    /// Draws edits (a slider, a drag, the camera) per pixel too while the drawing's last
+    /// frame per pixel took at most `ms` ([`LIVE_BUDGET_MS`] by default; infinite: always,
+    /// 0: never).
+    pub fn set_live_budget(&mut self, ms: f64) {
+        self.live_budget_ms = ms.max(0.0);
+    }
+
+    /// Whether edits are drawn per pixel now: the drawing draws per pixel and its last
+    /// frame kept within the budget ([`Viewer::set_live_budget`]).
+    pub fn live_pixels(&self) -> bool {
+        !self.vertices_only() && self.pixels_ms.is_some_and(|ms| ms <= self.live_budget_ms)
+    }
+
+    /// Drawing per pixel can cost hundreds of milliseconds a frame on 2 cores: where it
+    /// does not keep up ([`Viewer::live_pixels`]), frames are interpolated while edits come
+    /// (a slider, a drag, the camera), and the view is drawn per pixel again once it has
+    /// rested for [`PREVIEW_REST`] (or at once with `now`); `true` when that was started.
     pub fn settle_pixels(&mut self, now: bool) -> bool {
         match self.pixels_pending {
             Some(t) if now || t.elapsed() >= PREVIEW_REST => {
@@ -106,6 +120,7 @@ impl Viewer {
     /// render --method` draws it, with what changed since its last frame drawn again.
     pub(crate) fn refresh_drawing(&mut self, start: Instant) -> Result<bool> {
         let Some(engine) = &self.engine else { return Ok(false) };
+        let began = Instant::now();
         let request = rsl_engine::Request { time: self.time, image: true, vertices: true, exposure: None };
         let rendered = self.session.render(engine, &self.scene, self.drawing, &request)?;
         // A method that draws whole frames draws every object again.
@@ -127,6 +142,9 @@ impl Viewer {
         let shade_ms: f64 = stages.iter().filter(|s| !s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
         let image = frame.image.ok_or_else(|| anyhow::anyhow!("the method drew no image"))?;
         self.show_whole(image, start, shade_ms, raster_ms);
+        self.counters.pixel_frames += 1;
+        self.pixels_ms = Some(began.elapsed().as_secs_f64() * 1e3);
+        self.pixels_pending = None;
         Ok(true)
     }
 
@@ -145,21 +163,32 @@ impl Viewer {
     pub fn refresh(&mut self) -> Result<bool> {
         let Some(engine) = &self.engine else { return Ok(false) };
         let preview = self.preview();
-        let found = self.session.changes(engine, &self.scene, preview, self.time)?;
+        // What changed since the frame shown: drawn by the drawing itself while it keeps up,
+        // else by the preview.
+        let shown = if self.live_pixels() { self.drawing } else { preview };
+        let mut found = self.session.changes(engine, &self.scene, shown, self.time)?;
         let mut changes = found.clone();
         if !changes.any() && !self.redraw {
             return Ok(false);
         }
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
         if !self.vertices_only() {
-            if self.force_pixels && !self.drawing_ready()? {
+            // Per pixel when asked, or while the drawing keeps up with the edits.
+            let live = self.live_pixels();
+            if (self.force_pixels || live) && !self.drawing_ready()? {
                 // Drawn from the vertices until the worker has prepared the drawing
                 // (`force_pixels` stays: the frame after it draws per pixel).
-            } else if std::mem::take(&mut self.force_pixels) {
+            } else if std::mem::take(&mut self.force_pixels) || live {
                 return self.refresh_drawing(start);
             }
         }
         let Some(engine) = &self.engine else { return Ok(false) };
+        if shown != preview {
+            // Drawn from the vertices after all (the drawing is being prepared): what changed
+            // since the preview's last frame.
+            found = self.session.changes(engine, &self.scene, preview, self.time)?;
+            changes = found.clone();
+        }
         // Drawn again whole (a new drawing or device), whatever changed in the scene.
         if std::mem::take(&mut self.redraw) {
             changes.moved = true;

@@ -61,6 +61,8 @@ impl Viewer {
             drawing: MethodId::default_on(rsl_engine::Device::Cpu),
             force_pixels: false,
             pixels_pending: None,
+            live_budget_ms: LIVE_BUDGET_MS,
+            pixels_ms: None,
             gizmo_drag: None,
             view_area: None,
             wgpu: None,
@@ -177,11 +179,37 @@ impl Viewer {
     /// rsl-gpu cannot use) leaves the view drawn on the CPU.
     pub fn attach_wgpu(&mut self, state: &eframe::egui_wgpu::RenderState) -> Result<()> {
         let view = wgpu_view::WgpuView::new(state)?;
+        let hardware = view.shades;
         self.wgpu = Some(view);
+        // On a hardware adapter the drawings per pixel run there too.
+        self.set_pixels_on_gpu(hardware)?;
         self.linear = None;
         self.background = None;
         self.mark_all();
         Ok(())
+    }
+
+    /// Draws the drawings per pixel on the attached device (by default on a hardware adapter
+    /// once [`Viewer::attach_wgpu`] has attached one: the methods' GPU passes, the image read
+    /// back and shown) or on the CPU; an error before [`Viewer::attach_wgpu`].
+    pub fn set_pixels_on_gpu(&mut self, on: bool) -> Result<()> {
+        let gpu = match on {
+            true => Some(self.wgpu.as_ref().context("the view is not drawn with wgpu")?.context()),
+            false => None,
+        };
+        if self.pixels_on_gpu() != on {
+            let device = if on { rsl_engine::Device::Auto } else { rsl_engine::Device::Cpu };
+            self.session = Session::new(rsl_engine::MethodOptions { device, gpu, ..Default::default() });
+            self.pixels_ms = None;
+            self.force_pixels = !self.vertices_only();
+            self.mark_all();
+        }
+        Ok(())
+    }
+
+    /// Whether the drawings per pixel run on the attached device ([`Viewer::set_pixels_on_gpu`]).
+    pub fn pixels_on_gpu(&self) -> bool {
+        self.session.options().gpu.is_some()
     }
 
     /// Whether rsl-gpu's shading pass shades the vertices (by default on a hardware adapter

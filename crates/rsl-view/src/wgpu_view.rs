@@ -104,6 +104,11 @@ impl WgpuView {
         Ok(Self { gpu, renderer: state.renderer.clone(), display: None, adapter, shades })
     }
 
+    /// The window's device, as rsl-gpu holds it.
+    pub fn context(&self) -> Arc<GpuContext> {
+        self.gpu.shading().context().clone()
+    }
+
     /// The adapter, in words.
     pub fn adapter(&self) -> &str {
         &self.adapter

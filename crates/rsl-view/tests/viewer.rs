@@ -634,3 +634,59 @@ fn the_gizmo_moves_the_selected_object_along_an_axis_and_turns_it() {
     // place then, which rises and recedes as it moves.
     assert!((got / want - 1.0).abs() < 0.02, "up by {got}, expected {want}");
 }
+
+#[test]
+fn a_drag_is_drawn_per_pixel_while_the_drawing_keeps_up() {
+    let Some(mut h) = harness("a_drag_is_drawn_per_pixel_while_the_drawing_keeps_up", Some(cache())) else {
+        return;
+    };
+    ready(&mut h);
+    // The first frame per pixel, once the drawing is prepared.
+    let rest = |h: &mut Harness<'static, Viewer>| {
+        assert!(h.state_mut().settle_pixels(true), "a frame from the vertices to settle");
+        h.step();
+        h.state_mut().wait_drawing();
+        h.step();
+        h.step();
+    };
+    rest(&mut h);
+    let before = h.state().counters().pixel_frames;
+    assert!(before >= 1, "drawn per pixel at rest");
+    let sphere = index(h.state(), "sphere");
+    h.state_mut().select(sphere);
+    assert!(!h.state().live_pixels(), "no budget: edits are drawn from the vertices");
+    h.state_mut().drag_selected(20.0, 0.0);
+    h.step();
+    assert_eq!(h.state().counters().pixel_frames, before, "the drag drawn from the vertices");
+    rest(&mut h);
+    assert_eq!(h.state().counters().pixel_frames, before + 1, "per pixel once the drag rests");
+    // With a budget the last frame per pixel kept to, every frame of the drag is drawn per
+    // pixel, the default drawing's own image, with nothing left to settle.
+    h.state_mut().set_live_budget(f64::INFINITY);
+    assert!(h.state().live_pixels());
+    // The last frame goes back to where the drag from the vertices left the sphere: new to
+    // the drawing, though the preview has drawn it.
+    for (k, dx) in [(1, 20.0), (2, 20.0), (3, -40.0)] {
+        h.state_mut().drag_selected(dx, 0.0);
+        h.step();
+        assert_eq!(h.state().counters().pixel_frames, before + 1 + k, "drag frame {k} per pixel");
+        assert!(!h.state_mut().settle_pixels(true), "nothing to settle after frame {k}");
+    }
+    let v = h.state();
+    let engine = v.engine().unwrap();
+    // Drawn on the CPU here (llvmpipe is no hardware adapter): the CPU method's image.
+    assert!(!v.pixels_on_gpu() || v.shading_on_gpu(), "per pixel on the window's device only on hardware");
+    if !v.pixels_on_gpu() {
+        let options = rsl_engine::MethodOptions { device: rsl_engine::Device::Cpu, ..Default::default() };
+        let mut method = v.drawing().create(engine, &options).unwrap();
+        let request = rsl_engine::Request { time: 0.0, image: true, vertices: false, exposure: None };
+        let own = method.render(engine, v.scene(), &request).unwrap().image.unwrap();
+        let drawn = v.linear_image().expect("an image");
+        assert_eq!(drawn.covered, own.covered);
+        for (k, (a, b)) in drawn.pixels.iter().zip(&own.pixels).enumerate() {
+            assert!((*a - *b).abs().max_element() <= 1e-4 * b.max_element().max(1e-2), "pixel {k}: {a} vs {b}");
+        }
+    }
+    let cost = v.history().last().unwrap();
+    eprintln!("a drag frame per pixel ({}): {:.1} ms", v.drawing(), cost.total_ms);
+}

@@ -19,7 +19,10 @@ pub fn harness(test: &str, cache_dir: Option<PathBuf>) -> Option<Harness<'static
     // The same adapter check as every GPU test; the harness then opens its own device.
     rsl_gpu::testing::context_or_skip(test)?;
     let options = ViewerOptions { cache_dir, quality: Some(Preset::Draft) };
-    let viewer = Viewer::open(&scene_path(), options).expect("the default scene opens");
+    let mut viewer = Viewer::open(&scene_path(), options).expect("the default scene opens");
+    // Edits drawn from the vertices whatever this machine's speed (the per-pixel drawing
+    // then follows once they rest); `Viewer::set_live_budget` changes it where a test asks.
+    viewer.set_live_budget(0.0);
     Some(ui_harness(viewer, egui::vec2(1200.0, 760.0)))
 }
 
