@@ -185,8 +185,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
             let config = configs.iter().find(|c| c.id() == pick.config).expect("picked from this sweep");
             let base = rsl_scene::Scene::load(path)?.quality;
             let text = rsl_bench::target::fragment(&pick, config, base, args.truth_spp)?;
-            let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-            let file = args.out.join(format!("{stem}_target.toml"));
+            let file = args.out.join(format!("{}_target.toml", rsl_bench::report::stem(&name)));
             rsl_engine::output::write_atomic(&file, text.as_bytes())?;
             println!(
                 "target {:.2}% on {name}: {} ({:.1} ms/frame, {:.2}%); wrote {}",

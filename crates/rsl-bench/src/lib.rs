@@ -351,6 +351,35 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Each scene's plots, error grids and target scene are named after its file stem
+/// ([`report::stem`]): two scenes of one folder's study (this run's and those of the rows
+/// already there) must not share one, nor may a scene be given twice.
+fn check_stems(options: &BenchOptions, rows: &[Row]) -> Result<()> {
+    let given: Vec<String> = options.scenes.iter().map(|p| p.display().to_string()).collect();
+    for (i, a) in given.iter().enumerate() {
+        if given[..i].contains(a) {
+            bail!("scene {a} is given twice");
+        }
+    }
+    let mut names: Vec<&str> = given.iter().map(String::as_str).collect();
+    for r in rows {
+        if !names.contains(&r.scene.as_str()) {
+            names.push(&r.scene);
+        }
+    }
+    for (i, a) in names.iter().enumerate() {
+        if let Some(b) = names[..i].iter().find(|b| report::stem(b) == report::stem(a)) {
+            bail!(
+                "scenes {b} and {a} share the file stem `{}`, after which each scene's plots, error grids and \
+                 target scene in {} are named: rename one, or measure it into another --out",
+                report::stem(a),
+                options.out.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Runs the study: measures every (scene, configuration, time) not already in
 /// `out/results.csv`, writing the results after each, then the reports.
 pub fn run(options: &BenchOptions) -> Result<Summary> {
@@ -363,6 +392,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
     std::fs::create_dir_all(&options.out).with_context(|| format!("cannot create {}", options.out.display()))?;
     let results = options.out.join("results.csv");
     let mut summary = Summary { rows: report::read_rows(&results)?, ..Summary::default() };
+    check_stems(options, &summary.rows)?;
     let budget_file = options.out.join("budget.csv");
     let mut budget_rows = budget::read_rows(&budget_file)?;
     let mut methods = Methods::default();

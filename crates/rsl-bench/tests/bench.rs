@@ -124,6 +124,28 @@ fn bad_options_are_clear_errors() {
     assert!(format!("{:#}", run(&o).unwrap_err()).contains("missing.toml"));
 }
 
+#[test]
+fn scenes_whose_outputs_would_collide_are_refused_before_any_work() {
+    let d = dir("stems");
+    let scene = scene(&d);
+    std::fs::create_dir_all(d.join("other")).unwrap();
+    let twin = ball_scene(&d.join("other/small.toml"), 0.5);
+    let mut o = options(scene.clone(), d.join("out"), d.join("cache"), &["rsl=2"]);
+    o.scenes = vec![scene.clone(), twin.clone()];
+    let e = format!("{:#}", run(&o).unwrap_err());
+    assert!(e.contains("share the file stem `small`") && e.contains("other"), "{e}");
+    o.scenes = vec![scene.clone(), scene.clone()];
+    assert!(format!("{:#}", run(&o).unwrap_err()).contains("given twice"));
+    assert!(!d.join("out/results.csv").exists(), "nothing measured");
+    // A scene of that stem already measured into the folder counts too.
+    (o.grid_spp, o.truth_spp, o.frames) = (0, 16, 1);
+    o.scenes = vec![scene];
+    assert_eq!(run(&o).unwrap().measured, 1);
+    o.scenes = vec![twin];
+    let e = format!("{:#}", run(&o).unwrap_err());
+    assert!(e.contains("share the file stem"), "{e}");
+}
+
 /// Rewrites a CSV file as written before rows carried their truth's key (its last column).
 fn unkey(file: &std::path::Path) {
     let text = std::fs::read_to_string(file).unwrap();

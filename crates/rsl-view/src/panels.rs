@@ -90,7 +90,7 @@ impl Viewer {
             .response
             .on_hover_text(
                 "Samples per pixel where one at the centre is not enough (silhouettes, shadow edges, \
-                 highlights), averaged: the drawings per pixel on the CPU",
+                 highlights), averaged: the drawings per pixel, on the CPU and the GPU alike",
             );
         let r = self.set_antialias(aa);
         self.report(r);
