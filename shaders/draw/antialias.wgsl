@@ -91,14 +91,14 @@ fn eye_distance(p: vec2<u32>) -> f32 {
     return aa.near / d * length(vec3<f32>(nx, ny, 1.0));
 }
 
-// rsl_shade::antialias::edge_pixels's `same_surface`.
-fn same_surface(a: vec2<u32>, b: vec2<u32>) -> bool {
-    let oa = textureLoad(image, a, 0).w;
+// rsl_shade::antialias::edge_pixels's `same_surface`: whether pixel b's centre sees what
+// the centre seeing object `oa` (the alpha: index + 1, 0 the background) at distance `da`
+// sees.
+fn same_surface(oa: f32, da: f32, b: vec2<u32>) -> bool {
     let ob = textureLoad(image, b, 0).w;
     if oa == 0.0 || ob == 0.0 {
         return oa == ob;
     }
-    let da = eye_distance(a);
     let db = eye_distance(b);
     return oa == ob && abs(da - db) <= DEPTH_JUMP * min(da, db);
 }
@@ -114,6 +114,11 @@ fn find_edges(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = p.y * aa.width + p.x;
     let here = textureLoad(image, p, 0);
     let lk = luminance(here.xyz);
+    // The distance matters only on an object (the background is `same_surface` by alpha).
+    var dk = 0.0;
+    if here.w != 0.0 {
+        dk = eye_distance(p);
+    }
     let floor = FLOOR * means[aa.groups].x;
     var surfaces = false;
     var shading = false;
@@ -129,11 +134,11 @@ fn find_edges(@builtin(global_invocation_id) id: vec3<u32>) {
         var same_before = false;
         var same_after = false;
         if has_before {
-            same_before = same_surface(p, p - step);
+            same_before = same_surface(here.w, dk, p - step);
             surfaces |= !same_before;
         }
         if has_after {
-            same_after = same_surface(p, p + step);
+            same_after = same_surface(here.w, dk, p + step);
             surfaces |= !same_after;
         }
         // A value that bends across the pixel (a linear change averages to the centre's

@@ -16,7 +16,7 @@ use std::time::Instant;
 mod antialias;
 mod readback;
 pub use antialias::AaParams;
-use readback::tone_pipeline;
+use readback::{compute_entry, tone_pipeline};
 
 /// Mirrors WGSL `DrawParams` in `shaders/common/draw.wgsl`.
 #[repr(C)]
@@ -657,7 +657,7 @@ impl GpuDraw {
     }
 
     /// The per-pixel pipeline and its bind group over `shading`'s buffers.
-    fn pixel_bind(&self, shading: &GpuShading) -> Result<(wgpu::RenderPipeline, wgpu::BindGroup), GpuError> {
+    fn pixel_bind(&self, shading: &GpuShading) -> Result<Binding, GpuError> {
         let Some((pipeline, params)) = &self.pixels else {
             return Err(GpuError::Scene("the per-pixel pass is not set up".into()));
         };

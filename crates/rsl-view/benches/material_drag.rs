@@ -54,10 +54,7 @@ fn object_drag(c: &mut Criterion) {
 
 /// An object dragged with the drawing per pixel every frame, on the CPU or on `wgpu`'s device.
 fn pixel_drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) {
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/default.toml");
-    let options = ViewerOptions { cache_dir: rsl_engine::cache::default_dir(), quality: None };
-    let mut viewer = Viewer::open(&scene, options).expect("the default scene opens");
-    viewer.wait_prepared().expect("the default scene prepares");
+    let mut viewer = default_viewer();
     let device = match wgpu {
         Some(state) => {
             viewer.attach_wgpu(state).expect("rsl-gpu's passes on the render state's device");
@@ -96,10 +93,7 @@ fn pixel_drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>) 
 /// The drag and rest benchmarks, drawn with wgpu or by the CPU rasteriser with the scene's
 /// antialiasing or `aa` samples per pixel at most.
 fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>, aa: Option<u32>) {
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/default.toml");
-    let options = ViewerOptions { cache_dir: rsl_engine::cache::default_dir(), quality: None };
-    let mut viewer = Viewer::open(&scene, options).expect("the default scene opens");
-    viewer.wait_prepared().expect("the default scene prepares");
+    let mut viewer = default_viewer();
     let drawn = match wgpu {
         Some(state) => {
             viewer.attach_wgpu(state).expect("rsl-gpu's draw pass on the render state's device");
@@ -149,6 +143,16 @@ fn drag(c: &mut Criterion, wgpu: Option<&eframe::egui_wgpu::RenderState>, aa: Op
         })
     });
     report(&viewer, &format!("rest{drawn}"));
+}
+
+/// The viewer on the default scene at its own quality, prepared (the disk cache as
+/// `rsl view` uses it).
+fn default_viewer() -> Viewer {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/scenes/default.toml");
+    let options = ViewerOptions { cache_dir: rsl_engine::cache::default_dir(), quality: None };
+    let mut viewer = Viewer::open(&scene, options).expect("the default scene opens");
+    viewer.wait_prepared().expect("the default scene prepares");
+    viewer
 }
 
 /// Prints the median stage costs of the viewer's recent frames.

@@ -165,7 +165,8 @@ impl Viewer {
         let preview = self.preview();
         // What changed since the frame shown: drawn by the drawing itself while it keeps up,
         // else by the preview.
-        let shown = if self.live_pixels() { self.drawing } else { preview };
+        let live = self.live_pixels();
+        let shown = if live { self.drawing } else { preview };
         let mut found = self.session.changes(engine, &self.scene, shown, self.time)?;
         let mut changes = found.clone();
         if !changes.any() && !self.redraw {
@@ -174,7 +175,6 @@ impl Viewer {
         let start = self.edit_started.take().unwrap_or_else(Instant::now);
         if !self.vertices_only() {
             // Per pixel when asked, or while the drawing keeps up with the edits.
-            let live = self.live_pixels();
             if (self.force_pixels || live) && !self.drawing_ready()? {
                 // Drawn from the vertices until the worker has prepared the drawing
                 // (`force_pixels` stays: the frame after it draws per pixel).

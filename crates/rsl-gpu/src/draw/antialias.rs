@@ -10,7 +10,7 @@
 //! then take the `k×k` grid of `aa` samples besides. The offsets are the CPU's, so the GPU's
 //! samples are the CPU's.
 
-use super::{Bound, DrawParams, GpuDraw, Objects, image_pass, render_pipeline_full};
+use super::{Bound, DrawParams, GpuDraw, Objects, compute_entry, image_pass, render_pipeline_full};
 use crate::{GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
@@ -63,14 +63,8 @@ impl AaPass {
     fn new(draw: &GpuDraw) -> Result<Self, GpuError> {
         let ctx = &draw.ctx;
         let d = &ctx.device;
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty,
-            count: None,
-        };
         let storage = |binding| {
-            entry(
+            compute_entry(
                 binding,
                 wgpu::BindingType::Buffer {
                     ty: wgpu::BufferBindingType::Storage { read_only: false },
@@ -80,7 +74,7 @@ impl AaPass {
             )
         };
         let texture = |binding, sample_type| {
-            entry(
+            compute_entry(
                 binding,
                 wgpu::BindingType::Texture {
                     sample_type,
@@ -92,7 +86,7 @@ impl AaPass {
         let layout = d.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("antialias"),
             entries: &[
-                entry(
+                compute_entry(
                     0,
                     wgpu::BindingType::Buffer {
                         ty: wgpu::BufferBindingType::Uniform,

@@ -196,6 +196,11 @@ fn staging_size(texture: &wgpu::Texture, texel: u64) -> u64 {
     padded * u64::from(texture.height())
 }
 
+/// A binding of a compute pass's bind group layout.
+pub(super) fn compute_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None }
+}
+
 /// The bind group layout and compute pipeline of a tonemap pass: parameters (0), the
 /// linear image (1) and `output` (2).
 pub(super) fn tone_pipeline(
@@ -203,12 +208,10 @@ pub(super) fn tone_pipeline(
     shader: &shaders::Shader,
     output: wgpu::BindingType,
 ) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline), GpuError> {
-    let entry =
-        |binding, ty| wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None };
     let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(shader.name),
         entries: &[
-            entry(
+            compute_entry(
                 0,
                 wgpu::BindingType::Buffer {
                     ty: wgpu::BufferBindingType::Uniform,
@@ -216,7 +219,7 @@ pub(super) fn tone_pipeline(
                     min_binding_size: None,
                 },
             ),
-            entry(
+            compute_entry(
                 1,
                 wgpu::BindingType::Texture {
                     sample_type: wgpu::TextureSampleType::Float { filterable: false },
@@ -224,7 +227,7 @@ pub(super) fn tone_pipeline(
                     multisampled: false,
                 },
             ),
-            entry(2, output),
+            compute_entry(2, output),
         ],
     });
     let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
