@@ -28,6 +28,13 @@ pub struct BenchArgs {
     /// Samples per vertex of the truth (at least 2, so it can measure its own noise).
     #[arg(long, default_value_t = 256)]
     pub truth_spp: u32,
+    /// The truths' own noise to reach, as a fraction (0.01) or a percentage (1%): each
+    /// scene's truths (per vertex, and per pixel for the images) take the samples that
+    /// reach it, from a pilot estimate at 64 samples (the noise falls as 1/√samples; at most
+    /// the largest --truth-spp), in place of --truth-spp and --grid-spp. Errors near the
+    /// noise cannot be told apart from it: aim below the errors you expect.
+    #[arg(long, value_parser = parse_error)]
+    pub truth_noise: Option<f64>,
     /// Seed of the truth.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -51,9 +58,13 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_wavelet: bool,
     /// Samples per pixel of the per-pixel truth behind the image grid and the per-pixel
-    /// errors, at half the camera's resolution (0: no images).
+    /// errors, at half the camera's resolution unless --grid-full (0: no images).
     #[arg(long, default_value_t = 256)]
     pub grid_spp: u32,
+    /// The image grid and the per-pixel errors at the camera's own resolution (the truth
+    /// costs 4× the default half resolution's).
+    #[arg(long)]
+    pub grid_full: bool,
     /// Error budgets: for the CPU configurations with this many RSLs, the error with each
     /// approximation replaced by its exact value (`rsl render --oracle`), one at a time and
     /// all together, written to budget.csv and the report. Oracles trace shadow rays: a
@@ -76,10 +87,10 @@ fn parse_error(s: &str) -> Result<f64, String> {
         Some(p) => (p, 0.01),
         None => (s.trim(), 1.0),
     };
-    let x: f64 = v.parse().map_err(|_| format!("`{s}` is not an error such as 0.05 or 5%"))?;
+    let x: f64 = v.parse().map_err(|_| format!("`{s}` is not a relative error such as 0.05 or 5%"))?;
     let x = x * scale;
     if !(x.is_finite() && x > 0.0) {
-        return Err(format!("`{s}`: the target error must be positive"));
+        return Err(format!("`{s}`: must be positive"));
     }
     if scale == 1.0 && x >= 1.0 {
         // A bare 5 is far more likely "5 %" than 500 %: say which to write.
@@ -149,17 +160,22 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         times: args.times.clone(),
         frames: args.frames,
         grid_spp: args.grid_spp,
+        grid_full: args.grid_full,
+        truth_noise: args.truth_noise,
         cache_dir: args.prepare.options().cache_dir,
         progress: crate::progress::bars(),
         budget_rsl: (!args.no_budget).then_some(args.budget),
         command: command_line(),
     };
+    let truth = match options.truth_noise {
+        Some(x) => format!("truths to {:.2}% noise", 100.0 * x),
+        None => format!("truth at {} spp", options.truth_spp),
+    };
     crate::status!(
-        "bench: {} scene(s) × {} configuration(s) × {} time(s); truth at {} spp",
+        "bench: {} scene(s) × {} configuration(s) × {} time(s); {truth}",
         options.scenes.len(),
         options.configs.len(),
-        options.times.len(),
-        options.truth_spp
+        options.times.len()
     );
     let s = run(&options)?;
     crate::status!(
@@ -184,7 +200,11 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
             let pick = rsl_bench::target::pick(&rows, &name, x)?;
             let config = configs.iter().find(|c| c.id() == pick.config).expect("picked from this sweep");
             let base = rsl_scene::Scene::load(path)?.quality;
-            let text = rsl_bench::target::fragment(&pick, config, base, args.truth_spp)?;
+            let spp = rows
+                .iter()
+                .find(|r| r.scene == name && r.config == pick.config)
+                .map_or(args.truth_spp, |r| r.truth_spp);
+            let text = rsl_bench::target::fragment(&pick, config, base, spp)?;
             let file = args.out.join(format!("{}_target.toml", rsl_bench::report::stem(&name)));
             rsl_engine::output::write_atomic(&file, text.as_bytes())?;
             println!(

@@ -273,28 +273,11 @@ fn print_rows(rows: &[Row], unit: &str) {
 /// The error per object of image `a` against `b` (`scene`'s camera at its size, time `t`)
 /// over the pixels `mask` keeps whose centre sees the object.
 fn pixel_breakdown(scene: &Scene, t: f32, a: &[Vec3], b: &[Vec3], mask: Option<&[bool]>) -> Result<Vec<Row>> {
-    let seen = object_pixels(scene, t);
+    let seen = rsl_engine::compose::object_pixels(scene, t);
     let keep = |k: usize| mask.is_none_or(|m| m[k]);
     (0..scene.objects.len())
         .map(|j| error_row("object", scene.objects[j].name.clone(), a, b, &|k| keep(k) && seen[k] == Some(j)))
         .collect()
-}
-
-/// Per pixel of `scene`'s camera at time `t`, the object its centre sees.
-fn object_pixels(scene: &Scene, t: f32) -> Vec<Option<usize>> {
-    let state = scene.at(t);
-    let positions: Vec<Vec<Vec3>> = scene
-        .objects
-        .iter()
-        .zip(&state.objects)
-        .map(|(o, tr)| {
-            let m = tr.matrix();
-            o.mesh.positions.iter().map(|&p| m.transform_point3(p)).collect()
-        })
-        .collect();
-    let geometry: Vec<(&[Vec3], &[u32])> =
-        scene.objects.iter().zip(&positions).map(|(o, p)| (p.as_slice(), o.mesh.indices.as_slice())).collect();
-    rsl_shade::fragments(&scene.camera, &geometry).iter().map(|f| f.map(|f| f.mesh as usize)).collect()
 }
 
 fn write_heatmap(path: &Path, w: u32, h: u32, px: &[Vec3], max: f32) -> Result<()> {
@@ -362,7 +345,7 @@ mod tests {
             ))
             .build(dir.join("two.toml"))
             .unwrap();
-        let seen = object_pixels(&scene, 0.0);
+        let seen = rsl_engine::compose::object_pixels(&scene, 0.0);
         let (w, h) = (64usize, 32usize);
         assert_eq!(seen.len(), w * h);
         assert_eq!(seen[(h / 2) * w + w / 2 - 13], Some(0), "the left ball left of centre");
@@ -377,7 +360,7 @@ mod tests {
         assert!((rows[1].relative_l2 - 0.1).abs() < 1e-6 && (rows[1].share - 1.0).abs() < 1e-12, "{:?}", rows[1]);
         assert_eq!(rows[1].points, seen.iter().filter(|s| **s == Some(1)).count());
         // A second later the right ball has moved up and out of the row.
-        let later = object_pixels(&scene, 1.0);
+        let later = rsl_engine::compose::object_pixels(&scene, 1.0);
         assert_ne!(later[(h / 2) * w + w / 2 + 13], Some(1));
         std::fs::remove_dir_all(&dir).unwrap();
     }

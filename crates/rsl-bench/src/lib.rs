@@ -43,9 +43,16 @@ pub struct BenchOptions {
     pub times: Vec<f32>,
     /// Frames timed per configuration and time (the median is reported).
     pub frames: usize,
-    /// Samples per pixel of the per-pixel truth behind the image grids and per-pixel errors,
-    /// at half the camera's resolution (0: no images).
+    /// Samples per pixel of the per-pixel truth behind the image grids and per-pixel errors
+    /// (0: no images).
     pub grid_spp: u32,
+    /// The images at the camera's own resolution (else at half of it).
+    pub grid_full: bool,
+    /// A noise target for the truths (relative L2 of their standard errors): each scene's
+    /// truths take the samples that reach it, from a pilot estimate of [`PILOT_SPP`]
+    /// ([`samples_for_noise`]), in place of `truth_spp`, and of `grid_spp` unless that is 0
+    /// (`None`: those counts).
+    pub truth_noise: Option<f64>,
     /// Cache folder for prepared data and truths (`None`: memory only, nothing reused
     /// between runs but the results).
     pub cache_dir: Option<PathBuf>,
@@ -95,8 +102,11 @@ pub struct Row {
     /// Samples per vertex of the truth.
     pub truth_spp: u32,
     /// Relative L2 per pixel against the per-pixel truth over the pixels objects cover, at
-    /// half the camera's resolution, and that truth's own noise (`None` without images).
+    /// the grid's resolution, and that truth's own noise (`None` without images).
     pub pixel_l2: Option<(f64, f64)>,
+    /// The same per object (over the pixels whose centre sees it): name, relative L2, the
+    /// truth's noise there (empty without images).
+    pub pixel_objects: Vec<(String, f64, f64)>,
     /// Samples per vertex a Monte Carlo estimate needs to be as far from the truth as this
     /// configuration ([`equal_error_spp`]); `None` where the configuration is within the
     /// truth's own noise and the two cannot be told apart.
@@ -194,6 +204,7 @@ fn measured_row(
         mc_spp,
         mc_ms: mc_spp.map(|s| s * truth.seconds * 1e3 / f64::from(truth.spp)),
         pixel_l2: None,
+        pixel_objects: Vec::new(),
         objects,
         truth_key: None,
     })
@@ -216,23 +227,37 @@ fn object_errors(scene: &Scene, radiance: &[Vec<Vec3>], truth: &truth::VertexTru
 /// Most configurations one grid shows.
 pub const GRID_ROWS: usize = 24;
 
-/// The image pass: per scene and time, the per-pixel truth (cached) at half resolution;
-/// every configuration of the sweep rendered there (prepared data comes from the cache);
-/// its per-pixel error filled into its row; and the grid `<scene>_grid_t<time>.png` of the
+/// The image pass: per scene and time, the per-pixel truth (cached) at the grid's resolution
+/// ([`grid::grid_scene`]); every configuration of the sweep rendered there (prepared data
+/// comes from the cache); its per-pixel errors, over the scene and per object, filled into
+/// its row; and the grid `<scene>_grid_t<time>.png` of the
 /// first [`GRID_ROWS`] configurations.
 fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) -> Result<()> {
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
         let full = Scene::load(scene_path)?;
         let base = full.quality;
-        let mut scene = grid::grid_scene(&full);
+        let mut scene = grid::grid_scene(&full, options.grid_full);
+        let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
         let neutral = neutral_engine(&scene, options)?;
+        let spp = truth_samples(options, summary, options.grid_spp, |spp| {
+            let (pilot, cached) = grid::truth_image(
+                &neutral,
+                &scene,
+                options.times[0],
+                spp,
+                options.seed,
+                options.cache_dir.as_deref(),
+                &options.progress,
+            )?;
+            Ok((pilot.noise(|_| true), cached))
+        })?;
         for &t in &options.times {
-            let (truth, pixel_noise, cached) = grid::truth_image(
+            let (truth, cached) = grid::truth_image(
                 &neutral,
                 &scene,
                 t,
-                options.grid_spp,
+                spp,
                 options.seed,
                 options.cache_dir.as_deref(),
                 &options.progress,
@@ -245,21 +270,22 @@ fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) 
                 let method = methods.get(config, &engine, options)?;
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
                 let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
-                let err = grid::pixel_error(&image, &truth)?;
+                let err = grid::pixel_error(&image, &truth, &names)?;
                 if let Some(r) =
                     summary.rows.iter_mut().find(|r| r.scene == name && r.config == config.id() && r.time == t)
                 {
-                    r.pixel_l2 = Some((err, pixel_noise));
+                    r.pixel_l2 = Some(err.scene);
+                    r.pixel_objects = err.objects;
                 }
-                renders.push((format!("{} {:.2}%", config.id(), 100.0 * err), image));
+                renders.push((format!("{} {:.2}%", config.id(), 100.0 * err.scene.0), image));
             }
             let rows: Vec<grid::GridRow<'_>> = renders
                 .iter()
                 .take(GRID_ROWS)
                 .map(|(label, image)| grid::GridRow { label: label.clone(), image })
                 .collect();
-            let label = format!("truth {} spp, noise {:.2}%", options.grid_spp, 100.0 * pixel_noise);
-            let (rgb, w, h) = grid::grid(&truth, &label, &rows);
+            let label = format!("truth {spp} spp, noise {:.2}%", 100.0 * truth.noise(|_| true));
+            let (rgb, w, h) = grid::grid(&truth.image, &label, &rows);
             let file = options.out.join(format!("{}_grid_t{t}.png", report::stem(&name)));
             rsl_engine::output::write_png(&file, w, h, rgb)?;
         }
@@ -380,8 +406,92 @@ fn check_stems(options: &BenchOptions, rows: &[Row]) -> Result<()> {
     Ok(())
 }
 
+/// Samples per vertex or pixel of the pilot estimate behind a noise target
+/// ([`BenchOptions::truth_noise`]).
+pub const PILOT_SPP: u32 = 64;
+
+/// The samples a Monte Carlo truth needs for its noise to come to `target`, where
+/// [`PILOT_SPP`] samples gave `pilot` (the noise falls as 1/√samples): rounded up to a
+/// multiple of the pilot's (so that nearby targets share a cached truth), within
+/// `PILOT_SPP..=max`.
+pub fn samples_for_noise(pilot: f64, target: f64, max: u32) -> u32 {
+    if !(pilot.is_finite() && target > 0.0) {
+        return max;
+    }
+    let k = (pilot / target).powi(2).ceil().max(1.0);
+    (k * f64::from(PILOT_SPP)).min(f64::from(max)) as u32
+}
+
+/// The samples of a scene's truth: `fixed`, or with a noise target those that reach it from
+/// `pilot(PILOT_SPP)` (its noise, and whether it came from the cache).
+fn truth_samples(
+    options: &BenchOptions,
+    summary: &mut Summary,
+    fixed: u32,
+    pilot: impl FnOnce(u32) -> Result<(f64, bool)>,
+) -> Result<u32> {
+    let Some(target) = options.truth_noise else { return Ok(fixed) };
+    let (noise, cached) = pilot(PILOT_SPP)?;
+    summary.count_truth(cached);
+    Ok(samples_for_noise(noise, target, rsl_truth::MAX_SPP))
+}
+
+/// The lock file a bench holds in its `--out` folder while it runs.
+pub const LOCK_FILE: &str = "bench.lock";
+
+/// A bench's hold on its `--out` folder: [`LOCK_FILE`], locked, removed when the bench ends.
+struct OutLock {
+    path: PathBuf,
+    _file: std::fs::File,
+}
+
+impl Drop for OutLock {
+    fn drop(&mut self) {
+        // Removed while still locked; the lock goes with the file's closing just after.
+        let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Holds `out` for this bench: [`LOCK_FILE`] locked (an advisory lock the system releases
+/// when the process ends, however it ends), with this process's id in it. Another bench
+/// into the same folder would read the results, measure, and write them back over this
+/// one's: it is refused before any work.
+fn lock_out(out: &std::path::Path) -> Result<OutLock> {
+    use std::io::{Read, Seek, Write};
+    let path = out.join(LOCK_FILE);
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .with_context(|| format!("cannot open {}", path.display()))?;
+    match file.try_lock() {
+        Ok(()) => {}
+        Err(std::fs::TryLockError::WouldBlock) => {
+            let mut holder = String::new();
+            let _ = file.read_to_string(&mut holder);
+            let holder = holder.trim();
+            let by = if holder.is_empty() { String::new() } else { format!(" (process {holder})") };
+            bail!(
+                "{}: another bench{by} is writing into this folder; wait for it to finish, or give another --out",
+                out.display()
+            );
+        }
+        Err(std::fs::TryLockError::Error(e)) => {
+            return Err(e).with_context(|| format!("cannot lock {}", path.display()));
+        }
+    }
+    file.set_len(0)
+        .and_then(|()| file.rewind())
+        .and_then(|()| write!(file, "{}", std::process::id()))
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(OutLock { path, _file: file })
+}
+
 /// Runs the study: measures every (scene, configuration, time) not already in
 /// `out/results.csv`, writing the results after each, then the reports.
+/// One bench at a time per `out` ([`LOCK_FILE`]).
 pub fn run(options: &BenchOptions) -> Result<Summary> {
     if options.scenes.is_empty() || options.configs.is_empty() || options.times.is_empty() {
         bail!("nothing to measure: give at least one scene, configuration and time");
@@ -390,6 +500,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         bail!("--frames must be at least 1 and --truth-spp at least 2 (one sample cannot estimate its noise)");
     }
     std::fs::create_dir_all(&options.out).with_context(|| format!("cannot create {}", options.out.display()))?;
+    let _lock = lock_out(&options.out)?;
     let results = options.out.join("results.csv");
     let mut summary = Summary { rows: report::read_rows(&results)?, ..Summary::default() };
     check_stems(options, &summary.rows)?;
@@ -403,11 +514,20 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         // The truths' keys, one per time: a row measured against another truth (other
         // samples or seed, or the scene's contents changed since) is measured again.
         let neutral = neutral_engine(&scene, options)?;
-        let keys: Vec<(f32, u64)> = options
-            .times
-            .iter()
-            .map(|&t| (t, truth::key(&neutral, &scene, t, options.truth_spp, options.seed)))
-            .collect();
+        let spp = truth_samples(options, &mut summary, options.truth_spp, |spp| {
+            let (pilot, cached) = truth::truth(
+                &neutral,
+                &scene,
+                options.times[0],
+                spp,
+                options.seed,
+                options.cache_dir.as_deref(),
+                &options.progress,
+            )?;
+            Ok((pilot.noise(None), cached))
+        })?;
+        let keys: Vec<(f32, u64)> =
+            options.times.iter().map(|&t| (t, truth::key(&neutral, &scene, t, spp, options.seed))).collect();
         let key_at = |t: f32| keys.iter().find(|(tt, _)| *tt == t).map(|(_, k)| *k);
         let todo: Vec<(&Config, f32)> = options
             .configs
@@ -449,15 +569,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         // The truths, once per time: only the method-neutral layer is needed for them.
         let mut truths = Vec::new();
         for &t in &options.times {
-            let (tr, cached) = truth::truth(
-                &neutral,
-                &scene,
-                t,
-                options.truth_spp,
-                options.seed,
-                options.cache_dir.as_deref(),
-                &options.progress,
-            )?;
+            let (tr, cached) =
+                truth::truth(&neutral, &scene, t, spp, options.seed, options.cache_dir.as_deref(), &options.progress)?;
             summary.count_truth(cached);
             truths.push((t, tr));
         }
@@ -557,7 +670,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         images(options, &mut summary, &mut methods)?;
         report::write_rows(&results, &summary.rows)?;
     }
-    report::write_reports(&options.out, &options.command, &summary.rows, &budget_rows)?;
+    report::write_reports(&options.out, &options.command, &summary.rows, &budget_rows, options.grid_full)?;
     Ok(summary)
 }
 

@@ -10,7 +10,13 @@ use std::path::Path;
 
 const HEADER: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,ms_per_frame,relative_l2,\
                       mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,pixel_l2,pixel_truth_noise,objects,\
-                      truth_key";
+                      truth_key,pixel_objects";
+
+/// The header of results written before rows carried their per-object pixel errors: read,
+/// with none (the image pass fills them in again).
+const HEADER_NO_PIXEL_OBJECTS: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,\
+                                       ms_per_frame,relative_l2,mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,\
+                                       mc_ms,pixel_l2,pixel_truth_noise,objects,truth_key";
 
 /// The header of results written before rows carried their truth's key: read, and every
 /// row measured again.
@@ -42,22 +48,18 @@ pub(crate) fn split(line: &str) -> Vec<String> {
 }
 
 /// Per object `name=relative_l2/noise`, joined by `;` (a field of its own).
-fn objects_field(r: &Row) -> String {
-    r.objects
-        .iter()
-        .map(|(n, e, s)| format!("{}={e}/{s}", n.replace([';', '=', '/'], "_")))
-        .collect::<Vec<_>>()
-        .join(";")
+fn objects_field(objects: &[(String, f64, f64)]) -> String {
+    objects.iter().map(|(n, e, s)| format!("{}={e}/{s}", n.replace([';', '=', '/'], "_"))).collect::<Vec<_>>().join(";")
 }
 
 /// Writes the rows (atomically) as `results.csv`, and `objects.csv` beside it.
 pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     let mut s = format!("{HEADER}\n");
-    let mut o = String::from("scene,config,time,object,relative_l2,truth_noise\n");
+    let mut o = String::from("scene,config,time,object,relative_l2,truth_noise,pixel_relative_l2,pixel_truth_noise\n");
     for r in rows {
         s += &format!(
             // Floats in their shortest exact form, so a resumed bench reads back what it wrote.
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             field(&r.scene),
             field(&r.config),
             r.method,
@@ -77,11 +79,14 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
             r.mc_ms.map_or(String::new(), |v| v.to_string()),
             r.pixel_l2.map_or(String::new(), |v| v.0.to_string()),
             r.pixel_l2.map_or(String::new(), |v| v.1.to_string()),
-            field(&objects_field(r)),
-            key_field(r.truth_key)
+            field(&objects_field(&r.objects)),
+            key_field(r.truth_key),
+            field(&objects_field(&r.pixel_objects))
         );
         for (name, e, n) in &r.objects {
-            o += &format!("{},{},{},{},{e},{n}\n", field(&r.scene), field(&r.config), r.time, field(name));
+            let pixel =
+                r.pixel_objects.iter().find(|p| p.0 == *name).map_or(",".into(), |p| format!("{},{}", p.1, p.2));
+            o += &format!("{},{},{},{},{e},{n},{pixel}\n", field(&r.scene), field(&r.config), r.time, field(name));
         }
     }
     write_atomic(path, s.as_bytes())?;
@@ -155,26 +160,30 @@ pub(crate) fn measure(path: &Path, n: usize, header: &str, f: &[String], i: usiz
 
 /// Reads `results.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
-    read_csv(path, &[(HEADER, 21), (HEADER_UNKEYED, 20)], "results")?
+    read_csv(path, &[(HEADER, 22), (HEADER_NO_PIXEL_OBJECTS, 21), (HEADER_UNKEYED, 20)], "results")?
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
             let num = |i: usize| measure(path, n, HEADER, &f, i, false);
-            let objects = f[19]
-                .split(';')
-                .filter(|s| !s.is_empty())
-                .map(|o| {
-                    let (name, rest) = o.split_once('=').ok_or_else(bad)?;
-                    let (e, s) = rest.split_once('/').ok_or_else(bad)?;
-                    let pair = [e.to_string(), s.to_string()];
-                    let header = format!("{name} relative_l2,{name} truth_noise");
-                    Ok((
-                        name.to_string(),
-                        measure(path, n, &header, &pair, 0, false)?,
-                        measure(path, n, &header, &pair, 1, false)?,
-                    ))
-                })
-                .collect::<Result<Vec<_>>>()?;
+            let objects_in = |field: &str| {
+                field
+                    .split(';')
+                    .filter(|s| !s.is_empty())
+                    .map(|o| {
+                        let (name, rest) = o.split_once('=').ok_or_else(bad)?;
+                        let (e, s) = rest.split_once('/').ok_or_else(bad)?;
+                        let pair = [e.to_string(), s.to_string()];
+                        let header = format!("{name} relative_l2,{name} truth_noise");
+                        Ok((
+                            name.to_string(),
+                            measure(path, n, &header, &pair, 0, false)?,
+                            measure(path, n, &header, &pair, 1, false)?,
+                        ))
+                    })
+                    .collect::<Result<Vec<_>>>()
+            };
+            let objects = objects_in(&f[19])?;
+            let pixel_objects = objects_in(f.get(21).map_or("", String::as_str))?;
             Ok(Row {
                 scene: f[0].clone(),
                 config: f[1].clone(),
@@ -195,6 +204,7 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
                 mc_ms: if f[16].is_empty() { None } else { Some(num(16)?) },
                 pixel_l2: if f[17].is_empty() { None } else { Some((num(17)?, num(18)?)) },
                 objects,
+                pixel_objects,
                 truth_key: truth_key(path, n, f.get(20))?,
             })
         })
@@ -226,8 +236,15 @@ pub fn less_noise(error: f64, noise: f64) -> String {
 }
 
 /// Writes `report.md` (headed by `command`, the command that produced it, when not empty)
-/// and the plots of every scene into `out`.
-pub fn write_reports(out: &Path, command: &str, rows: &[Row], budget: &[crate::budget::BudgetRow]) -> Result<()> {
+/// and the plots of every scene into `out`; the per-pixel figures were measured at the
+/// camera's resolution with `grid_full`, else at half of it.
+pub fn write_reports(
+    out: &Path,
+    command: &str,
+    rows: &[Row],
+    budget: &[crate::budget::BudgetRow],
+    grid_full: bool,
+) -> Result<()> {
     let mut by_scene: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
     for r in rows {
         by_scene.entry(&r.scene).or_default().push(r);
@@ -302,10 +319,47 @@ pub fn write_reports(out: &Path, command: &str, rows: &[Row], budget: &[crate::b
                     r.objects.iter().map(|o| format!("{:.2}%", 100.0 * o.1)).collect::<Vec<_>>().join(" | ")
                 );
             }
+            let resolution = if grid_full { "the camera's resolution" } else { "half the camera's resolution" };
+            let pixel_names: Vec<&str> =
+                rs.iter().flat_map(|r| r.pixel_objects.iter().map(|o| o.0.as_str())).fold(Vec::new(), |mut v, n| {
+                    if !v.contains(&n) {
+                        v.push(n);
+                    }
+                    v
+                });
+            if !pixel_names.is_empty() {
+                md += &format!(
+                    "\nPer covered pixel, at {resolution}, against the per-pixel truth (each figure with the truth's own \
+                     noise over the same pixels; an object's pixels are those whose centre sees it):\n\n\
+                     | configuration | all pixels | {} |\n|---|---|{}\n",
+                    pixel_names.join(" | "),
+                    "---|".repeat(pixel_names.len())
+                );
+                for r in rs.iter().filter(|r| r.pixel_l2.is_some()) {
+                    let (e, n) = r.pixel_l2.unwrap_or_default();
+                    let cells: Vec<String> = pixel_names
+                        .iter()
+                        .map(|name| {
+                            r.pixel_objects
+                                .iter()
+                                .find(|o| o.0 == *name)
+                                .map_or_else(|| "—".into(), |o| format!("{:.2}% ({:.2}%)", 100.0 * o.1, 100.0 * o.2))
+                        })
+                        .collect();
+                    md += &format!(
+                        "| {} | {:.2}% ({:.2}%; less noise {}) | {} |\n",
+                        r.config,
+                        100.0 * e,
+                        100.0 * n,
+                        less_noise(e, n),
+                        cells.join(" | ")
+                    );
+                }
+            }
             let grid = format!("{stem}_grid_t{t}.png");
             if out.join(&grid).exists() {
                 md += &format!(
-                    "\nThe grid (at half resolution; first row the per-pixel truth, then per configuration its render \
+                    "\nThe grid (at {resolution}; first row the per-pixel truth, then per configuration its render \
                      and its luminance error, one colour scale for all): ![grid]({grid})\n"
                 );
             }
@@ -420,6 +474,7 @@ mod tests {
             mc_ms: None,
             pixel_l2: Some((0.5, 0.25)),
             objects: vec![("floor".into(), 0.05, 0.01), ("ball".into(), 0.5, 0.02)],
+            pixel_objects: vec![("floor".into(), 0.0625, 0.015), ("ball".into(), 0.75, 0.03)],
             truth_key: Some(0x0123_4567_89ab_cdef),
         }
     }
@@ -432,6 +487,12 @@ mod tests {
         assert_eq!(less_noise(0.04, 0.04), "within noise");
     }
 
+    /// `results.csv` as written before rows carried per-object pixel errors: the last
+    /// column dropped.
+    fn good_without_pixel_objects(csv: &str) -> String {
+        csv.lines().map(|l| format!("{}\n", &l[..l.rfind(',').unwrap()])).collect()
+    }
+
     #[test]
     fn rows_round_trip_through_csv() {
         let dir = std::env::temp_dir().join(format!("rsl-bench-report-{}", std::process::id()));
@@ -441,10 +502,22 @@ mod tests {
         let path = dir.join("results.csv");
         write_rows(&path, &rows).unwrap();
         assert_eq!(read_rows(&path).unwrap(), rows);
-        write_reports(&dir, "rsl bench s.toml --out dir", &rows, &[]).unwrap();
+        write_reports(&dir, "rsl bench s.toml --out dir", &rows, &[], false).unwrap();
         let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
         assert!(md.starts_with("# rsl bench\n\nWritten by:\n\n```sh\nrsl bench s.toml --out dir\n```\n"), "{md}");
         assert!(md.contains("★ method=cpu quality=draft rsl=30") && md.contains("★ method=cpu quality=paper rsl=30"));
+        assert!(
+            md.contains("| method=cpu quality=draft rsl=30 | 50.00% (25.00%; less noise 43.30%) | 6.25% (1.50%) | 75.00% (3.00%) |"),
+            "{md}"
+        );
+        let objects = std::fs::read_to_string(dir.join("objects.csv")).unwrap();
+        assert!(objects.contains(",floor,0.05,0.01,0.0625,0.015\n"), "{objects}");
+        // Results written before the per-object pixel errors are read, without them.
+        let older: String = good_without_pixel_objects(&std::fs::read_to_string(&path).unwrap());
+        std::fs::write(&path, older).unwrap();
+        let read = read_rows(&path).unwrap();
+        assert!(read.iter().all(|r| r.pixel_objects.is_empty()) && read[0].objects == rows[0].objects);
+        write_rows(&path, &rows).unwrap();
         assert!(
             dir.join("a___b__error_vs_ms.svg").exists(),
             "{:?}",

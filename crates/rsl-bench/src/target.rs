@@ -116,6 +116,7 @@ mod tests {
             mc_spp: None,
             mc_ms: None,
             pixel_l2: None,
+            pixel_objects: Vec::new(),
             objects: Vec::new(),
             truth_key: None,
         }

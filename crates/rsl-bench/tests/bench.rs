@@ -60,6 +60,8 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         times: vec![0.0],
         frames: 2,
         grid_spp: 8,
+        grid_full: false,
+        truth_noise: None,
         cache_dir: Some(cache),
         progress: Default::default(),
         budget_rsl: None,
@@ -88,6 +90,13 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     assert!(rows.iter().all(|r| r.relative_l2.is_finite() && r.relative_l2 > 0.0 && r.ms_per_frame > 0.0));
     assert!(rows.iter().all(|r| r.truth_noise > 0.0 && r.objects.len() == 2));
     assert!(rows.iter().all(|r| r.pixel_l2.is_some_and(|(e, n)| e.is_finite() && e > 0.0 && n > 0.0)), "{rows:?}");
+    // Per object over the pixels each covers, with the truth's noise there.
+    let names = |o: &[(String, f64, f64)]| o.iter().map(|o| o.0.clone()).collect::<Vec<_>>();
+    assert!(
+        rows.iter().all(|r| names(&r.pixel_objects) == names(&r.objects)
+            && r.pixel_objects.iter().all(|&(_, e, n)| e.is_finite() && e > 0.0 && n > 0.0)),
+        "{rows:?}"
+    );
     let grid = image_size(&out.join("small_grid_t0.png"));
     assert_eq!(grid, (2 * 32 + 12, 3 * (24 + 16 + 4) + 4 + 40), "truth row, two configuration rows, legend");
     // Two lights are further from the truth than its noise (8.2 % against 7.3 %): a Monte
@@ -110,6 +119,15 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     assert_eq!(resumed.rows.len(), 3);
     let eight = |rows: &[rsl_bench::Row]| rows.iter().find(|r| r.rsl == 8).unwrap().relative_l2;
     assert!((eight(&resumed.rows) - eight(&first.rows)).abs() < 1e-9, "the same configuration measures the same error");
+    // The images at the camera's own resolution: a truth of their own, and a grid twice the
+    // size.
+    let mut full = options(d.join("small.toml"), d.join("full"), d.join("cache"), &["rsl=2"]);
+    full.grid_full = true;
+    let s = run(&full).unwrap();
+    assert_eq!((s.truths_estimated, s.truths_reused), (1, 1), "the vertex truth reused, the pixels' estimated");
+    assert_eq!(image_size(&d.join("full/small_grid_t0.png")), (2 * 64 + 12, 2 * (48 + 16 + 4) + 4 + 40));
+    let md = std::fs::read_to_string(d.join("full/report.md")).unwrap();
+    assert!(md.contains("Per covered pixel, at the camera's resolution"), "{md}");
 }
 
 #[test]
@@ -122,6 +140,65 @@ fn bad_options_are_clear_errors() {
     o.truth_spp = 4;
     o.scenes = vec![d.join("missing.toml")];
     assert!(format!("{:#}", run(&o).unwrap_err()).contains("missing.toml"));
+}
+
+#[test]
+fn a_noise_target_chooses_each_truths_samples() {
+    // The samples for a target from a pilot's noise: as its square, in multiples of the
+    // pilot's, within the pilot's and the largest count.
+    use rsl_bench::{PILOT_SPP, samples_for_noise};
+    assert_eq!(samples_for_noise(0.1, 0.05, 1 << 20), 4 * PILOT_SPP);
+    assert_eq!(samples_for_noise(0.1, 0.03, 1 << 20), 12 * PILOT_SPP, "(0.1 / 0.03)² = 11.1, rounded up");
+    assert_eq!(samples_for_noise(0.01, 0.05, 1 << 20), PILOT_SPP, "never below the pilot");
+    assert_eq!(samples_for_noise(0.1, 1e-4, 4096), 4096, "never above the largest");
+    assert_eq!(samples_for_noise(f64::NAN, 0.05, 4096), 4096);
+    let d = dir("noise");
+    let mut o = options(scene(&d), d.join("out"), d.join("cache"), &["rsl=4"]);
+    o.frames = 1;
+    o.truth_noise = Some(0.02);
+    let s = run(&o).unwrap();
+    let r = &s.rows[0];
+    // On this scene 64 samples per vertex leave about 7 % noise: 2 % takes about 13× as many
+    // (896; measured: 1.4 % — the pilot's own estimate of its noise runs high).
+    assert!(r.truth_spp > 8 * PILOT_SPP && r.truth_spp.is_multiple_of(PILOT_SPP), "{r:?}");
+    assert!(r.truth_noise <= 0.02 * 1.1 && r.truth_noise > 0.02 * 0.5, "{r:?}");
+    let (_, pixel_noise) = r.pixel_l2.unwrap();
+    assert!(pixel_noise <= 0.02 * 1.1 && pixel_noise > 0.02 * 0.5, "{r:?}");
+    // Two pilots and two truths estimated; again, all four come from the cache.
+    assert_eq!((s.truths_estimated, s.truths_reused), (4, 0));
+    let again = run(&o).unwrap();
+    assert_eq!((again.measured, again.truths_estimated, again.truths_reused), (0, 0, 3));
+}
+
+#[test]
+fn a_second_bench_into_a_folder_in_use_is_refused_before_any_work() {
+    let d = dir("lock");
+    let mut o = options(scene(&d), d.join("out"), d.join("cache"), &["rsl=2"]);
+    (o.grid_spp, o.truth_spp, o.frames) = (0, 16, 1);
+    // Two benches at once on two threads, into one folder: one measures, the other is
+    // refused (before, both reported success and one's rows were lost).
+    let (a, b) = std::thread::scope(|s| {
+        let (a, b) = (s.spawn(|| run(&o)), s.spawn(|| run(&o)));
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    let (done, refused): (Vec<_>, Vec<_>) = [a, b].into_iter().partition(Result::is_ok);
+    // The threads may also run one after the other: then the second reuses the first's row.
+    if refused.len() == 1 {
+        let e = format!("{:#}", refused.into_iter().next().unwrap().unwrap_err());
+        assert!(e.contains("another bench") && e.contains("writing into this folder"), "{e}");
+        assert_eq!(done[0].as_ref().unwrap().measured, 1);
+    } else {
+        assert_eq!(done.iter().map(|r| r.as_ref().unwrap().measured).sum::<usize>(), 1);
+    }
+    // A folder held by another bench (here: this test holding its lock) is refused, with
+    // nothing measured; the lock goes with the bench that held it.
+    let held = std::fs::File::create(d.join("out").join(rsl_bench::LOCK_FILE)).unwrap();
+    held.lock().unwrap();
+    o.configs = configs(&["rsl=4".parse().unwrap()]).unwrap();
+    assert!(format!("{:#}", run(&o).unwrap_err()).contains("another bench is writing into this folder"));
+    drop(held);
+    assert_eq!(run(&o).unwrap().measured, 1);
+    assert!(!d.join("out").join(rsl_bench::LOCK_FILE).exists(), "the lock is removed when the bench ends");
 }
 
 #[test]
@@ -146,11 +223,14 @@ fn scenes_whose_outputs_would_collide_are_refused_before_any_work() {
     assert!(e.contains("share the file stem"), "{e}");
 }
 
-/// Rewrites a CSV file as written before rows carried their truth's key (its last column).
-fn unkey(file: &std::path::Path) {
+/// Rewrites a CSV file as written before rows carried their truth's key: its last `columns`
+/// (the key, and in `results.csv` the per-object pixel errors that came after it) dropped.
+fn unkey(file: &std::path::Path, columns: usize) {
     let text = std::fs::read_to_string(file).unwrap();
-    let unkeyed: Vec<String> =
-        text.lines().map(|l| l.rsplit_once(',').expect("a truth_key column").0.to_string()).collect();
+    let unkeyed: Vec<String> = text
+        .lines()
+        .map(|l| l.rsplitn(columns + 1, ',').nth(columns).expect("a truth_key column").to_string())
+        .collect();
     std::fs::write(file, unkeyed.join("\n") + "\n").unwrap();
 }
 
@@ -170,7 +250,7 @@ fn rows_measured_against_another_truth_or_scene_are_measured_again() {
     ball_scene(&scene, 0.5);
     assert_eq!(run(&o).unwrap().measured, 1, "another scene: measured again");
     // Results written before rows carried their truth's key are read, and measured again.
-    unkey(&d.join("out/results.csv"));
+    unkey(&d.join("out/results.csv"), 2);
     assert_eq!(run(&o).unwrap().measured, 1, "an unkeyed row: measured again");
     assert_eq!(run(&o).unwrap().measured, 0);
 }
@@ -232,7 +312,7 @@ fn an_error_budget_measures_every_oracle_once_and_all_of_them_approach_the_truth
     assert_eq!(rekeyed.len(), 7);
     assert!(rekeyed.iter().all(|r| r.truth_key.is_some() && r.truth_key != rows[0].truth_key));
     // A budget written before rows carried their truth's key is read, and measured again.
-    unkey(&out.join("budget.csv"));
+    unkey(&out.join("budget.csv"), 1);
     assert_eq!(run(&o).unwrap().budget_measured, 7, "unkeyed rows: measured again");
     assert_eq!(run(&o).unwrap().budget_measured, 0);
 }

@@ -67,6 +67,8 @@ pub struct Frame {
     pub std_error: Option<Vec<Vec<Vec3>>>,
     /// The linear image with coverage, when asked for.
     pub image: Option<Image>,
+    /// Per pixel of `image`: the standard error of its value (Monte Carlo methods).
+    pub pixel_std_error: Option<Vec<Vec3>>,
     /// The image tonemapped on the device, where the method does that.
     pub encoded: Option<Encoded>,
     /// The method's own error, where it can estimate it (`None` inside: could not, such as
@@ -90,6 +92,7 @@ impl Frame {
             radiance: f.radiance,
             std_error: None,
             image,
+            pixel_std_error: None,
             encoded,
             self_error: None,
             stats: f.stats,
@@ -139,6 +142,7 @@ impl Frame {
             radiance,
             std_error: None,
             image,
+            pixel_std_error: None,
             encoded: None,
             self_error: None,
             stats: FrameStats::default(),
@@ -636,6 +640,7 @@ impl Method for Truth {
         let mut self_error = SelfError::default();
         let mut stats = FrameStats::default();
         let mut shadow_rays = 0;
+        let mut pixel_std_error = None;
         let image = if request.image {
             let task = format!("truth, {} spp, pixels", self.spp);
             let start = Instant::now();
@@ -646,6 +651,7 @@ impl Method for Truth {
             shadow_rays += s.shadow_rays;
             self_error.pixels =
                 estimable.then(|| relative_std_error(px.iter().zip(&covered).filter(|(_, c)| **c).map(|(e, _)| e)));
+            pixel_std_error = estimable.then(|| px.iter().map(|e| e.std_error).collect());
             Some(Image {
                 width: scene.camera.width,
                 height: scene.camera.height,
@@ -680,6 +686,7 @@ impl Method for Truth {
             radiance,
             std_error,
             image,
+            pixel_std_error,
             encoded: None,
             self_error: estimable.then_some(self_error),
             stats,
