@@ -235,6 +235,13 @@ pub fn less_noise(error: f64, noise: f64) -> String {
     if left > 0.0 { format!("{:.2}%", 100.0 * left.sqrt()) } else { "within noise".into() }
 }
 
+/// A relative L2 `error` with the truth's `noise` beside it, flagged where it is within
+/// that noise (the truth cannot tell it from zero).
+pub fn with_noise(error: f64, noise: f64) -> String {
+    let within = if error <= noise { ", within noise" } else { "" };
+    format!("{:.2}% ({:.2}%{within})", 100.0 * error, 100.0 * noise)
+}
+
 /// Writes `report.md` (headed by `command`, the command that produced it, when not empty)
 /// and the plots of every scene into `out`; the per-pixel figures were measured at the
 /// camera's resolution with `grid_full`, else at half of it.
@@ -330,7 +337,8 @@ pub fn write_reports(
             if !pixel_names.is_empty() {
                 md += &format!(
                     "\nPer covered pixel, at {resolution}, against the per-pixel truth (each figure with the truth's own \
-                     noise over the same pixels; an object's pixels are those whose centre sees it):\n\n\
+                     noise over the same pixels, flagged where it is within that noise; an object's pixels are \
+                     those whose centre sees it):\n\n\
                      | configuration | all pixels | {} |\n|---|---|{}\n",
                     pixel_names.join(" | "),
                     "---|".repeat(pixel_names.len())
@@ -343,7 +351,7 @@ pub fn write_reports(
                             r.pixel_objects
                                 .iter()
                                 .find(|o| o.0 == *name)
-                                .map_or_else(|| "—".into(), |o| format!("{:.2}% ({:.2}%)", 100.0 * o.1, 100.0 * o.2))
+                                .map_or_else(|| "—".into(), |o| with_noise(o.1, o.2))
                         })
                         .collect();
                     md += &format!(
@@ -481,6 +489,8 @@ mod tests {
 
     #[test]
     fn the_truths_noise_is_taken_out_in_quadrature() {
+        assert_eq!(with_noise(0.05, 0.03), "5.00% (3.00%)");
+        assert_eq!(with_noise(0.02, 0.03), "2.00% (3.00%, within noise)");
         assert_eq!(less_noise(0.05, 0.03), "4.00%");
         assert_eq!(less_noise(0.13, 0.05), "12.00%");
         assert_eq!(less_noise(0.03, 0.04), "within noise");
