@@ -240,28 +240,16 @@ fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) 
         let mut scene = grid::grid_scene(&full, options.grid_full);
         let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
         let neutral = neutral_engine(&scene, options)?;
+        let truth_at = |scene: &Scene, t: f32, spp: u32| {
+            let dir = options.cache_dir.as_deref();
+            grid::truth_image(&neutral, scene, t, spp, options.seed, dir, &options.progress)
+        };
         let spp = truth_samples(options, summary, options.grid_spp, |spp| {
-            let (pilot, cached) = grid::truth_image(
-                &neutral,
-                &scene,
-                options.times[0],
-                spp,
-                options.seed,
-                options.cache_dir.as_deref(),
-                &options.progress,
-            )?;
+            let (pilot, cached) = truth_at(&scene, options.times[0], spp)?;
             Ok((pilot.noise(|_| true), cached))
         })?;
         for &t in &options.times {
-            let (truth, cached) = grid::truth_image(
-                &neutral,
-                &scene,
-                t,
-                spp,
-                options.seed,
-                options.cache_dir.as_deref(),
-                &options.progress,
-            )?;
+            let (truth, cached) = truth_at(&scene, t, spp)?;
             summary.count_truth(cached);
             let mut renders = Vec::new();
             for config in &options.configs {
@@ -514,16 +502,12 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         // The truths' keys, one per time: a row measured against another truth (other
         // samples or seed, or the scene's contents changed since) is measured again.
         let neutral = neutral_engine(&scene, options)?;
+        let truth_at = |scene: &Scene, t: f32, spp: u32| {
+            let dir = options.cache_dir.as_deref();
+            truth::truth(&neutral, scene, t, spp, options.seed, dir, &options.progress)
+        };
         let spp = truth_samples(options, &mut summary, options.truth_spp, |spp| {
-            let (pilot, cached) = truth::truth(
-                &neutral,
-                &scene,
-                options.times[0],
-                spp,
-                options.seed,
-                options.cache_dir.as_deref(),
-                &options.progress,
-            )?;
+            let (pilot, cached) = truth_at(&scene, options.times[0], spp)?;
             Ok((pilot.noise(None), cached))
         })?;
         let keys: Vec<(f32, u64)> =
@@ -569,8 +553,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         // The truths, once per time: only the method-neutral layer is needed for them.
         let mut truths = Vec::new();
         for &t in &options.times {
-            let (tr, cached) =
-                truth::truth(&neutral, &scene, t, spp, options.seed, options.cache_dir.as_deref(), &options.progress)?;
+            let (tr, cached) = truth_at(&scene, t, spp)?;
             summary.count_truth(cached);
             truths.push((t, tr));
         }
