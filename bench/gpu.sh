@@ -6,7 +6,8 @@
 #
 # Environment: SCENE (default data/scenes/bench.toml), SIZE (1920x1080), FRAMES (frames per
 # GPU method, default 31; the first is preparation and warm-up and is left out), CPU_FRAMES
-# (per CPU method, default 4; 0 skips them), OUT (a folder for the logs; default temporary).
+# (per CPU method, default 4; 0 skips them), METHODS (the GPU's methods, default
+# "rsl pixel auto hybrid lobe"), OUT (a folder for the logs; default temporary).
 #
 # Each method renders the scene's animation (every object moves each frame, so each frame is
 # shaded whole) with `rsl render --timings`; the table gives each pass's median over the frames
@@ -44,7 +45,7 @@ run() { # method device frames
 }
 
 mkdir -p "$out/img"
-for m in rsl pixel auto hybrid lobe; do
+for m in ${METHODS:-rsl pixel auto hybrid lobe}; do
     run "$m" gpu "$frames"
     rm -f "$out"/img/*
 done

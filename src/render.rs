@@ -551,8 +551,7 @@ pub fn demo(args: &DemoArgs) -> Result<()> {
         let request = Request { time: t, image: true, vertices: false, exposure };
         let mut frame = session.render(&engine, &scene, id, &request)?.frame;
         shade.push(frame.timings.ms("shade"));
-        // The image's stages: "draw", "draw per pixel", and their GPU forms.
-        raster += frame.timings.stages.iter().filter(|s| s.name.starts_with("draw")).map(|s| s.wall_ms).sum::<f64>();
+        raster += frame.timings.stages.iter().filter(|s| s.is_image()).map(|s| s.wall_ms).sum::<f64>();
         let s = Instant::now();
         let rgb = display_rgb(&mut frame, &mut exposure)?;
         let image = frame.image.as_ref().context("the method made no image")?;

@@ -6,6 +6,11 @@
 // for the pixel's own interpolated shading frame and view. A Lambertian object's untraced
 // lights are interpolated from its vertices, corrected by the lights found at the pixel.
 // Objects not drawn per pixel interpolate their vertices' radiance.
+//
+// Deferred: the fragment stage records only what each pixel sees (its triangle and the
+// perspective-correct weights of the triangle's corners there); the compute entry
+// shade_pixels then shades every pixel so marked. Fragment work runs on a fraction of some
+// GPUs' processors (data-centre parts keep few graphics-capable units), compute on all.
 // Uses common/math.wgsl, hemi.wgsl, frame.wgsl, coverage.wgsl, brdf.wgsl, visibility.wgsl,
 // scene.wgsl, draw.wgsl.
 
@@ -275,18 +280,95 @@ fn light_share(l: u32, n: vec3<f32>) -> f32 {
     return lum * 4.0 * r * r * max(dot(n, frame[3u * l].xyz) + r, 0.0);
 }
 
+// What the pixel sees, for shade_pixels: the triangle (exact as f32 below 2^24, which
+// rsl_gpu checks), the weights of its second and third corners, and −(object index + 1) in
+// alpha (a pixel still to shade).
 @fragment
 fn fs_pixels(v: PixelVertexOut) -> @location(0) vec4<f32> {
-    // Alpha: the object's index + 1 (covered by an object).
     let object = vertices[indices[3u * v.triangle]].object;
-    return vec4<f32>(pixel_radiance(v), f32(object + 1u));
+    return vec4<f32>(f32(v.triangle), v.weights.y, v.weights.z, -f32(object + 1u));
 }
 
-// The radiance the fragment `v` shows.
-fn pixel_radiance(v: PixelVertexOut) -> vec3<f32> {
-    let t = v.triangle;
+// The image as the draw pass left it (a copy), and the image itself.
+@group(0) @binding(12) var seen: texture_2d<f32>;
+@group(0) @binding(13) var image: texture_storage_2d<rgba32float, write>;
+
+// The pixels to shade, listed so that every invocation of the shading pass has one (an
+// antialiasing round marks a few pixels scattered over the image): how many, and each
+// one's index (y · width + x). `count` starts at 0.
+struct Work {
+    count: atomic<u32>,
+    pixels: array<u32>,
+}
+
+@group(0) @binding(14) var<storage, read_write> work: Work;
+// The shading dispatch's workgroups (x, y, z), which size_shading writes.
+@group(0) @binding(15) var<storage, read_write> shading_groups: array<u32, 3>;
+
+const SHADE_GROUP: u32 = 64u;
+// The most workgroups along one side of a dispatch (WebGPU's limit).
+const MAX_GROUPS: u32 = 65535u;
+
+// Each workgroup's marked pixels and where they start in the list.
+var<workgroup> tile_count: atomic<u32>;
+var<workgroup> tile_first: u32;
+
+// Lists the pixels fs_pixels marked, each 8×8 tile's together (neighbours shade side by
+// side, reading much the same data).
+@compute @workgroup_size(8, 8)
+fn find_pixels(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    if lane == 0u {
+        atomicStore(&tile_count, 0u);
+    }
+    workgroupBarrier();
+    let size = textureDimensions(seen);
+    var slot = 0u;
+    let marked = id.x < size.x && id.y < size.y && textureLoad(seen, vec2<i32>(id.xy), 0).w < 0.0;
+    if marked {
+        slot = atomicAdd(&tile_count, 1u);
+    }
+    workgroupBarrier();
+    if lane == 0u {
+        tile_first = atomicAdd(&work.count, atomicLoad(&tile_count));
+    }
+    workgroupBarrier();
+    if marked {
+        work.pixels[tile_first + slot] = id.y * size.x + id.x;
+    }
+}
+
+// The shading dispatch's size for the pixels listed.
+@compute @workgroup_size(1)
+fn size_shading() {
+    let groups = (atomicLoad(&work.count) + SHADE_GROUP - 1u) / SHADE_GROUP;
+    let x = clamp(groups, 1u, MAX_GROUPS);
+    shading_groups[0] = x;
+    shading_groups[1] = (groups + x - 1u) / x;
+    shading_groups[2] = 1u;
+}
+
+// Shades each pixel listed; the others keep what the draw pass left.
+@compute @workgroup_size(64)
+fn shade_pixels(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    let k = (group.y * groups.x + group.x) * SHADE_GROUP + lane;
+    if k >= atomicLoad(&work.count) {
+        return;
+    }
+    let p = work.pixels[k];
+    let width = textureDimensions(seen).x;
+    let at = vec2<i32>(vec2<u32>(p % width, p / width));
+    let s = textureLoad(seen, at, 0);
+    let w = vec3<f32>(1.0 - s.y - s.z, s.y, s.z);
+    textureStore(image, at, vec4<f32>(pixel_radiance(u32(s.x), w), -s.w));
+}
+
+// The radiance seen at weights `w` of triangle `t`.
+fn pixel_radiance(t: u32, w: vec3<f32>) -> vec3<f32> {
     let c = vec3<u32>(indices[3u * t], indices[3u * t + 1u], indices[3u * t + 2u]);
-    let w = v.weights;
     let nv = pixel.vertex_count;
     let i = vertices[c.x].object;
     if (object_flags(i) & PER_PIXEL) == 0u {

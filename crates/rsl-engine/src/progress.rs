@@ -89,6 +89,12 @@ impl Stage {
     pub fn ms(&self) -> f64 {
         self.gpu_ms.unwrap_or(self.wall_ms)
     }
+
+    /// Whether the stage makes the image from what shading left ("draw…", "antialias…",
+    /// "image readback"), as against shading.
+    pub fn is_image(&self) -> bool {
+        self.name.starts_with("draw") || self.name.starts_with("antialias") || self.name == "image readback"
+    }
 }
 
 /// What each stage of some work cost, in the order the stages ran. Adding to a stage that is

@@ -106,6 +106,9 @@ pub enum Backdrop<'a> {
 }
 
 const COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// The most triangles the RSL sum per pixel draws: the draw pass records each pixel's
+/// triangle as an f32, exact below 2^24.
+const MAX_PIXEL_TRIANGLES: u32 = 1 << 24;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The format of display images ([`GpuDraw::tonemap_into`]): 8-bit, holding sRGB-encoded
 /// values (sample it through an `Rgba8UnormSrgb` view or as-is where the consumer expects
@@ -116,6 +119,8 @@ struct Target {
     width: u32,
     height: u32,
     color: wgpu::Texture,
+    /// A copy of `color` that the RSL sum per pixel's shading reads while it writes `color`.
+    seen: wgpu::Texture,
     depth: wgpu::Texture,
     encoded: wgpu::Buffer,
     /// Where the linear image and the encoded one are copied to be read, made on the first
@@ -146,7 +151,7 @@ pub struct GpuDraw {
     lobes: Option<LobePass>,
     /// The RSL sum per pixel's pipeline and parameters ([`GpuDraw::draw_pixels`]), made on
     /// first use.
-    pixels: Option<(wgpu::RenderPipeline, wgpu::Buffer)>,
+    pixels: Option<PixelPass>,
     /// Vertices shaded elsewhere ([`GpuDraw::draw_meshes`]): positions, then radiance, one
     /// vec4 each; and their indices.
     meshes: (wgpu::Buffer, wgpu::Buffer),
@@ -177,6 +182,22 @@ struct LobePass {
     materials: wgpu::Buffer,
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
+}
+
+/// The RSL sum per pixel's pipelines and parameters ([`GpuDraw::draw_pixels`]): the draw
+/// pass records what each pixel sees, a compute pass shades it.
+struct PixelPass {
+    pipeline: wgpu::RenderPipeline,
+    /// Lists the pixels the drawing marked, sizes the shading dispatch, shades them.
+    find: wgpu::ComputePipeline,
+    size: wgpu::ComputePipeline,
+    shade: wgpu::ComputePipeline,
+    params: wgpu::Buffer,
+    /// The list of pixels to shade for an image of the size given (`Work` in
+    /// `shaders/draw/pixels.wgsl`).
+    work: Option<((u32, u32), wgpu::Buffer)>,
+    /// The shading dispatch's size, written by a pass before it.
+    groups: wgpu::Buffer,
 }
 
 /// The objects of one draw pass.
@@ -501,8 +522,11 @@ impl GpuDraw {
                 wgpu::TextureUsages::RENDER_ATTACHMENT
                     | wgpu::TextureUsages::TEXTURE_BINDING
                     | wgpu::TextureUsages::COPY_SRC
-                    | wgpu::TextureUsages::COPY_DST,
+                    | wgpu::TextureUsages::COPY_DST
+                    | wgpu::TextureUsages::STORAGE_BINDING,
             );
+            let seen =
+                texture("image seen", COLOR, wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST);
             let depth =
                 texture("depth", DEPTH, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING);
             let encoded = d.create_buffer(&wgpu::BufferDescriptor {
@@ -512,7 +536,7 @@ impl GpuDraw {
                 mapped_at_creation: false,
             });
             let (readback, tone_readback) = Default::default();
-            self.target = Some(Target { width, height, color, depth, encoded, readback, tone_readback });
+            self.target = Some(Target { width, height, color, seen, depth, encoded, readback, tone_readback });
         }
         Ok(self.target.as_ref().expect("just created"))
     }
@@ -544,11 +568,19 @@ impl GpuDraw {
             return Err(GpuError::Scene("draw_pixels needs the covers of shade_covers first".into()));
         };
         let limit = self.ctx.device.limits().max_storage_buffers_per_shader_stage;
-        if limit < 10 {
+        if limit < 11 {
             return Err(GpuError::Scene(format!(
-                "{} binds {limit} storage buffers per shader stage; the RSL sum per pixel needs 10 (use the CPU)",
+                "{} binds {limit} storage buffers per shader stage; the RSL sum per pixel needs 11 (use the CPU)",
                 self.ctx.info.name
             )));
+        }
+        let triangles = shading.index_buffer().1 / 3;
+        if triangles > MAX_PIXEL_TRIANGLES {
+            return Err(GpuError::TooLarge {
+                what: format!("the RSL sum per pixel over {triangles} triangles (at most {MAX_PIXEL_TRIANGLES})"),
+                bytes: u64::from(triangles) * 12,
+                limit: u64::from(MAX_PIXEL_TRIANGLES) * 12,
+            });
         }
         if self.pixels.is_none() {
             let pipeline = render_pipeline_full(
@@ -565,11 +597,16 @@ impl GpuDraw {
                 std::mem::size_of::<PixelParams>() as u64,
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             );
-            self.pixels = Some((pipeline, params));
+            let compute = |shader| self.ctx.compute_pipeline(shader, &shading_constants()[1..]);
+            let (find, size) = (compute(&shaders::DRAW_PIXELS_FIND)?, compute(&shaders::DRAW_PIXELS_SIZE)?);
+            let shade = compute(&shaders::DRAW_PIXELS_SHADE)?;
+            let groups =
+                self.buffer("shading dispatch", 12, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT);
+            self.pixels = Some(PixelPass { pipeline, find, size, shade, params, work: None, groups });
         }
         let params = pixel_params(&layout, shading.vertex_count());
-        let (_, buffer) = self.pixels.as_ref().expect("just made");
-        self.ctx.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&params));
+        let pass = self.pixels.as_ref().expect("just made");
+        self.ctx.queue.write_buffer(&pass.params, 0, bytemuck::bytes_of(&params));
         Ok(())
     }
 
@@ -658,19 +695,21 @@ impl GpuDraw {
 
     /// The per-pixel pipeline and its bind group over `shading`'s buffers.
     fn pixel_bind(&self, shading: &GpuShading) -> Result<Binding, GpuError> {
-        let Some((pipeline, params)) = &self.pixels else {
+        let Some(PixelPass { pipeline, .. }) = &self.pixels else {
             return Err(GpuError::Scene("the per-pixel pass is not set up".into()));
         };
-        let mut entries = vec![
-            wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: params.as_entire_binding() },
-        ];
+        // What the vertex and fragment stages read (the layout is the shader's): the draw
+        // parameters, then of the shading pass's buffers (bindings 2 on) the vertices, the
+        // shaded positions and the indices.
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() }];
         entries.extend(
             shading
                 .pixel_buffers()
                 .into_iter()
                 .enumerate()
-                .map(|(k, b)| wgpu::BindGroupEntry { binding: 2 + k as u32, resource: b.as_entire_binding() }),
+                .map(|(k, b)| (2 + k as u32, b))
+                .filter(|(binding, _)| [4, 8, 10].contains(binding))
+                .map(|(binding, b)| wgpu::BindGroupEntry { binding, resource: b.as_entire_binding() }),
         );
         let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("draw pixels"),
@@ -678,6 +717,73 @@ impl GpuDraw {
             entries: &entries,
         });
         Ok((pipeline.clone(), bind))
+    }
+
+    /// The RSL sum per pixel's shading passes bound to `shading`'s buffers and the image
+    /// ([`GpuDraw::target`] first).
+    fn pixel_shade_bind(&mut self, shading: &GpuShading) -> Result<PixelShade, GpuError> {
+        let (Some(pass), Some(target)) = (&mut self.pixels, &self.target) else {
+            return Err(GpuError::Scene("the per-pixel pass is not set up".into()));
+        };
+        let d = &self.ctx.device;
+        let size = (target.width, target.height);
+        if pass.work.as_ref().is_none_or(|(s, _)| *s != size) {
+            let bytes = 4 + 4 * u64::from(size.0) * u64::from(size.1);
+            let limit = d.limits().max_storage_buffer_binding_size;
+            if bytes > limit {
+                return Err(GpuError::TooLarge {
+                    what: format!("the list of pixels of a {}×{} image", size.0, size.1),
+                    bytes,
+                    limit,
+                });
+            }
+            let buffer = d.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pixels to shade"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            pass.work = Some((size, buffer));
+        }
+        let work = pass.work.as_ref().expect("just made").1.clone();
+        let seen = target.seen.create_view(&wgpu::TextureViewDescriptor::default());
+        let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
+        let bind = |pipeline: &wgpu::ComputePipeline, entries: &[wgpu::BindGroupEntry<'_>]| {
+            d.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("shade pixels"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries,
+            })
+        };
+        let seen_entry = wgpu::BindGroupEntry { binding: 12, resource: wgpu::BindingResource::TextureView(&seen) };
+        let work_entry = wgpu::BindGroupEntry { binding: 14, resource: work.as_entire_binding() };
+        let mut entries = vec![wgpu::BindGroupEntry { binding: 1, resource: pass.params.as_entire_binding() }];
+        entries.extend(
+            shading
+                .pixel_buffers()
+                .into_iter()
+                .enumerate()
+                .map(|(k, b)| wgpu::BindGroupEntry { binding: 2 + k as u32, resource: b.as_entire_binding() }),
+        );
+        entries.push(seen_entry.clone());
+        entries.push(wgpu::BindGroupEntry { binding: 13, resource: wgpu::BindingResource::TextureView(&color) });
+        entries.push(work_entry.clone());
+        Ok(PixelShade {
+            find: (pass.find.clone(), bind(&pass.find, &[seen_entry, work_entry.clone()])),
+            size: (
+                pass.size.clone(),
+                bind(
+                    &pass.size,
+                    &[work_entry, wgpu::BindGroupEntry { binding: 15, resource: pass.groups.as_entire_binding() }],
+                ),
+            ),
+            groups: pass.groups.clone(),
+            shade: (pass.shade.clone(), bind(&pass.shade, &entries)),
+            work,
+            color: target.color.clone(),
+            seen: target.seen.clone(),
+            size_px: size,
+        })
     }
 
     /// What draws `objects`: their pipelines bound to this pass's parameters and buffers.
@@ -720,6 +826,7 @@ impl GpuDraw {
             pipeline,
             bind,
             beside,
+            shade: None,
             lobe_buffers: self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone())),
             mesh_buffers: self.meshes.clone(),
         })
@@ -765,7 +872,7 @@ impl GpuDraw {
                 wgpu::BindGroupEntry { binding: 1, resource: self.texels.as_entire_binding() },
             ],
         });
-        let bound = self.bind_objects(&objects)?;
+        let mut bound = self.bind_objects(&objects)?;
         // Antialiased where asked, but for a redraw (over an image already antialiased or
         // not), whose depths would no longer be the first drawing's after.
         let antialiased = self.aa > 1 && !again;
@@ -828,6 +935,10 @@ impl GpuDraw {
             self.behind = Some((params, self.backdrops, texture));
         }
         let behind = self.behind.as_ref().map(|b| b.2.clone());
+        bound.shade = match &objects {
+            Objects::Pixels(shading) | Objects::Lobes(_, Some((shading, _))) => Some(self.pixel_shade_bind(shading)?),
+            _ => None,
+        };
         let target = self.target(width, height)?;
         let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
         if let (false, Some(behind)) = (again, behind) {
@@ -839,25 +950,43 @@ impl GpuDraw {
         }
         {
             let load = if again { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) };
+            // The timestamps bracket the drawing and, where there is one, the shading after it.
+            let shades = bound.shade.is_some();
             let stamps = timestamps.as_ref().map(|(set, _)| wgpu::RenderPassTimestampWrites {
                 query_set: set,
                 beginning_of_pass_write_index: Some(0),
-                end_of_pass_write_index: Some(1),
+                end_of_pass_write_index: (!shades).then_some(1),
             });
             let mut pass = image_pass(&mut enc, "draw", (&color, &depth), load, stamps);
             bound.record(&mut pass, &objects);
+            drop(pass);
+            let end = timestamps.as_ref().filter(|_| shades).map(|(set, _)| wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: None,
+                end_of_pass_write_index: Some(1),
+            });
+            bound.shade_pixels(&mut enc, end);
         }
         if let Some((set, resolve)) = &timestamps {
             enc.resolve_query_set(set, 0..2, resolve, 0);
         }
+        let wait = |operation| {
+            d.poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| GpuError::Operation { operation, message: e.to_string() })
+        };
         let start = Instant::now();
         self.ctx.queue.submit([enc.finish()]);
-        if antialiased {
-            self.antialias_image(&bound, &objects, camera, &params);
-        }
-        d.poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Operation { operation: "draw", message: e.to_string() })?;
+        wait("draw")?;
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        // The antialiasing rounds, timed apart from the centres' pass.
+        let antialias_ms = if antialiased {
+            let start = Instant::now();
+            self.antialias_image(&bound, &objects, camera, &params);
+            wait("antialias")?;
+            Some(start.elapsed().as_secs_f64() * 1e3)
+        } else {
+            None
+        };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Operation { operation: "draw pass", message: e.to_string() });
         }
@@ -865,13 +994,12 @@ impl GpuDraw {
             self.redrawable = Some((params, self.backdrops));
         }
         self.ctx.check_alive()?;
-        // The timestamps bracket the centres' pass alone: an antialiased image has its wall
-        // time only.
+        // The timestamps bracket the centres' pass alone.
         let gpu_ms = match &timestamps {
-            Some((_, resolve)) if !antialiased => Some(self.ctx.pass_ms(resolve)?),
+            Some((_, resolve)) => Some(self.ctx.pass_ms(resolve)?),
             _ => None,
         };
-        Ok(PassTime { gpu_ms, wall_ms })
+        Ok(PassTime { gpu_ms, wall_ms, antialias_ms })
     }
 }
 
@@ -888,9 +1016,55 @@ struct Bound {
     beside: Option<(Binding, Vec<std::ops::Range<u32>>)>,
     lobe_buffers: Option<(wgpu::Buffer, wgpu::Buffer)>,
     mesh_buffers: (wgpu::Buffer, wgpu::Buffer),
+    /// The RSL sum per pixel's shading after each drawing, where it draws objects.
+    shade: Option<PixelShade>,
+}
+
+/// The RSL sum per pixel's compute passes bound to one image: the pixels to shade listed,
+/// the dispatch sized, the pixels shaded.
+struct PixelShade {
+    find: (wgpu::ComputePipeline, wgpu::BindGroup),
+    size: (wgpu::ComputePipeline, wgpu::BindGroup),
+    shade: (wgpu::ComputePipeline, wgpu::BindGroup),
+    work: wgpu::Buffer,
+    groups: wgpu::Buffer,
+    color: wgpu::Texture,
+    seen: wgpu::Texture,
+    size_px: (u32, u32),
 }
 
 impl Bound {
+    /// Shades the pixels the drawing just recorded in `enc` marked (none without objects
+    /// drawn by the RSL sum per pixel): the image copied; the marked pixels listed; each
+    /// shaded by one invocation, which writes its radiance into the image.
+    fn shade_pixels(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let Some(s) = &self.shade else {
+            return;
+        };
+        let (width, height) = s.size_px;
+        enc.copy_texture_to_texture(
+            s.color.as_image_copy(),
+            s.seen.as_image_copy(),
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
+        enc.clear_buffer(&s.work, 0, Some(4));
+        let mut pass =
+            enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shade pixels"), timestamp_writes });
+        pass.set_pipeline(&s.find.0);
+        pass.set_bind_group(0, &s.find.1, &[]);
+        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+        pass.set_pipeline(&s.size.0);
+        pass.set_bind_group(0, &s.size.1, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+        pass.set_pipeline(&s.shade.0);
+        pass.set_bind_group(0, &s.shade.1, &[]);
+        pass.dispatch_workgroups_indirect(&s.groups, 0);
+    }
+
     /// Draws `objects` into `pass`.
     fn record(&self, pass: &mut wgpu::RenderPass<'_>, objects: &Objects<'_>) {
         match *objects {

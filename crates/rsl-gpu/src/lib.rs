@@ -72,13 +72,13 @@ pub enum GpuError {
 }
 
 /// What rsl's passes need of a device on `adapter`: the shading pass binds eight storage
-/// buffers (ten for the per-pixel pass, where the adapter has them), and visibility fields are large, so the adapter's own buffer limits; timestamps
+/// buffers (eleven for the per-pixel pass, where the adapter has them), and visibility fields are large, so the adapter's own buffer limits; timestamps
 /// where the adapter has them (`--timings`). A window that opens its own device (the
 /// viewer's) asks for this one, so that rsl-gpu can use it ([`GpuContext::from_device`]).
 pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
     let available = adapter.limits();
     let required_limits = wgpu::Limits {
-        // Eight for the shading pass; the RSL sum per pixel binds ten where the adapter
+        // Eight for the shading pass; the RSL sum per pixel binds eleven where the adapter
         // allows (rsl_gpu::draw::GpuDraw::draw_pixels checks).
         max_storage_buffers_per_shader_stage: available.max_storage_buffers_per_shader_stage.clamp(8, 16),
         max_storage_buffer_binding_size: available.max_storage_buffer_binding_size,

@@ -187,6 +187,9 @@ pub struct PassTime {
     pub gpu_ms: Option<f64>,
     /// Wall time from submission to completion, ms.
     pub wall_ms: f64,
+    /// A draw pass's antialiasing rounds after it (`None`: not antialiased): their wall time
+    /// from submission to completion, ms. Neither `gpu_ms` nor `wall_ms` counts them.
+    pub antialias_ms: Option<f64>,
 }
 
 /// A shading pass's output read back: per object, per vertex.
@@ -872,7 +875,7 @@ impl GpuShading {
             None => None,
         };
         self.pixel_layout = layout;
-        Ok(PassTime { gpu_ms, wall_ms })
+        Ok(PassTime { gpu_ms, wall_ms, antialias_ms: None })
     }
 
     /// Where the last shading pass put what the RSL sum per pixel reads: `None` unless it was

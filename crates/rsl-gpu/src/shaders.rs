@@ -102,6 +102,18 @@ pub const DRAW_PIXELS: Shader = Shader {
     entry_points: &["vs_pixels", "fs_pixels"],
 };
 
+/// The RSL sum per pixel's shading: the pixels whose triangle and weights [`DRAW_PIXELS`]'
+/// fragment stage recorded, listed ...
+pub const DRAW_PIXELS_FIND: Shader = Shader { name: "draw/pixels/find", entry_points: &["find_pixels"], ..DRAW_PIXELS };
+
+/// ... the size of the dispatch that shades them ...
+pub const DRAW_PIXELS_SIZE: Shader =
+    Shader { name: "draw/pixels/size", entry_points: &["size_shading"], ..DRAW_PIXELS };
+
+/// ... and their shading, in compute passes.
+pub const DRAW_PIXELS_SHADE: Shader =
+    Shader { name: "draw/pixels/shade", entry_points: &["shade_pixels"], ..DRAW_PIXELS };
+
 /// Exposure, the filmic curve and sRGB encoding of the linear image into 8-bit pixels.
 pub const TONEMAP: Shader = Shader {
     name: "draw/tonemap",
@@ -167,6 +179,9 @@ pub const ALL: &[Shader] = &[
     DRAW_OBJECTS,
     DRAW_LOBES,
     DRAW_PIXELS,
+    DRAW_PIXELS_FIND,
+    DRAW_PIXELS_SIZE,
+    DRAW_PIXELS_SHADE,
     TONEMAP,
     TONEMAP_TEXTURE,
     AA_PARTIAL_MEANS,

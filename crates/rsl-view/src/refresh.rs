@@ -138,8 +138,8 @@ impl Viewer {
         self.counters.rasterised += 1;
         self.redraw = false;
         let stages = &frame.timings.stages;
-        let raster_ms: f64 = stages.iter().filter(|s| s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
-        let shade_ms: f64 = stages.iter().filter(|s| !s.name.starts_with("draw")).map(|s| s.wall_ms).sum();
+        let raster_ms: f64 = stages.iter().filter(|s| s.is_image()).map(|s| s.wall_ms).sum();
+        let shade_ms: f64 = stages.iter().filter(|s| !s.is_image()).map(|s| s.wall_ms).sum();
         let image = frame.image.ok_or_else(|| anyhow::anyhow!("the method drew no image"))?;
         self.show_whole(image, start, shade_ms, raster_ms);
         self.counters.pixel_frames += 1;

@@ -327,6 +327,7 @@ impl GpuDraw {
                 rp.draw(0..3, 0..1);
                 bound.record(&mut rp, objects);
             }
+            bound.shade_pixels(&mut enc, None);
             run(&mut enc, &[(&pass.accumulate, tiles)]);
             q.submit([enc.finish()]);
         };
