@@ -20,3 +20,8 @@ struct DrawParams {
 }
 
 @group(0) @binding(0) var<uniform> draw: DrawParams;
+
+// An image's alpha at or below −LOBE_MARK: a pixel the lobe pass drew, still to shade
+// (draw/lobes.wgsl); in (−LOBE_MARK, 0): one the RSL sum per pixel drew (draw/pixels.wgsl).
+// Object indices stay below it, so that −(index + 1) − LOBE_MARK is exact in f32.
+const LOBE_MARK: f32 = 1048576.0;

@@ -4,6 +4,8 @@
 // nearest tabulated polar views, turned to its reflection and azimuth, weighted), one
 // prefiltered lookup per lobe, times the RSL visibility ratio interpolated from the
 // vertices. Vertices of objects drawn without lobes carry their radiance instead.
+// Deferred as draw/pixels.wgsl is: the fragments record each pixel's triangle and weights
+// (alpha −(object + 1) − LOBE_MARK), the compute entry shade_lobes shades them.
 // Uses common/math.wgsl, common/frame.wgsl, common/draw.wgsl.
 
 struct LobeParams {
@@ -29,33 +31,33 @@ struct LobeParams {
 // No material: the vertex carries its radiance in `ratio`.
 const NO_MATERIAL: u32 = 0xffffffffu;
 
+// rsl_gpu::lobes::LobeVertex: the world position (w: the object's index + 1), the world
+// normal (w: the material's first entry as bits, flat over a triangle: its first corner's),
+// the RGB ratio or radiance.
+struct LobeVertex {
+    position: vec4<f32>,
+    normal: vec4<f32>,
+    value: vec4<f32>,
+}
+
+@group(0) @binding(5) var<storage, read> lobe_vertices: array<LobeVertex>;
+@group(0) @binding(6) var<storage, read> lobe_indices: array<u32>;
+
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
-    @location(0) position: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) ratio: vec3<f32>,
-    @location(3) @interpolate(flat) material: u32,
-    // The object's index + 1 (the position's w).
-    @location(4) @interpolate(flat) object: f32,
+    // One-hot at the corners: the fragment's perspective-correct barycentric weights.
+    @location(0) weights: vec3<f32>,
+    @location(1) @interpolate(flat) triangle: u32,
 }
 
+// Non-indexed: vertex k is corner k % 3 of triangle k / 3.
 @vertex
-fn vs_lobes(
-    @location(0) position: vec4<f32>,
-    @location(1) normal: vec4<f32>,
-    @location(2) ratio: vec4<f32>,
-) -> VertexOut {
-    return VertexOut(
-        draw.clip_from_world * vec4<f32>(position.xyz, 1.0),
-        position.xyz,
-        normal.xyz,
-        ratio.xyz,
-        bitcast<u32>(normal.w),
-        position.w,
-    );
+fn vs_lobes(@builtin(vertex_index) k: u32) -> VertexOut {
+    var w = vec3<f32>(0.0);
+    w[k % 3u] = 1.0;
+    return VertexOut(draw.clip_from_world * vec4<f32>(lobe_vertices[lobe_indices[k]].position.xyz, 1.0), w, k / 3u);
 }
 
-// rsl_sphere::cube::face_uv_from_dir: (face, u, v).
 fn face_uv(d: vec3<f32>) -> vec3<f32> {
     let a = abs(d);
     var face = 0u;
@@ -221,14 +223,45 @@ fn lobe_radiance(base: u32, f: Frame, view: vec3<f32>) -> vec3<f32> {
     return sum;
 }
 
+// What the pixel sees, for shade_lobes: the triangle, the weights of its second and third
+// corners, and −(object index + 1) − LOBE_MARK.
 @fragment
 fn fs_lobes(v: VertexOut) -> @location(0) vec4<f32> {
-    if v.material == NO_MATERIAL {
-        return vec4<f32>(v.ratio, v.object);
+    let object = lobe_vertices[lobe_indices[3u * v.triangle]].position.w;
+    return vec4<f32>(f32(v.triangle), v.weights.y, v.weights.z, -(object + LOBE_MARK));
+}
+
+// The image as the draw pass left it (a copy), and the image itself.
+@group(0) @binding(12) var seen: texture_2d<f32>;
+@group(0) @binding(13) var image: texture_storage_2d<rgba32float, write>;
+
+// Shades each pixel fs_lobes marked: its normal, position and ratio interpolated over the
+// triangle, its material the first corner's.
+@compute @workgroup_size(8, 8)
+fn shade_lobes(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(seen);
+    if id.x >= size.x || id.y >= size.y {
+        return;
     }
-    let f = frame_from_normal(v.normal);
-    let view = normalize_or_zero(lobe.eye.xyz - v.position);
-    let radiance = lobe_radiance(v.material, f, to_local(f, view)) * lobe.eye.w * v.ratio;
+    let s = textureLoad(seen, vec2<i32>(id.xy), 0);
+    if !(s.w <= -LOBE_MARK) {
+        return;
+    }
+    let t = u32(s.x);
+    let w = vec3<f32>(1.0 - s.y - s.z, s.y, s.z);
+    let a = lobe_vertices[lobe_indices[3u * t]];
+    let b = lobe_vertices[lobe_indices[3u * t + 1u]];
+    let c = lobe_vertices[lobe_indices[3u * t + 2u]];
+    let object = a.position.w;
+    let ratio = w.x * a.value.xyz + w.y * b.value.xyz + w.z * c.value.xyz;
+    let material = bitcast<u32>(a.normal.w);
+    var radiance = ratio;
+    if material != NO_MATERIAL {
+        let position = w.x * a.position.xyz + w.y * b.position.xyz + w.z * c.position.xyz;
+        let f = frame_from_normal(w.x * a.normal.xyz + w.y * b.normal.xyz + w.z * c.normal.xyz);
+        let view = normalize_or_zero(lobe.eye.xyz - position);
+        radiance = lobe_radiance(material, f, to_local(f, view)) * lobe.eye.w * ratio;
+    }
     // Alpha: the object's index + 1 (covered by an object).
-    return vec4<f32>(radiance, v.object);
+    textureStore(image, vec2<i32>(id.xy), vec4<f32>(radiance, object));
 }

@@ -323,7 +323,11 @@ fn find_pixels(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invo
     workgroupBarrier();
     let size = textureDimensions(seen);
     var slot = 0u;
-    let marked = id.x < size.x && id.y < size.y && textureLoad(seen, vec2<i32>(id.xy), 0).w < 0.0;
+    var marked = false;
+    if id.x < size.x && id.y < size.y {
+        let alpha = textureLoad(seen, vec2<i32>(id.xy), 0).w;
+        marked = alpha < 0.0 && alpha > -LOBE_MARK;
+    }
     if marked {
         slot = atomicAdd(&tile_count, 1u);
     }

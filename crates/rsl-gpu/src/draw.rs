@@ -4,7 +4,7 @@
 //! headless into a linear RGBA32F texture (alpha = covered by an object), then tonemapping
 //! to 8-bit sRGB (`shaders/draw/tonemap.wgsl`); both can be read back.
 
-use crate::lobes::{LobeObject, LobeParams, LobeVertex, pack_environment, pack_objects};
+use crate::lobes::{LobeObject, LobeParams, pack_environment, pack_objects};
 use crate::shade::{GpuShading, PassTime, PixelLayout, columns, shading_constants};
 use crate::{GpuContext, GpuError, shaders};
 use bytemuck::{Pod, Zeroable};
@@ -175,6 +175,8 @@ pub struct GpuDraw {
 /// The lobe path's pipeline and buffers ([`GpuDraw::draw_lobes`]), made on first use.
 struct LobePass {
     pipeline: wgpu::RenderPipeline,
+    /// Shades the pixels the drawing marked.
+    shade: wgpu::ComputePipeline,
     params: wgpu::Buffer,
     levels: wgpu::Buffer,
     texels: wgpu::Buffer,
@@ -346,20 +348,12 @@ impl GpuDraw {
         if self.lobes.is_some() {
             return Ok(());
         }
-        let attrs = [
-            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 0, shader_location: 0 },
-            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 16, shader_location: 1 },
-            wgpu::VertexAttribute { format: wgpu::VertexFormat::Float32x4, offset: 32, shader_location: 2 },
-        ];
-        let layout = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<LobeVertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &attrs,
-        };
-        let pipeline = render_pipeline(&self.ctx, &shaders::DRAW_LOBES, &[layout], true)?;
+        let pipeline = render_pipeline(&self.ctx, &shaders::DRAW_LOBES, &[], true)?;
+        let shade = self.ctx.compute_pipeline(&shaders::DRAW_LOBES_SHADE, &[])?;
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         self.lobes = Some(LobePass {
             pipeline,
+            shade,
             params: self.buffer(
                 "lobe params",
                 std::mem::size_of::<LobeParams>() as u64,
@@ -369,8 +363,8 @@ impl GpuDraw {
             texels: self.buffer("prefiltered texels", 16, storage),
             level_count: 0,
             materials: self.buffer("material lobes", 16, storage),
-            vertices: self.buffer("lobe vertices", 48, wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST),
-            indices: self.buffer("lobe indices", 4, wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST),
+            vertices: self.buffer("lobe vertices", 48, storage),
+            indices: self.buffer("lobe indices", 4, storage),
         });
         Ok(())
     }
@@ -419,6 +413,14 @@ impl GpuDraw {
             }
         };
         let (vertices, indices, materials) = pack_objects(objects).map_err(GpuError::Scene)?;
+        let triangles = indices.len() / 3;
+        if triangles > MAX_PIXEL_TRIANGLES as usize {
+            return Err(GpuError::TooLarge {
+                what: format!("the lobe path per pixel over {triangles} triangles (at most {MAX_PIXEL_TRIANGLES})"),
+                bytes: triangles as u64 * 12,
+                limit: u64::from(MAX_PIXEL_TRIANGLES) * 12,
+            });
+        }
         let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
         let bytes = (materials.len() * 16) as u64;
         if bytes > limit {
@@ -725,7 +727,7 @@ impl GpuDraw {
         let (Some(pass), Some(target)) = (&mut self.pixels, &self.target) else {
             return Err(GpuError::Scene("the per-pixel pass is not set up".into()));
         };
-        let d = &self.ctx.device;
+        let d = self.ctx.device.clone();
         let size = (target.width, target.height);
         if pass.work.as_ref().is_none_or(|(s, _)| *s != size) {
             let bytes = 4 + 4 * u64::from(size.0) * u64::from(size.1);
@@ -780,10 +782,33 @@ impl GpuDraw {
             groups: pass.groups.clone(),
             shade: (pass.shade.clone(), bind(&pass.shade, &entries)),
             work,
-            color: target.color.clone(),
-            seen: target.seen.clone(),
-            size_px: size,
         })
+    }
+
+    /// The lobe path's shading pass bound to its buffers and the image ([`GpuDraw::target`]
+    /// first).
+    fn lobe_shade_bind(&self) -> Result<(wgpu::ComputePipeline, wgpu::BindGroup), GpuError> {
+        let (Some(l), Some(target)) = (&self.lobes, &self.target) else {
+            return Err(GpuError::Scene("the lobe pass is not set up".into()));
+        };
+        let seen = target.seen.create_view(&wgpu::TextureViewDescriptor::default());
+        let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
+        let bind = self.ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shade lobes"),
+            layout: &l.shade.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: l.params.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: l.levels.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: l.texels.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: l.materials.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: l.vertices.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: l.indices.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 12, resource: wgpu::BindingResource::TextureView(&seen) },
+                wgpu::BindGroupEntry { binding: 13, resource: wgpu::BindingResource::TextureView(&color) },
+            ],
+        });
+        Ok((l.shade.clone(), bind))
     }
 
     /// What draws `objects`: their pipelines bound to this pass's parameters and buffers.
@@ -805,12 +830,11 @@ impl GpuDraw {
                 d.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("draw lobes"),
                     layout: &l.pipeline.get_bind_group_layout(0),
+                    // What the vertex and fragment stages read: the triangles.
                     entries: &[
                         wgpu::BindGroupEntry { binding: 0, resource: self.params.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 1, resource: l.params.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 2, resource: l.levels.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 3, resource: l.texels.as_entire_binding() },
-                        wgpu::BindGroupEntry { binding: 4, resource: l.materials.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 5, resource: l.vertices.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 6, resource: l.indices.as_entire_binding() },
                     ],
                 }),
             ),
@@ -822,14 +846,7 @@ impl GpuDraw {
             Objects::Lobes(_, Some((shading, ranges))) => Some((self.pixel_bind(shading)?, ranges.clone())),
             _ => None,
         };
-        Ok(Bound {
-            pipeline,
-            bind,
-            beside,
-            shade: None,
-            lobe_buffers: self.lobes.as_ref().map(|l| (l.vertices.clone(), l.indices.clone())),
-            mesh_buffers: self.meshes.clone(),
-        })
+        Ok(Bound { pipeline, bind, beside, shade: None, mesh_buffers: self.meshes.clone() })
     }
 
     /// One draw pass: the background, then `objects`.
@@ -935,10 +952,24 @@ impl GpuDraw {
             self.behind = Some((params, self.backdrops, texture));
         }
         let behind = self.behind.as_ref().map(|b| b.2.clone());
-        bound.shade = match &objects {
-            Objects::Pixels(shading) | Objects::Lobes(_, Some((shading, _))) => Some(self.pixel_shade_bind(shading)?),
-            _ => None,
+        let (pixels, lobes) = match &objects {
+            Objects::Pixels(shading) => (Some(self.pixel_shade_bind(shading)?), None),
+            Objects::Lobes(_, pixels) => (
+                pixels.as_ref().map(|(shading, _)| self.pixel_shade_bind(shading)).transpose()?,
+                Some(self.lobe_shade_bind()?),
+            ),
+            _ => (None, None),
         };
+        if pixels.is_some() || lobes.is_some() {
+            let t = self.target.as_ref().expect("made with the depth above");
+            bound.shade = Some(Shading {
+                pixels,
+                lobes,
+                color: t.color.clone(),
+                seen: t.seen.clone(),
+                size: (t.width, t.height),
+            });
+        }
         let target = self.target(width, height)?;
         let color = target.color.create_view(&wgpu::TextureViewDescriptor::default());
         if let (false, Some(behind)) = (again, behind) {
@@ -1014,10 +1045,19 @@ struct Bound {
     /// The RSL sum per pixel beside the lobes: its pipeline and bind group, and the ranges of
     /// the shading pass's indices it draws.
     beside: Option<(Binding, Vec<std::ops::Range<u32>>)>,
-    lobe_buffers: Option<(wgpu::Buffer, wgpu::Buffer)>,
     mesh_buffers: (wgpu::Buffer, wgpu::Buffer),
-    /// The RSL sum per pixel's shading after each drawing, where it draws objects.
-    shade: Option<PixelShade>,
+    /// The shading after each drawing, where the RSL sum per pixel or the lobes draw objects.
+    shade: Option<Shading>,
+}
+
+/// The compute passes that shade what a drawing marked: the RSL sum per pixel's, the lobe
+/// path's, or both (for disjoint pixels of the same image, read from one copy of it).
+struct Shading {
+    pixels: Option<PixelShade>,
+    lobes: Option<(wgpu::ComputePipeline, wgpu::BindGroup)>,
+    color: wgpu::Texture,
+    seen: wgpu::Texture,
+    size: (u32, u32),
 }
 
 /// The RSL sum per pixel's compute passes bound to one image: the pixels to shade listed,
@@ -1028,15 +1068,13 @@ struct PixelShade {
     shade: (wgpu::ComputePipeline, wgpu::BindGroup),
     work: wgpu::Buffer,
     groups: wgpu::Buffer,
-    color: wgpu::Texture,
-    seen: wgpu::Texture,
-    size_px: (u32, u32),
 }
 
 impl Bound {
     /// Shades the pixels the drawing just recorded in `enc` marked (none without objects
-    /// drawn by the RSL sum per pixel): the image copied; the marked pixels listed; each
-    /// shaded by one invocation, which writes its radiance into the image.
+    /// drawn by the RSL sum per pixel or the lobes): the image copied; the RSL sum's pixels
+    /// listed and each shaded by one invocation; the lobes' pixels shaded where they lie;
+    /// each writing its radiance into the image.
     fn shade_pixels(
         &self,
         enc: &mut wgpu::CommandEncoder,
@@ -1045,24 +1083,33 @@ impl Bound {
         let Some(s) = &self.shade else {
             return;
         };
-        let (width, height) = s.size_px;
+        let (width, height) = s.size;
         enc.copy_texture_to_texture(
             s.color.as_image_copy(),
             s.seen.as_image_copy(),
             wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
         );
-        enc.clear_buffer(&s.work, 0, Some(4));
+        if let Some(p) = &s.pixels {
+            enc.clear_buffer(&p.work, 0, Some(4));
+        }
         let mut pass =
             enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("shade pixels"), timestamp_writes });
-        pass.set_pipeline(&s.find.0);
-        pass.set_bind_group(0, &s.find.1, &[]);
-        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
-        pass.set_pipeline(&s.size.0);
-        pass.set_bind_group(0, &s.size.1, &[]);
-        pass.dispatch_workgroups(1, 1, 1);
-        pass.set_pipeline(&s.shade.0);
-        pass.set_bind_group(0, &s.shade.1, &[]);
-        pass.dispatch_workgroups_indirect(&s.groups, 0);
+        if let Some(p) = &s.pixels {
+            pass.set_pipeline(&p.find.0);
+            pass.set_bind_group(0, &p.find.1, &[]);
+            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+            pass.set_pipeline(&p.size.0);
+            pass.set_bind_group(0, &p.size.1, &[]);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(&p.shade.0);
+            pass.set_bind_group(0, &p.shade.1, &[]);
+            pass.dispatch_workgroups_indirect(&p.groups, 0);
+        }
+        if let Some((pipeline, bind)) = &s.lobes {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, bind, &[]);
+            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+        }
     }
 
     /// Draws `objects` into `pass`.
@@ -1100,12 +1147,10 @@ impl Bound {
                 }
             }
             Objects::Lobes(count, _) => {
-                if let (Some((vertices, indices)), true) = (&self.lobe_buffers, count > 0) {
+                if count > 0 {
                     pass.set_pipeline(&self.pipeline);
                     pass.set_bind_group(0, &self.bind, &[]);
-                    pass.set_vertex_buffer(0, vertices.slice(..));
-                    pass.set_index_buffer(indices.slice(..u64::from(count) * 4), wgpu::IndexFormat::Uint32);
-                    pass.draw_indexed(0..count, 0, 0..1);
+                    pass.draw(0..count, 0..1);
                 }
                 if let Some(((pipeline, bind), ranges)) = &self.beside {
                     pass.set_pipeline(pipeline);

@@ -91,6 +91,10 @@ pub const DRAW_LOBES: Shader = Shader {
     entry_points: &["vs_lobes", "fs_lobes"],
 };
 
+/// The lobe path's shading: the pixels [`DRAW_LOBES`]' fragment stage marked, shaded in a
+/// compute pass.
+pub const DRAW_LOBES_SHADE: Shader = Shader { name: "draw/lobes/shade", entry_points: &["shade_lobes"], ..DRAW_LOBES };
+
 /// The RSL sum per pixel: the BRDF's square integrals for each pixel's own normal and view,
 /// covers interpolated from the vertices or found at the pixel, traced lights' shadow rays
 /// through the objects' BVHs (`rsl_gpu::draw::GpuDraw::draw_pixels`).
@@ -178,6 +182,7 @@ pub const ALL: &[Shader] = &[
     DRAW_BACKGROUND,
     DRAW_OBJECTS,
     DRAW_LOBES,
+    DRAW_LOBES_SHADE,
     DRAW_PIXELS,
     DRAW_PIXELS_FIND,
     DRAW_PIXELS_SIZE,

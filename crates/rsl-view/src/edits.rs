@@ -23,7 +23,9 @@ impl Viewer {
             self.pending_sync_ms += start.elapsed().as_secs_f64() * 1e3;
         }
         self.previewing = if dragging { Some(i) } else { None };
-        self.last_material_edit = Some((i, now));
+        // Edits are apart by the time between them, not counting this one's own work (a
+        // real table built here on a busy machine is no rest of the slider).
+        self.last_material_edit = Some((i, Instant::now()));
         Ok(())
     }
 
