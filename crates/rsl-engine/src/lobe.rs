@@ -6,7 +6,7 @@
 //! Beside it, the lobe path with its own shadows (`method = "lobe"`, variant (a),
 //! [`LobeDrawing`] with fields): transport lobes (Green et al. 2006) carry the object's own
 //! shadows, and each lobe is shadowed by the other objects' occluder fields over a square of
-//! its width.
+//! its width, but for the traced lights' (the suns') part of it, shadowed by their own rays.
 //!
 //! The lobes are meant to carry what a square light cannot, the environment's detail inside
 //! a lobe narrower than the squares; the ratio carries the shadows, self and from other
@@ -449,6 +449,23 @@ impl ObjectDrawing for LobeDrawing {
         if self.fields {
             // The other objects' fields alone: the transport lobes hold the object's own shadows.
             let others = engine.setup(ctx.scene, ctx.state, eye, Terms { self_visibility: false, occluders: true })?;
+            // The traced lights (the suns): each one's part of a lobe's lookup is shadowed by
+            // its own rays, not by the lobe's square. A square half above another object's
+            // horizon would otherwise let half of a sun below it through. Per light: its
+            // index, direction, solid angle (4r²) and radiance in the map's units.
+            let suns: Vec<(usize, Vec3, f64, Vec3)> = if intensity > 0.0 {
+                others
+                    .traced_lights()
+                    .into_iter()
+                    .map(|l| {
+                        let light = others.light(l);
+                        let r = f64::from(light.half_diagonal);
+                        (l, light.dir, 4.0 * r * r, light.radiance / intensity)
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
             for i in (0..n).filter(|&i| which[i]) {
                 let l = self.frame.lobes[i].clone().context("the lobes were not prepared")?;
                 let t = self.frame.transport[i].as_ref().context("the transport lobes were not prepared")?;
@@ -473,9 +490,22 @@ impl ObjectDrawing for LobeDrawing {
                             lobes.iter().map(|w| (to_world(w.lobe.mean), lobe_half_diagonal(w.lobe.kappa))).collect();
                         let mut covers = vec![0.0f32; squares.len()];
                         others.square_covers(i, v, &squares, &mut covers, &mut st);
+                        let sun_covers: Vec<f32> =
+                            suns.iter().map(|s| others.traced_cover(i, v, s.0, &mut st.traced_rays)).collect();
                         let mut shadowed = Vec3::ZERO;
                         for ((w, (d, _)), c) in lobes.iter().zip(&squares).zip(&covers) {
-                            shadowed += w.weight * env.lookup(env_from_world * *d, w.lobe.kappa) * *c;
+                            let lookup = env.lookup(env_from_world * *d, w.lobe.kappa);
+                            // Each sun's part of the lookup: its square under the lobe (at
+                            // most its whole radiance), within what the lookup holds.
+                            let (mut sun, mut sun_shadowed) = (Vec3::ZERO, Vec3::ZERO);
+                            for ((_, dir, solid, radiance), cover) in suns.iter().zip(&sun_covers) {
+                                let cos = f64::from(d.dot(*dir));
+                                let share = (rsl_lobe::vmf::density_at(f64::from(w.lobe.kappa), cos) * solid).min(1.0);
+                                let part = (*radiance * share as f32).min(lookup - sun).max(Vec3::ZERO);
+                                sun += part;
+                                sun_shadowed += part * *cover;
+                            }
+                            shadowed += w.weight * ((lookup - sun) * *c + sun_shadowed);
                         }
                         let bare = l.radiance(&env, &frame, to_eye, |d| env_from_world * d);
                         (shadowed * intensity, visibility_ratio(shadowed, bare), st)

@@ -177,3 +177,59 @@ fn a_lobe_method_built_later_takes_the_environment_another_prefiltered() {
     let mut third = Composite::hybrid();
     assert!(third.environment_job(&engine).unwrap().is_some(), "a freed environment was found");
 }
+
+/// A glossy ball (GGX α = 0.2) above a wide Lambert floor under sunrise.exr turned upside
+/// down: its low sun is below the floor, which hides it from the ball (the floor reaches to
+/// within 3° of the ball's horizon). Without the floor the sun is most of what the ball
+/// reflects; with it, the lobe path must not let the sun through. Each lobe's square is
+/// partly above the floor's horizon, and shadowing a sun by the square's cover let that
+/// share of it through; a traced light's part of each lobe is now shadowed by its own rays.
+#[test]
+fn a_sun_below_another_objects_horizon_does_not_leak_through_the_lobes() {
+    let scene_with = |floor: bool| {
+        let mut b = SceneBuilder::new()
+            .preset(Preset::Standard)
+            .map("../hdri/sunrise.exr")
+            .environment_rotation(Vec3::X, 180.0)
+            .rsl_count(30)
+            .camera(Vec3::new(0.0, 0.8, 3.0), Vec3::new(0.0, 0.5, 0.0))
+            .image(64, 48);
+        if floor {
+            b = b.object(ObjectBuilder::plane("floor", 20.0, 16).material(Brdf::Lambert { albedo: Vec3::splat(0.5) }));
+        }
+        scene(b.object(
+            ObjectBuilder::sphere("ball", 0.3, 24).translation(Vec3::new(0.0, 0.5, 0.0)).material(Brdf::Ggx {
+                alpha: 0.2,
+                specular: Vec3::splat(0.9),
+                diffuse: Vec3::ZERO,
+            }),
+        ))
+    };
+    let s = scene_with(true);
+    let neutral =
+        Engine::new(&s, EngineOptions { layers: Layers { rsl: false }, ..Default::default() }).expect("engine");
+    let truth = vertices(&mut Truth::new(&neutral, 1024, 5).expect("truth"), &neutral, &s);
+    let noise = truth.self_error.and_then(|e| e.vertices).expect("the truth's noise");
+    let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
+    let lobe = vertices(&mut Composite::lobe(), &engine, &s);
+    let hybrid = vertices(&mut Composite::hybrid(), &engine, &s);
+    let open = scene_with(false);
+    let open_engine = Engine::new(&open, EngineOptions::default()).expect("engine");
+    let unshadowed = vertices(&mut Composite::lobe(), &open_engine, &open);
+    let mean = |f: &Frame, i: usize| f.radiance[i].iter().map(|c| f64::from(c.element_sum())).sum::<f64>();
+    let (e_lobe, e_hybrid) = (l2(&lobe, &truth, 1), l2(&hybrid, &truth, 1));
+    let (lit, open_lit, true_lit) = (mean(&lobe, 1), mean(&unshadowed, 0), mean(&truth, 1));
+    println!(
+        "ball per vertex against the truth (noise {noise:.4}): lobes {e_lobe:.4}, hybrid {e_hybrid:.4}; \
+         its radiance summed: lobes {lit:.1}, truth {true_lit:.1}, without the floor {open_lit:.1}"
+    );
+    // Measured: the lobes 62.1 % (summed 91.0), the hybrid 38.9 %, the truth 60.3 with noise
+    // 4.8 %, 782.4 without the floor; before, the lobes 480 % (summed 200.8). What is left
+    // is the band of sky between the floor's edge and the ball's horizon, which the hybrid
+    // also finds hard.
+    assert!(
+        lit < 2.0 * true_lit,
+        "the ball's radiance {lit} against the truth's {true_lit} ({open_lit} without the floor)"
+    );
+    assert!(e_lobe < 2.0 * e_hybrid, "lobes {e_lobe} against the hybrid {e_hybrid}");
+}

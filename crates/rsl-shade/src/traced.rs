@@ -74,6 +74,12 @@ impl<'a> FrameSetup<'a> {
         self.traced.lift
     }
 
+    /// Light `l` as the frame has it (world direction, square, radiance with the
+    /// environment's intensity).
+    pub fn light(&self, l: usize) -> &rsl_frame::Light {
+        &self.lights[l]
+    }
+
     /// The lights that are traced, in light order.
     pub fn traced_lights(&self) -> Vec<usize> {
         (0..self.lights.len()).filter(|&l| self.is_traced(l)).collect()
