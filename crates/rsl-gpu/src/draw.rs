@@ -413,14 +413,7 @@ impl GpuDraw {
             }
         };
         let (vertices, indices, materials) = pack_objects(objects).map_err(GpuError::Scene)?;
-        let triangles = indices.len() / 3;
-        if triangles > MAX_PIXEL_TRIANGLES as usize {
-            return Err(GpuError::TooLarge {
-                what: format!("the lobe path per pixel over {triangles} triangles (at most {MAX_PIXEL_TRIANGLES})"),
-                bytes: triangles as u64 * 12,
-                limit: u64::from(MAX_PIXEL_TRIANGLES) * 12,
-            });
-        }
+        check_pixel_triangles("the lobe path per pixel", (indices.len() / 3) as u64)?;
         let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
         let bytes = (materials.len() * 16) as u64;
         if bytes > limit {
@@ -576,14 +569,7 @@ impl GpuDraw {
                 self.ctx.info.name
             )));
         }
-        let triangles = shading.index_buffer().1 / 3;
-        if triangles > MAX_PIXEL_TRIANGLES {
-            return Err(GpuError::TooLarge {
-                what: format!("the RSL sum per pixel over {triangles} triangles (at most {MAX_PIXEL_TRIANGLES})"),
-                bytes: u64::from(triangles) * 12,
-                limit: u64::from(MAX_PIXEL_TRIANGLES) * 12,
-            });
-        }
+        check_pixel_triangles("the RSL sum per pixel", u64::from(shading.index_buffer().1 / 3))?;
         if self.pixels.is_none() {
             let pipeline = render_pipeline_full(
                 &self.ctx,
@@ -1258,6 +1244,19 @@ fn render_pipeline_full(
         Some(e) => Err(GpuError::Shader { name: shader.name, message: e.to_string() }),
         None => Ok(pipeline),
     }
+}
+
+/// Refuses a drawing per pixel (`what`) of more triangles than its fragments can name
+/// ([`MAX_PIXEL_TRIANGLES`]).
+fn check_pixel_triangles(what: &str, triangles: u64) -> Result<(), GpuError> {
+    if triangles > u64::from(MAX_PIXEL_TRIANGLES) {
+        return Err(GpuError::TooLarge {
+            what: format!("{what} over {triangles} triangles (at most {MAX_PIXEL_TRIANGLES})"),
+            bytes: triangles * 12,
+            limit: u64::from(MAX_PIXEL_TRIANGLES) * 12,
+        });
+    }
+    Ok(())
 }
 
 /// The per-pixel pass's parameters from where the shading pass put its data.
