@@ -482,9 +482,10 @@ fn explain_says_how_each_object_is_drawn_and_why_for_every_per_object_method() {
             }
         }
         if method == "auto" {
-            // auto gives its rule's numbers for each glossy object, and draws one of them
-            // (at least) per pixel or with lobes.
-            assert!(glossy.iter().all(|n| line(n).contains("typical square")), "{err}");
+            // auto gives its measurement of both drawings for each glossy object, and draws
+            // one of them (at least) per pixel or with lobes.
+            assert!(glossy.iter().all(|n| line(n).contains("the RSL sum per pixel is")), "{err}");
+            assert!(glossy.iter().all(|n| line(n).contains("the lobes")), "{err}");
             assert!(glossy.iter().any(|n| line(n).contains(glossy_how) || line(n).contains("lobes")), "{err}");
         }
     }

@@ -12,8 +12,10 @@
 //! a lobe narrower than the squares; the ratio carries the shadows, self and from other
 //! objects, weighted as the RSL path weighs them. Measured (rsl-lobe README), the lobes do
 //! not reproduce a microfacet lobe well enough to beat the RSL sum per pixel on the bundled
-//! scenes; `auto` ([`Composite::auto`]) chooses per object, and picks the lobes only where their width is
-//! well below the squares' (a near-mirror reflecting a sharp horizon).
+//! scenes under suns; they do where the light is smooth and the lobe narrower than the
+//! squares (a white furnace, a near-mirror reflecting a sharp horizon). `auto`
+//! ([`Composite::auto`]) chooses per object by measuring both against the truth on a sample
+//! of the object's pixels ([`Composite::auto_estimate`]).
 //!
 //! Prepared once and kept: the environment prefiltered up to the sharpest lobe the scene's
 //! materials need (`κ` rounded up to a power of two, at most 4096), and each material's lobes

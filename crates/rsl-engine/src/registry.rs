@@ -562,7 +562,7 @@ static BUILT_IN: [Registration; 7] = [
     Registration {
         name: "auto",
         aliases: &[],
-        summary: "each object as its scene `method` says (by default the RSL sum per pixel, the lobes for near-mirrors)",
+        summary: "each object as its scene `method` says (by default, for a glossy object, the RSL sum per pixel or the lobes, whichever a sample of its pixels finds nearer the truth)",
         when: "scenes that mix materials; `rsl render --explain` says what each object got and why",
         capabilities: Capabilities {
             image: ImageKind::PerPixel,

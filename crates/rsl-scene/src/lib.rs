@@ -152,10 +152,8 @@ pub struct Object {
 /// How an object's radiance reaches the image, per object: `method = "auto"` (the default)
 /// or the name of a per-object method of `rsl_engine`'s registry — `rsl`, `pixel` (also read
 /// as `rsl_pixel`), `hybrid`, `lobe`, or one a program registered ([`register_method_name`]).
-/// For a glossy object `auto` takes `pixel` (the most accurate per covered pixel on every
-/// bundled accuracy scene, docs/history.md), or `hybrid` where its lobe is much narrower
-/// than the squares that carry the light (a near-mirror under a smooth sky;
-/// `rsl_engine::lobe::Composite::auto_choice`). A Lambertian object is shaded at its
+/// For a glossy object `auto` takes `pixel` or `hybrid`, whichever a sample of its pixels
+/// finds nearer the truth (`rsl_engine::lobe::Composite::auto_choice`). A Lambertian object is shaded at its
 /// vertices by the RSL path and interpolated by the built-in methods: its radiance varies no
 /// faster than its visibility, and its BRDF term is exact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -16,8 +16,8 @@ mod traced;
 
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
 pub use pixel::{
-    Covers, PIXEL_RAYS, PixelMesh, PixelPoint, draw_pixels, drawn_per_pixel, point_radiance, rasterise_antialiased,
-    shade_covers, shade_image, traced_at_point,
+    Covers, PIXEL_RAYS, PixelMesh, PixelPoint, draw_pixels, drawn_per_pixel, pixel_point, point_radiance,
+    rasterise_antialiased, shade_covers, shade_image, traced_at_point,
 };
 pub use raster::{
     Fragment, Image, RasterMesh, background_image, fragments, rasterise, rasterise_changed, rasterise_over,

@@ -138,6 +138,24 @@ pub struct PixelPoint<'f> {
     pub fragment: &'f Fragment,
 }
 
+/// The point fragment `f` shows of `mesh` (object `f.mesh`), its shading frame
+/// interpolated from the corners' frames; `None` for a mesh without frames (its vertices
+/// are interpolated).
+pub fn pixel_point<'f>(mesh: &PixelMesh<'_>, f: &'f Fragment) -> Option<PixelPoint<'f>> {
+    let fr = mesh.frames?;
+    let t = 3 * f.triangle as usize;
+    let corner = |k: usize| &fr[mesh.indices[t + k] as usize];
+    let wts = f.weights;
+    let n = corner(0).n * wts.x + corner(1).n * wts.y + corner(2).n * wts.z;
+    let tan = corner(0).t * wts.x + corner(1).t * wts.y + corner(2).t * wts.z;
+    Some(PixelPoint {
+        object: f.mesh as usize,
+        position: f.interpolate(mesh.indices, mesh.positions),
+        frame: Frame::from_normal_tangent(n, tan),
+        fragment: f,
+    })
+}
+
 /// Draws `meshes` through `camera`: each pixel of an object with frames gets
 /// `shade(point, scratch)` (`scratch` one per worker, from `init`), each pixel of the others
 /// its vertices' radiance interpolated, and the rest `background(direction)`. With `aa` > 1
@@ -161,21 +179,8 @@ pub fn draw_pixels<S>(
             return background(ray());
         };
         let m = &meshes[f.mesh as usize];
-        match m.frames {
-            Some(fr) => {
-                let t = 3 * f.triangle as usize;
-                let corner = |k: usize| &fr[m.indices[t + k] as usize];
-                let wts = f.weights;
-                let n = corner(0).n * wts.x + corner(1).n * wts.y + corner(2).n * wts.z;
-                let tan = corner(0).t * wts.x + corner(1).t * wts.y + corner(2).t * wts.z;
-                let point = PixelPoint {
-                    object: f.mesh as usize,
-                    position: f.interpolate(m.indices, m.positions),
-                    frame: Frame::from_normal_tangent(n, tan),
-                    fragment: f,
-                };
-                shade(&point, scratch)
-            }
+        match pixel_point(m, f) {
+            Some(point) => shade(&point, scratch),
             None => f.interpolate(m.indices, m.radiance),
         }
     };
