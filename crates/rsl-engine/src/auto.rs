@@ -174,9 +174,11 @@ impl Composite {
             Rule::Lobe => ObjectMethod::LOBE,
             Rule::PerObject => {
                 let mut drawn = Vec::with_capacity(scene.objects.len());
+                // What measuring one object's choice builds, shared by the next.
+                let mut scene_at = None;
                 for (i, o) in scene.objects.iter().enumerate() {
                     drawn.push(match o.method {
-                        ObjectMethod::AUTO => self.auto_choice(engine, scene, t, i)?,
+                        ObjectMethod::AUTO => self.choice(engine, scene, t, i, &mut scene_at)?,
                         m => drawn_by(m, engine.brdf(i))?,
                     });
                 }
@@ -325,21 +327,28 @@ impl Method for Composite {
 impl Composite {
     /// What `auto` draws object `i` with: a glossy object gets whichever of the hybrid's
     /// lobes and the RSL sum per pixel comes the closer to a Monte Carlo estimate of its
-    /// light ([`Composite::auto_estimate`]). An object no pixel sees is
-    /// chosen by its lobes' width against the squares' ([`LOBE_RATIO`]).
+    /// light ([`Composite::auto_estimate`]). An object no pixel sees is chosen by its lobes'
+    /// width against the squares' ([`LOBE_RATIO`]).
     pub fn auto_choice(&mut self, engine: &Engine, scene: &Scene, t: f32, i: usize) -> Result<MethodId> {
+        self.choice(engine, scene, t, i, &mut None)
+    }
+
+    /// [`Composite::auto_choice`], measuring in `scene_at` (built on first need).
+    fn choice<'e>(
+        &mut self,
+        engine: &'e Engine,
+        scene: &Scene,
+        t: f32,
+        i: usize,
+        scene_at: &mut Option<Measuring<'e>>,
+    ) -> Result<MethodId> {
         let brdf = engine.brdf(i);
         if brdf.is_lambertian() || brdf.is_anisotropic() {
             return drawn_by(ObjectMethod::AUTO, brdf);
         }
-        Ok(match self.auto_estimate(engine, scene, t, i)? {
-            Some(e) => {
-                if e.lobes_better {
-                    MethodId::HYBRID
-                } else {
-                    MethodId::PIXEL
-                }
-            }
+        Ok(match self.estimate(engine, scene, t, i, scene_at)? {
+            Some(e) if e.lobes_better => MethodId::HYBRID,
+            Some(_) => MethodId::PIXEL,
             None => {
                 let width = self.sharpest_lobe(engine, i)?;
                 if width * LOBE_RATIO < typical_square(engine.rsls()) { MethodId::HYBRID } else { MethodId::PIXEL }
@@ -350,17 +359,28 @@ impl Composite {
     /// How far the RSL sum per pixel and the hybrid's lobes are from the truth on glossy
     /// object `i`'s pixels ([`AutoEstimate`]), measured at time `t` the first time it is
     /// asked for and kept while its mesh, material and fields, the other objects' meshes
-    /// and fields, and the environment stay the same: one choice per object for a whole animation or a
-    /// viewer's drags and turns. `None` when no pixel's centre sees the object.
+    /// and fields, and the environment stay the same: one choice per object for a whole
+    /// animation or a viewer's drags and turns. `None` when no pixel's centre sees the object.
     ///
-    /// Measured on the camera's view [`AUTO_WIDTH`] pixels wide, at up to [`AUTO_PIXELS`] of the pixels whose centre sees the object, spread
-    /// evenly over them: both drawings shade the object as a frame would (the RSL sum with
+    /// Measured on the camera's view [`AUTO_WIDTH`] pixels wide, at up to [`AUTO_PIXELS`] of
+    /// the pixels whose centre sees the object, spread evenly over them: both drawings shade the object as a frame would (the RSL sum with
     /// every light's cover at the vertices; the lobes times the visibility ratio) and each
     /// pixel's centre is shaded by both, against the truth's estimate at the same centre
     /// ([`AUTO_SPP`] samples, shadow rays through every object).
     pub fn auto_estimate(&mut self, engine: &Engine, scene: &Scene, t: f32, i: usize) -> Result<Option<AutoEstimate>> {
-        let intensity = engine.intensity();
-        let env_key = (engine.environment_key(), intensity.to_bits());
+        self.estimate(engine, scene, t, i, &mut None)
+    }
+
+    /// [`Composite::auto_estimate`], measuring in `scene_at` (built on first need).
+    fn estimate<'e>(
+        &mut self,
+        engine: &'e Engine,
+        scene: &Scene,
+        t: f32,
+        i: usize,
+        scene_at: &mut Option<Measuring<'e>>,
+    ) -> Result<Option<AutoEstimate>> {
+        let env_key = (engine.environment_key(), engine.intensity().to_bits());
         let key = {
             use std::hash::{Hash, Hasher};
             let mut h = std::collections::hash_map::DefaultHasher::new();
@@ -377,48 +397,56 @@ impl Composite {
         {
             return Ok(*e);
         }
-        let estimate = self.measure(engine, scene, t, i)?;
+        let at = match scene_at.take() {
+            Some(m) => m,
+            None => {
+                let light = match &self.estimator {
+                    Some((k, l)) if *k == env_key => l.clone(),
+                    _ => {
+                        let l = Arc::new(crate::method::env_light(engine));
+                        self.estimator = Some((env_key, l.clone()));
+                        l
+                    }
+                };
+                Measuring::new(engine, scene, t, &light)?
+            }
+        };
+        let estimate = self.measure(engine, scene, &at, i);
+        *scene_at = Some(at);
+        let estimate = estimate?;
         self.estimates.insert(i, (key, estimate));
         Ok(estimate)
     }
 
-    /// [`Composite::auto_estimate`] measured now.
-    fn measure(&mut self, engine: &Engine, scene: &Scene, t: f32, i: usize) -> Result<Option<AutoEstimate>> {
+    /// [`Composite::auto_estimate`] of object `i` measured now in `at`.
+    fn measure(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        at: &Measuring<'_>,
+        i: usize,
+    ) -> Result<Option<AutoEstimate>> {
         let n = engine.object_count();
-        let state = scene.at(t);
-        // The camera's view at a fixed size: the choice is the same for a preview and for
-        // the final image.
-        let aspect = f64::from(scene.camera.height) / f64::from(scene.camera.width.max(1));
-        let camera = &rsl_scene::Camera {
-            width: AUTO_WIDTH,
-            height: ((f64::from(AUTO_WIDTH) * aspect).round() as u32).clamp(1, 4 * AUTO_WIDTH),
-            ..scene.camera
-        };
-        let setup = engine.setup(scene, &state, camera.eye, Terms::default())?;
-        let positions: Vec<Vec<Vec3>> = (0..n).map(|j| setup.positions(j)).collect();
-        let geometry: Vec<(&[Vec3], &[u32])> =
-            (0..n).map(|j| (&positions[j][..], &engine.mesh(j).indices[..])).collect();
-        let frags = rsl_shade::fragments(camera, &geometry);
+        let Measuring { t, state, camera, setup, positions, normals, frags, truth } = at;
         let seen: Vec<usize> = (0..frags.len()).filter(|&k| frags[k].is_some_and(|f| f.mesh as usize == i)).collect();
-        if seen.is_empty() {
+        let (false, Some(truth)) = (seen.is_empty(), truth) else {
             return Ok(None);
-        }
+        };
         let pixels: Vec<usize> = (0..AUTO_PIXELS.min(seen.len()))
             .map(|k| seen[(k * seen.len() + seen.len() / 2) / AUTO_PIXELS.min(seen.len())])
             .collect();
         // Both drawings of object `i` alone, as a frame draws it per pixel.
-        let normals: Vec<Vec<Vec3>> = (0..n).map(|j| setup.normals(j)).collect();
-        let request = Request { time: t, image: true, vertices: false, exposure: None };
+        let request = Request { time: *t, image: true, vertices: false, exposure: None };
         let ctx = FrameContext {
             engine,
             scene,
             request: &request,
-            state: &state,
-            setup: &setup,
+            state,
+            setup,
             per_pixel: true,
             gpu: false,
-            positions: &positions,
-            normals: &normals,
+            positions,
+            normals,
         };
         let which: Vec<bool> = (0..n).map(|j| j == i).collect();
         let mut timings = Timings::default();
@@ -432,16 +460,6 @@ impl Composite {
             let frames = shader.frames();
             shaders.push((part.radiance, shader, frames));
         }
-        let light = match &self.estimator {
-            Some((k, l)) if *k == (engine.environment_key(), engine.intensity().to_bits()) => l.clone(),
-            _ => {
-                let l = Arc::new(crate::method::env_light(engine));
-                self.estimator = Some(((engine.environment_key(), engine.intensity().to_bits()), l.clone()));
-                l
-            }
-        };
-        let truth = crate::method::Truth::scene(engine, scene, &state, (*light).clone())?
-            .with_pixel_filter(rsl_truth::PixelFilter::Centre);
         let indices = &engine.mesh(i).indices;
         let lights = setup.light_count();
         // Per pixel: the RSL sum, the hybrid, and the truth's estimate at its centre.
@@ -465,7 +483,7 @@ impl Composite {
                 },
             )
             .collect();
-        Ok(Some(AutoEstimate::of(&per_pixel, t)))
+        Ok(Some(AutoEstimate::of(&per_pixel, *t)))
     }
 
     /// Why object `i`, whose scene asks for `method`, is drawn as this method draws it
@@ -558,6 +576,51 @@ impl AutoEstimate {
             lobes_better: rsl - lobes > AUTO_MARGIN * apart.sqrt() && e_lobes <= AUTO_FACTOR * e_rsl,
             time: t,
         }
+    }
+}
+
+/// What [`Composite::auto_estimate`] measures objects in, built once for all the objects of
+/// one choice: the scene at time `t` seen through the camera at [`AUTO_WIDTH`] pixels wide
+/// (every term set up, the pixels' fragments), and the truth's scene sampling its centres.
+struct Measuring<'e> {
+    t: f32,
+    state: rsl_scene::SceneState,
+    camera: rsl_scene::Camera,
+    setup: rsl_shade::FrameSetup<'e>,
+    positions: Vec<Vec<Vec3>>,
+    normals: Vec<Vec<Vec3>>,
+    frags: Vec<Option<rsl_shade::Fragment>>,
+    /// `None` where no pixel sees any object.
+    truth: Option<rsl_truth::TruthScene>,
+}
+
+impl<'e> Measuring<'e> {
+    fn new(engine: &'e Engine, scene: &Scene, t: f32, light: &rsl_truth::EnvLight) -> Result<Self> {
+        let n = engine.object_count();
+        let state = scene.at(t);
+        // The camera's view at a fixed size: the choice is the same for a preview and for
+        // the final image.
+        let aspect = f64::from(scene.camera.height) / f64::from(scene.camera.width.max(1));
+        let camera = rsl_scene::Camera {
+            width: AUTO_WIDTH,
+            height: ((f64::from(AUTO_WIDTH) * aspect).round() as u32).clamp(1, 4 * AUTO_WIDTH),
+            ..scene.camera
+        };
+        let setup = engine.setup(scene, &state, camera.eye, Terms::default())?;
+        let positions: Vec<Vec<Vec3>> = (0..n).map(|j| setup.positions(j)).collect();
+        let normals: Vec<Vec<Vec3>> = (0..n).map(|j| setup.normals(j)).collect();
+        let geometry: Vec<(&[Vec3], &[u32])> =
+            (0..n).map(|j| (&positions[j][..], &engine.mesh(j).indices[..])).collect();
+        let frags = rsl_shade::fragments(&camera, &geometry);
+        // Where no pixel sees an object, nothing is measured (and a scene of degenerate
+        // triangles alone has no truth).
+        let truth = if frags.iter().any(Option::is_some) {
+            let truth = crate::method::Truth::scene(engine, scene, &state, light.clone())?;
+            Some(truth.with_pixel_filter(rsl_truth::PixelFilter::Centre))
+        } else {
+            None
+        };
+        Ok(Self { t, state, camera, setup, positions, normals, frags, truth })
     }
 }
 
