@@ -77,6 +77,19 @@ pub struct BenchArgs {
     /// Frames timed per configuration (the median is reported).
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
+    /// Measure one slice of the work, `K/N` (K from 0 to N − 1, as job-array indices count:
+    /// `$SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT`, `$JOB_COMPLETION_INDEX/N`): every Nth
+    /// (scene, configuration, time) from the Kth, into files of its own in --out
+    /// (`results-shard-K-of-N.csv`), beside the other shards. No images, no report: the next
+    /// bench into --out without --shard, or --merge, joins the shards' rows. A rerun of a
+    /// shard measures only what it had not finished. Give every shard the same scenes,
+    /// sweeps and times, and one shared --cache (the truths are computed once there).
+    #[arg(long)]
+    pub shard: Option<rsl_bench::shard::Shard>,
+    /// Join the finished shards' rows in --out into results.csv and write the report,
+    /// measuring nothing (a shard still running is left for a later run, and named).
+    #[arg(long, conflicts_with = "shard")]
+    pub merge: bool,
     /// Precomputation options (the cache also holds the truths).
     #[command(flatten)]
     pub prepare: crate::render::PrepareArgs,
@@ -136,6 +149,11 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     if !(2..=MAX_SPP).contains(&args.truth_spp) {
         bail!("--truth-spp must be in 2..={MAX_SPP} (one sample cannot measure the truth's noise)");
     }
+    if let (Some(s), Some(_)) = (args.shard, args.target_error) {
+        bail!(
+            "--target-error picks from every configuration's rows: run it with --merge once the shards ({s}) are done"
+        );
+    }
     let sweeps = if args.sweeps.is_empty() { default_sweeps() } else { args.sweeps.clone() };
     // The sweep's configurations (what --target-error picks from), then the baseline's.
     let configs = configs(&sweeps)?;
@@ -166,6 +184,8 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         progress: crate::progress::bars(),
         budget_rsl: (!args.no_budget).then_some(args.budget),
         command: command_line(),
+        shard: args.shard,
+        merge_only: args.merge,
     };
     let truth = match options.truth_noise {
         Some(x) => format!("truths to {:.2}% noise", 100.0 * x),
@@ -178,18 +198,43 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         options.times.len()
     );
     let s = run(&options)?;
+    if !s.merged.joined.is_empty() {
+        let shards: Vec<String> = s.merged.joined.iter().map(ToString::to_string).collect();
+        crate::status!("bench: joined the rows of shard(s) {}", shards.join(", "));
+    }
+    if !s.merged.running.is_empty() {
+        let shards: Vec<String> = s.merged.running.iter().map(ToString::to_string).collect();
+        eprintln!("bench: shard(s) {} still running: their rows are joined by a later run", shards.join(", "));
+    }
+    if args.merge {
+        println!("{}", std::fs::read_to_string(args.out.join("report.md"))?);
+        return pick_targets(args, &configs, &s);
+    }
+    let results = rsl_bench::shard::results_file(&args.out, args.shard);
     crate::status!(
         "bench: {} measured, {} already in {}; truths: {} estimated, {} from the cache",
         s.measured,
         s.reused,
-        args.out.join("results.csv").display(),
+        results.display(),
         s.truths_estimated,
         s.truths_reused
     );
     if !args.no_budget {
         crate::status!("bench: {} oracle setting(s) measured for error budgets", s.budget_measured);
     }
+    if let Some(shard) = args.shard {
+        crate::status!(
+            "bench: shard {shard} done; join the shards with rsl bench --merge (or the next bench into --out)"
+        );
+        return Ok(());
+    }
     println!("{}", std::fs::read_to_string(args.out.join("report.md"))?);
+    pick_targets(args, &configs, &s)
+}
+
+/// `--target-error`: per scene, the cheapest configuration of this sweep that meets it,
+/// printed and written as `<scene>_target.toml`.
+fn pick_targets(args: &BenchArgs, configs: &[rsl_bench::config::Config], s: &rsl_bench::Summary) -> Result<()> {
     if let Some(x) = args.target_error {
         for path in &args.scenes {
             let name = path.display().to_string();

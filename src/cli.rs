@@ -35,8 +35,13 @@ pub enum Command {
     /// Precompute (or load from the cache) everything a scene needs: RSLs, BRDF tables,
     /// self-visibility and occluder fields.
     Precompute {
-        /// The scene file (TOML).
-        scene: PathBuf,
+        /// The scene files (TOML).
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+        /// Prepare only every Nth scene from the Kth (`K/N`, K from 0 to N − 1, as job-array
+        /// indices count), into the shared --cache: one element of a job array.
+        #[arg(long)]
+        shard: Option<rsl_bench::shard::Shard>,
         /// Precomputation options.
         #[command(flatten)]
         prepare: crate::render::PrepareArgs,
@@ -91,7 +96,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Scene { scene, time } => scene_summary(&scene, time),
         Command::Decompose(args) => crate::decompose::run(&args),
-        Command::Precompute { scene, prepare } => crate::render::precompute(&scene, &prepare),
+        Command::Precompute { scenes, shard, prepare } => crate::render::precompute(&scenes, shard, &prepare),
         Command::Render(args) => crate::render::render(&args),
         Command::Demo(args) => crate::render::demo(&args),
         Command::Compare(args) => crate::compare::run(&args),

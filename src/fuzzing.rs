@@ -13,7 +13,7 @@ const NOWHERE: &str = "/nonexistent-rsl-fuzz";
 pub type Target = fn(&[u8]);
 
 /// The fuzz targets by name, in the order of `fuzz/fuzz_targets/`.
-pub const TARGETS: [(&str, Target); 8] = [
+pub const TARGETS: [(&str, Target); 10] = [
     ("scene_toml", scene_toml),
     ("gltf_import", gltf_import),
     ("env_map", env_map),
@@ -22,6 +22,8 @@ pub const TARGETS: [(&str, Target); 8] = [
     ("rsl_file", rsl_file),
     ("truth_file", truth_file),
     ("ply_file", ply_file),
+    ("bench_csv", bench_csv),
+    ("exr_image", exr_image),
 ];
 
 /// A scene file's text: parsed and validated (meshes and maps it names are not found).
@@ -86,6 +88,33 @@ pub fn truth_file(data: &[u8]) {
 /// A PLY file of shaded vertices (what `rsl compare` reads).
 pub fn ply_file(data: &[u8]) {
     let _ = rsl_engine::ply::read(data);
+}
+
+/// A bench's saved rows (what a resumed `rsl bench` reads): the text read as `results.csv`
+/// and, when it is rows, drawn into the report (its text, every plot as SVG) and searched
+/// for the cheapest configuration per scene (`--target-error`); and read as `budget.csv`,
+/// its table written when it is rows.
+pub fn bench_csv(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else { return };
+    let path = Path::new(NOWHERE).join("results.csv");
+    if let Ok(rows) = rsl_bench::report::parse_rows(text, &path) {
+        let (_, plots) = rsl_bench::report::reports("rsl bench", &rows, &[], false, &|_| false);
+        for (_, plot) in plots {
+            let _ = plot.svg();
+        }
+        for row in &rows {
+            let _ = rsl_bench::target::pick(&rows, &row.scene, 0.05);
+        }
+    }
+    if let Ok(rows) = rsl_bench::budget::parse_rows(text, &path.with_file_name("budget.csv")) {
+        let _ = rsl_bench::budget::markdown(&rows);
+    }
+}
+
+/// An image file as `rsl compare` and the bench's per-pixel truths (`truth-pixels-*.exr`)
+/// read it: OpenEXR, or anything the decoder guesses.
+pub fn exr_image(data: &[u8]) {
+    let _ = rsl_engine::output::decode_exr(data, Path::new("fuzz.exr"));
 }
 
 /// 0, and the key a cache file's header holds (bytes 28..36) when it is that long, so that

@@ -282,10 +282,23 @@ fn display_rgb(frame: &mut Frame, exposure: &mut Option<f32>) -> Result<Vec<u8>>
 }
 
 /// `rsl precompute SCENE`.
-pub fn precompute(scene: &Path, prepare: &PrepareArgs) -> Result<()> {
-    let scene = Scene::load(scene)?;
-    let engine = Engine::new(&scene, prepare.options())?;
-    print_preparation(&engine);
+pub fn precompute(scenes: &[PathBuf], shard: Option<rsl_bench::shard::Shard>, prepare: &PrepareArgs) -> Result<()> {
+    if shard.is_some() && prepare.options().cache_dir.is_none() {
+        bail!("--shard prepares into the cache the other shards share: drop --no-cache");
+    }
+    let mine: Vec<&PathBuf> =
+        scenes.iter().enumerate().filter(|(i, _)| shard.is_none_or(|s| s.takes(*i))).map(|(_, p)| p).collect();
+    if let Some(s) = shard {
+        crate::status!("precompute: shard {s} prepares {} of {} scene(s)", mine.len(), scenes.len());
+    }
+    for path in mine {
+        let scene = Scene::load(path)?;
+        if scenes.len() > 1 {
+            crate::status!("{}:", path.display());
+        }
+        let engine = Engine::new(&scene, prepare.options())?;
+        print_preparation(&engine);
+    }
     Ok(())
 }
 

@@ -166,3 +166,104 @@ fn a_target_error_pick_meets_the_target_when_measured_afresh() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no configuration meets"));
 }
+
+/// The rows of a results or budget file by their identity (all fields before `value`,
+/// less the timings), each with its measured error and truth key.
+fn measured(file: &Path, identity: &[usize], value: usize, key: usize) -> Vec<(String, String)> {
+    let mut rows: Vec<(String, String)> = std::fs::read_to_string(file)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let id: Vec<&str> = identity.iter().map(|&i| f[i]).collect();
+            (id.join(","), format!("{} {}", f[value], f[key]))
+        })
+        .collect();
+    rows.sort();
+    rows
+}
+
+#[test]
+fn shards_in_separate_processes_joined_give_the_rows_of_one_bench_and_a_killed_shard_resumes() {
+    let dir = std::env::temp_dir().join(format!("rsl-bench-shard-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = small_scene(&dir);
+    let scene = scene.to_str().unwrap();
+    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    let cache = p("cache");
+    let work = [
+        "--sweep",
+        "rsl=2,4,8",
+        "--times",
+        "0,0.5",
+        "--truth-spp",
+        "16",
+        "--frames",
+        "1",
+        "--grid-spp",
+        "0",
+        "--no-wavelet",
+        "--budget",
+        "2",
+        "--cache",
+        &cache,
+    ];
+    let bench = |out: &str, extra: &[&str]| -> Vec<String> {
+        ["bench", scene, "--out", out].iter().chain(&work).chain(extra).map(|s| s.to_string()).collect()
+    };
+    let rsl = |args: Vec<String>| rsl(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    rsl(bench(&p("whole"), &[]));
+    // Three shards at once, as three elements of a job array, into one folder.
+    let shards: Vec<_> = (0..3)
+        .map(|k| {
+            let shard = format!("{k}/3");
+            Command::new(env!("CARGO_BIN_EXE_rsl"))
+                .args(bench(&p("sharded"), &["--shard", &shard]))
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    for child in shards {
+        let o = child.wait_with_output().unwrap();
+        assert!(o.status.success(), "a shard failed:\n{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let sharded = dir.join("sharded");
+    for k in 0..3 {
+        assert!(sharded.join(format!("results-shard-{k}-of-3.csv")).exists(), "shard {k} wrote no rows");
+    }
+    assert!(!sharded.join("results.csv").exists() && !sharded.join("report.md").exists());
+    let (out, err) = rsl(bench(&p("sharded"), &["--merge"]));
+    assert!(err.contains("joined the rows of shard(s) 0/3, 1/3, 2/3"), "{err}");
+    assert!(out.contains("# rsl bench"), "the report is printed");
+    for k in 0..3 {
+        assert!(!sharded.join(format!("results-shard-{k}-of-3.csv")).exists(), "shard {k}'s file is left");
+    }
+    // The same rows: scene, configuration, time; their error and truth key (timings aside).
+    let results = |out: &str| measured(&dir.join(out).join("results.csv"), &[0, 1, 5], 10, 20);
+    let whole = results("whole");
+    assert_eq!(whole.len(), 6);
+    assert_eq!(results("sharded"), whole);
+    let budget = |out: &str| measured(&dir.join(out).join("budget.csv"), &[0, 1, 2, 3], 4, 9);
+    assert!(!budget("whole").is_empty());
+    assert_eq!(budget("sharded"), budget("whole"));
+    // A shard killed after its first row: its rerun measures only the rest.
+    rsl(bench(&p("killed"), &["--shard", "0/2", "--no-budget"]));
+    let file = dir.join("killed/results-shard-0-of-2.csv");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 4, "shard 0 of 2 takes 3 of the 6 configurations and times");
+    std::fs::write(&file, format!("{}\n", lines[..2].join("\n"))).unwrap();
+    let (_, err) = rsl(bench(&p("killed"), &["--shard", "0/2", "--no-budget"]));
+    assert!(err.contains("2 measured, 1 already in"), "{err}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap().lines().count(), 4);
+    // Another split into the same folder is refused.
+    let o = Command::new(env!("CARGO_BIN_EXE_rsl"))
+        .args(bench(&p("killed"), &["--shard", "0/3", "--no-budget"]))
+        .output()
+        .unwrap();
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("of another split"));
+}

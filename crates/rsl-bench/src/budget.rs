@@ -3,7 +3,7 @@
 //! time and all together — which term costs how much. `budget.csv` holds one row per oracle
 //! (read back to resume); `report.md` shows a table per configuration.
 
-use crate::report::{field, key_field, malformed, measure, read_csv, truth_key};
+use crate::report::{field, key_field, malformed, measure, parse_csv, read_text, truth_key};
 use anyhow::Result;
 use rsl_engine::output::write_atomic;
 use rsl_shade::Oracles;
@@ -73,7 +73,12 @@ pub fn write_rows(path: &Path, rows: &[BudgetRow]) -> Result<()> {
 
 /// Reads `budget.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<BudgetRow>> {
-    read_csv(path, &[(HEADER, 10), (HEADER_UNKEYED, 9)], "budget")?
+    read_text(path)?.map_or(Ok(Vec::new()), |text| parse_rows(&text, path))
+}
+
+/// The rows of a `budget.csv` text (read from `path`, which names it in messages).
+pub fn parse_rows(text: &str, path: &Path) -> Result<Vec<BudgetRow>> {
+    parse_csv(text, path, &[(HEADER, 10), (HEADER_UNKEYED, 9)], "budget")?
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);

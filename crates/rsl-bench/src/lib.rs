@@ -12,6 +12,7 @@ pub mod config;
 pub mod grid;
 pub mod plot;
 pub mod report;
+pub mod shard;
 pub mod target;
 pub mod truth;
 pub use rsl_engine::wavelet;
@@ -63,6 +64,11 @@ pub struct BenchOptions {
     pub budget_rsl: Option<u32>,
     /// The command that asked for the bench, written at the top of its report (empty: none).
     pub command: String,
+    /// Measure only this slice of the work, into the shard's own files, with no images and
+    /// no report ([`shard`]); `None`: all of it, after joining the finished shards' rows.
+    pub shard: Option<shard::Shard>,
+    /// Only join the finished shards' rows and write the report: measure nothing.
+    pub merge_only: bool,
 }
 
 /// One measured point: a configuration of a scene at a time.
@@ -136,6 +142,8 @@ pub struct Summary {
     pub budget_measured: usize,
     /// Truths read from the cache.
     pub truths_reused: usize,
+    /// The shards whose rows this run joined, and those still running.
+    pub merged: shard::Merged,
 }
 
 /// An engine of `scene`'s method-neutral layer (what the truth needs), from the bench's
@@ -444,9 +452,9 @@ impl Drop for OutLock {
 /// when the process ends, however it ends), with this process's id in it. Another bench
 /// into the same folder would read the results, measure, and write them back over this
 /// one's: it is refused before any work.
-fn lock_out(out: &std::path::Path) -> Result<OutLock> {
+fn lock_out(out: &std::path::Path, shard: Option<shard::Shard>) -> Result<OutLock> {
     use std::io::{Read, Seek, Write};
-    let path = out.join(LOCK_FILE);
+    let path = shard::lock_file(out, shard);
     let mut file = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
@@ -461,8 +469,9 @@ fn lock_out(out: &std::path::Path) -> Result<OutLock> {
             let _ = file.read_to_string(&mut holder);
             let holder = holder.trim();
             let by = if holder.is_empty() { String::new() } else { format!(" (process {holder})") };
+            let who = shard.map_or("another bench".into(), |s| format!("another process of shard {s}"));
             bail!(
-                "{}: another bench{by} is writing into this folder; wait for it to finish, or give another --out",
+                "{}: {who}{by} is writing into this folder; wait for it to finish, or give another --out",
                 out.display()
             );
         }
@@ -488,13 +497,38 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         bail!("--frames must be at least 1 and --truth-spp at least 2 (one sample cannot estimate its noise)");
     }
     std::fs::create_dir_all(&options.out).with_context(|| format!("cannot create {}", options.out.display()))?;
-    let _lock = lock_out(&options.out)?;
-    let results = options.out.join("results.csv");
+    if let Some(s) = options.shard {
+        if options.merge_only {
+            bail!("a shard ({s}) measures its slice; --merge joins the shards' rows afterwards, without --shard");
+        }
+        shard::check_count(&options.out, s)?;
+    }
+    let _lock = lock_out(&options.out, options.shard)?;
+    let results = shard::results_file(&options.out, options.shard);
     let mut summary = Summary { rows: report::read_rows(&results)?, ..Summary::default() };
-    check_stems(options, &summary.rows)?;
-    let budget_file = options.out.join("budget.csv");
+    let budget_file = shard::budget_file(&options.out, options.shard);
     let mut budget_rows = budget::read_rows(&budget_file)?;
+    // A shard also takes the joined rows as measured (a rerun of a killed shard whose rows
+    // were joined meanwhile); the whole bench joins the finished shards first.
+    let (joined, joined_budget) = match options.shard {
+        Some(_) => (
+            report::read_rows(&shard::results_file(&options.out, None))?,
+            budget::read_rows(&shard::budget_file(&options.out, None))?,
+        ),
+        None => {
+            summary.merged = shard::merge(&options.out, &mut summary.rows, &mut budget_rows)?;
+            (Vec::new(), Vec::new())
+        }
+    };
+    check_stems(options, &summary.rows)?;
+    if options.merge_only {
+        report::write_reports(&options.out, &options.command, &summary.rows, &budget_rows, options.grid_full)?;
+        return Ok(summary);
+    }
     let mut methods = Methods::default();
+    // The pieces of work counted over the whole bench, so that each shard takes its own.
+    let mut item = 0;
+    let mut budget_item = 0;
     for scene_path in &options.scenes {
         let name = scene_path.display().to_string();
         let mut scene = Scene::load(scene_path)?;
@@ -513,18 +547,28 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         let keys: Vec<(f32, u64)> =
             options.times.iter().map(|&t| (t, truth::key(&neutral, &scene, t, spp, options.seed))).collect();
         let key_at = |t: f32| keys.iter().find(|(tt, _)| *tt == t).map(|(_, k)| *k);
-        let todo: Vec<(&Config, f32)> = options
+        let first = item;
+        item += options.configs.len() * options.times.len();
+        let mine: Vec<(&Config, f32)> = options
             .configs
             .iter()
             .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
+            .enumerate()
+            .filter(|(i, _)| options.shard.is_none_or(|s| s.takes(first + i)))
+            .map(|(_, w)| w)
+            .collect();
+        let todo: Vec<(&Config, f32)> = mine
+            .iter()
+            .copied()
             .filter(|(c, t)| {
                 !summary
                     .rows
                     .iter()
+                    .chain(&joined)
                     .any(|r| r.scene == name && r.config == c.id() && r.time == *t && r.truth_key == key_at(*t))
             })
             .collect();
-        summary.reused += options.configs.len() * options.times.len() - todo.len();
+        summary.reused += mine.len() - todo.len();
         let budget_todo: Vec<(&Config, f32, &'static str, rsl_shade::Oracles)> = options
             .budget_rsl
             .map(|n| {
@@ -535,8 +579,11 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     .filter(|c| c.rsl.unwrap_or(scene.environment.rsl_count) == n)
                     .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
                     .flat_map(|(c, t)| budget::oracle_settings().into_iter().map(move |(o, set)| (c, t, o, set)))
+                    .enumerate()
+                    .filter(|(i, _)| options.shard.is_none_or(|s| s.takes(budget_item + i)))
+                    .map(|(_, w)| w)
                     .filter(|(c, t, o, _)| {
-                        !budget_rows.iter().any(|r| {
+                        !budget_rows.iter().chain(&joined_budget).any(|r| {
                             r.scene == name
                                 && r.config == c.id()
                                 && r.time == *t
@@ -547,6 +594,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     .collect()
             })
             .unwrap_or_default();
+        budget_item += options.budget_rsl.map_or(0, |_| options.configs.len() * options.times.len());
         if todo.is_empty() && budget_todo.is_empty() {
             continue;
         }
@@ -648,6 +696,10 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             budget::write_rows(&budget_file, &budget_rows)?;
         }
         scene.quality = base;
+    }
+    if options.shard.is_some() {
+        // The images and the report are the whole bench's, drawn once the shards are joined.
+        return Ok(summary);
     }
     if options.grid_spp > 0 {
         images(options, &mut summary, &mut methods)?;

@@ -3,7 +3,7 @@
 
 use crate::Row;
 use crate::plot::{Plot, Series, pareto};
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use rsl_engine::output::write_atomic;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -52,7 +52,8 @@ fn objects_field(objects: &[(String, f64, f64)]) -> String {
     objects.iter().map(|(n, e, s)| format!("{}={e}/{s}", n.replace([';', '=', '/'], "_"))).collect::<Vec<_>>().join(";")
 }
 
-/// Writes the rows (atomically) as `results.csv`, and `objects.csv` beside it.
+/// Writes the rows (atomically) as `results.csv` (or a shard's results file), and `objects.csv`
+/// (or the shard's) beside it.
 pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     let mut s = format!("{HEADER}\n");
     let mut o = String::from("scene,config,time,object,relative_l2,truth_noise,pixel_relative_l2,pixel_truth_noise\n");
@@ -90,19 +91,37 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
         }
     }
     write_atomic(path, s.as_bytes())?;
-    write_atomic(&path.with_file_name("objects.csv"), o.as_bytes())
+    // `results.csv` beside `objects.csv`; a shard's `results-shard-K-of-N.csv` beside
+    // `objects-shard-K-of-N.csv`.
+    let name = path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let objects = match name.replacen("results", "objects", 1) {
+        o if o == name => "objects.csv".to_string(),
+        o => o,
+    };
+    write_atomic(&path.with_file_name(objects), o.as_bytes())
 }
 
-/// The fields of every line but the header of a CSV file whose header is one of `headers`
-/// (each with its field count), with their line numbers (none when the file does not exist);
-/// `kind` names the file in the error for another header, and a line with other than its
-/// header's field count is malformed.
-pub(crate) fn read_csv(path: &Path, headers: &[(&str, usize)], kind: &str) -> Result<Vec<(usize, Vec<String>)>> {
-    let text = match std::fs::read_to_string(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
-    };
+/// The text of a file of the bench's (none when it does not exist), at most
+/// [`rsl_sphere::io::MAX_DATA_BYTES`].
+pub(crate) fn read_text(path: &Path) -> Result<Option<String>> {
+    use rsl_sphere::io::{MAX_DATA_BYTES, ReadError, read_text_bounded};
+    match read_text_bounded(path, MAX_DATA_BYTES) {
+        Ok(t) => Ok(Some(t)),
+        Err(ReadError::NotFound) => Ok(None),
+        Err(e) => Err(anyhow::anyhow!("cannot read {}: {e}", path.display())),
+    }
+}
+
+/// The fields of every line but the header of a CSV text (from `path`, for messages) whose
+/// header is one of `headers` (each with its field count), with their line numbers; `kind`
+/// names the file in the error for another header, and a line with other than its header's
+/// field count is malformed.
+pub(crate) fn parse_csv(
+    text: &str,
+    path: &Path,
+    headers: &[(&str, usize)],
+    kind: &str,
+) -> Result<Vec<(usize, Vec<String>)>> {
     let mut lines = text.lines();
     let first = lines.next();
     let Some(&(_, fields)) = headers.iter().find(|(h, _)| first == Some(*h)) else {
@@ -160,7 +179,12 @@ pub(crate) fn measure(path: &Path, n: usize, header: &str, f: &[String], i: usiz
 
 /// Reads `results.csv` back (none when the file does not exist).
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
-    read_csv(path, &[(HEADER, 22), (HEADER_NO_PIXEL_OBJECTS, 21), (HEADER_UNKEYED, 20)], "results")?
+    read_text(path)?.map_or(Ok(Vec::new()), |text| parse_rows(&text, path))
+}
+
+/// The rows of a `results.csv` text (read from `path`, which names it in messages).
+pub fn parse_rows(text: &str, path: &Path) -> Result<Vec<Row>> {
+    parse_csv(text, path, &[(HEADER, 22), (HEADER_NO_PIXEL_OBJECTS, 21), (HEADER_UNKEYED, 20)], "results")?
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
@@ -252,6 +276,26 @@ pub fn write_reports(
     budget: &[crate::budget::BudgetRow],
     grid_full: bool,
 ) -> Result<()> {
+    let (md, plots) = reports(command, rows, budget, grid_full, &|grid| out.join(grid).exists());
+    for (file, plot) in plots {
+        write_atomic(&out.join(format!("{file}.svg")), plot.svg().as_bytes())?;
+        let (rgb, w, h) = plot.rgb();
+        rsl_engine::output::write_png(&out.join(format!("{file}.png")), w, h, rgb)?;
+    }
+    write_atomic(&out.join("report.md"), md.as_bytes())
+}
+
+/// What [`write_reports`] writes: the text of `report.md`, and the plots by file stem (each
+/// written as SVG and PNG); `grid_exists` says whether a grid image of that name is in the
+/// output folder (the report links it).
+pub fn reports(
+    command: &str,
+    rows: &[Row],
+    budget: &[crate::budget::BudgetRow],
+    grid_full: bool,
+    grid_exists: &dyn Fn(&str) -> bool,
+) -> (String, Vec<(String, Plot)>) {
+    let mut files = Vec::new();
     let mut by_scene: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
     for r in rows {
         by_scene.entry(&r.scene).or_default().push(r);
@@ -365,7 +409,7 @@ pub fn write_reports(
                 }
             }
             let grid = format!("{stem}_grid_t{t}.png");
-            if out.join(&grid).exists() {
+            if grid_exists(&grid) {
                 md += &format!(
                     "\nThe grid (at {resolution}; first row the per-pixel truth, then per configuration its render \
                      and its luminance error, one colour scale for all): ![grid]({grid})\n"
@@ -432,15 +476,12 @@ pub fn write_reports(
         ];
         md += "\n";
         for (name, plot) in plots {
-            let file = format!("{stem}_{name}.svg");
-            write_atomic(&out.join(&file), plot.svg().as_bytes())?;
-            let (rgb, w, h) = plot.rgb();
-            rsl_engine::output::write_png(&out.join(format!("{stem}_{name}.png")), w, h, rgb)?;
-            md += &format!("![{}]({file})\n", plot.title);
+            md += &format!("![{}]({stem}_{name}.svg)\n", plot.title);
+            files.push((format!("{stem}_{name}"), plot));
         }
     }
     md += &crate::budget::markdown(budget);
-    write_atomic(&out.join("report.md"), md.as_bytes())
+    (md, files)
 }
 
 /// The rows grouped into series by `key`, points by `point` (sorted by x).

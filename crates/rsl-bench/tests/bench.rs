@@ -66,6 +66,8 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         progress: Default::default(),
         budget_rsl: None,
         command: String::new(),
+        shard: None,
+        merge_only: false,
     }
 }
 

@@ -144,15 +144,33 @@ pub type ExrImage = (u32, u32, Vec<glam::Vec3>, Option<Vec<bool>>);
 
 /// Reads an OpenEXR image: linear RGB and, where it has one, the alpha channel as a mask.
 pub fn read_exr(path: &Path) -> Result<ExrImage> {
-    let img = image::ImageReader::open(path)
-        .with_context(|| format!("cannot open {}", path.display()))?
+    let bytes = rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    decode_exr(&bytes, path)
+}
+
+/// [`read_exr`] of a file's bytes (`path` names it in messages; the format is guessed from
+/// the bytes). An image larger than any rsl writes ([`rsl_scene::MAX_PIXELS`]) is refused
+/// from its header, before its pixels are decoded.
+pub fn decode_exr(bytes: &[u8], path: &Path) -> Result<ExrImage> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
-        .with_context(|| format!("cannot read {}", path.display()))?
-        .decode()
-        .with_context(|| format!("{}: not a readable image", path.display()))?;
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let mut limits = image::Limits::default();
+    // RGBA in 32-bit floats, and as much again for the decoder's own buffers.
+    limits.max_alloc = Some(2 * 16 * rsl_scene::MAX_PIXELS);
+    reader.limits(limits);
+    let img = reader.decode().with_context(|| format!("{}: not a readable image", path.display()))?;
+    let (w, h) = (img.width(), img.height());
+    if u64::from(w) * u64::from(h) > rsl_scene::MAX_PIXELS {
+        anyhow::bail!(
+            "{}: {w}×{h} pixels, more than the {} an image of rsl's has",
+            path.display(),
+            rsl_scene::MAX_PIXELS
+        );
+    }
     let has_alpha = img.color().has_alpha();
     let rgba = img.into_rgba32f();
-    let (w, h) = rgba.dimensions();
     let pixels = rgba.pixels().map(|p| glam::Vec3::new(p.0[0], p.0[1], p.0[2])).collect();
     let mask = has_alpha.then(|| rgba.pixels().map(|p| p.0[3] > 0.5).collect());
     Ok((w, h, pixels, mask))
