@@ -237,6 +237,104 @@ fn moving_occluder(kind: Kind, test: &str) {
     );
 }
 
+// ---- A mesh whose winding points against its normals ---------------------------------------
+
+/// Writes a bowl — the lower half of a unit sphere, `n` bands by `2n` segments — as a glTF
+/// file at `path`, its normals pointing inward (the side a camera above sees), its triangles
+/// wound to agree with them (`inward_winding`) or against them.
+fn write_bowl(path: &std::path::Path, n: u32, inward_winding: bool) {
+    let (rings, segments) = (n, 2 * n);
+    let mut positions = Vec::new();
+    for r in 0..=rings {
+        // From the rim (θ = 90°) down to the bottom pole (θ = 180°).
+        let theta = std::f32::consts::FRAC_PI_2 * (1.0 + r as f32 / rings as f32);
+        for k in 0..segments {
+            let phi = std::f32::consts::TAU * k as f32 / segments as f32;
+            positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+        }
+    }
+    let mut indices: Vec<u32> = Vec::new();
+    for r in 0..rings {
+        for k in 0..segments {
+            let (a, b) = (r * segments + k, r * segments + (k + 1) % segments);
+            let (c, d) = (a + segments, b + segments);
+            for t in [[a, b, c], [b, d, c]] {
+                let [p, q, w] = t.map(|i| positions[i as usize]);
+                // Toward the centre (inward) when (q − p)×(w − p) points against p.
+                let inward = (q - p).cross(w - p).dot(p) < 0.0;
+                indices.extend(if inward == inward_winding { t } else { [t[0], t[2], t[1]] });
+            }
+        }
+    }
+    let mut bin: Vec<u8> = Vec::new();
+    for p in &positions {
+        bin.extend(p.to_array().iter().flat_map(|c| c.to_le_bytes()));
+    }
+    for p in &positions {
+        bin.extend((-p.normalize()).to_array().iter().flat_map(|c| c.to_le_bytes()));
+    }
+    let index_offset = bin.len();
+    bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    let bin_name = format!("{}.bin", path.file_stem().unwrap().to_string_lossy());
+    std::fs::write(path.with_file_name(&bin_name), &bin).unwrap();
+    let count = positions.len();
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{bin_name}","byteLength":{}}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{}}},{{"buffer":0,"byteOffset":{},"byteLength":{}}},
+{{"buffer":0,"byteOffset":{index_offset},"byteLength":{}}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":{count},"type":"VEC3","min":[-1,-1,-1],"max":[1,0,1]}},
+{{"bufferView":1,"componentType":5126,"count":{count},"type":"VEC3"}},
+{{"bufferView":2,"componentType":5125,"count":{},"type":"SCALAR"}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1}},"indices":2,"mode":4}}]}}],
+"nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0}}"#,
+        bin.len(),
+        12 * count,
+        12 * count,
+        12 * count,
+        4 * indices.len(),
+        indices.len()
+    );
+    std::fs::write(path, json).unwrap();
+}
+
+fn inverted_normals(kind: Kind, test: &str) {
+    // A bowl seen from above: the normals point inward, toward the camera. Written once
+    // with its winding agreeing with them and once against them, it is one surface: every
+    // method draws the two alike, per vertex and per pixel (before the winding followed
+    // the normals, the fields masked the side the normals shade: 470 % off on a ball).
+    let dir = std::env::temp_dir().join(format!("rsl-methods-bowl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut frames = Vec::new();
+    for (name, inward) in [("agrees", true), ("against", false)] {
+        let mesh = dir.join(format!("bowl_{name}.gltf"));
+        write_bowl(&mesh, 6, inward);
+        let s = rsl_scene::build::SceneBuilder::new()
+            .preset(Preset::Draft)
+            .map(common::root().join("data/hdri/studio.exr"))
+            .rsl_count(16)
+            .camera(Vec3::new(0.0, 2.0, 1.2), Vec3::new(0.0, -0.4, 0.0))
+            .image(48, 36)
+            .object(rsl_scene::build::ObjectBuilder::mesh("bowl", &mesh).material(common::ggx(0.3, 0.5, 0.4)))
+            .build(dir.join(format!("{name}.toml")))
+            .expect("the bowl's scene");
+        let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+        let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
+        frames.push(method.render(&engine, &s, &request).expect("frame"));
+    }
+    let (a, b) = (&frames[0], &frames[1]);
+    let lit = (0..a.radiance[0].len()).filter(|&v| a.radiance[0][v].max_element() > 0.0).count();
+    assert!(lit > a.radiance[0].len() / 3, "{kind:?}: the bowl's inside is lit ({lit} vertices)");
+    assert_eq!(a.radiance, b.radiance, "{kind:?}: per vertex");
+    let (ia, ib) = (a.image.as_ref().expect("an image"), b.image.as_ref().expect("an image"));
+    assert!(ia.covered.iter().filter(|&&c| c).count() > 200, "{kind:?}: the bowl covers the image");
+    assert_eq!(ia.pixels, ib.pixels, "{kind:?}: per pixel");
+}
+
+#[test]
+fn inverted_normals_every_method() {
+    each("inverted_normals", inverted_normals);
+}
+
 #[test]
 fn furnace_every_method() {
     each("furnace", furnace);

@@ -421,14 +421,16 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<Tr
             let mesh = match meshes.get(&path) {
                 Some(m) => Arc::clone(m),
                 None => {
-                    let (m, report) = crate::gltf_import::import(&path).map_err(|msg| SceneError::file(&path, msg))?;
+                    let (mut m, report) =
+                        crate::gltf_import::import(&path).map_err(|msg| SceneError::file(&path, msg))?;
                     m.validate().map_err(|e| SceneError::file(&path, e.to_string()))?;
-                    let (against, faces) = m.faces_against_normals();
-                    if 2 * against > faces {
+                    let (_, faces) = m.faces_against_normals();
+                    let against = m.rewind_to_normals();
+                    if against > 0 {
                         tracing::warn!(
-                            "{}: the normals of {against} of its {faces} triangles point against their winding: they \
-                             are shaded from one side and shadowed from the other (flip the file's normals or its \
-                             winding)",
+                            "{}: the normals of {against} of its {faces} triangles point against their winding; \
+                             those triangles are rewound to follow their normals, which say the side rsl shades \
+                             (if that is the inside, flip the file's normals)",
                             path.display()
                         );
                     }

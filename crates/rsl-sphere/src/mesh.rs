@@ -223,6 +223,27 @@ impl TriMesh {
         (against, faces)
     }
 
+    /// Reverses the winding of every triangle whose vertex normals point on the whole
+    /// against it ([`Self::faces_against_normals`]), so that winding and normals agree: the
+    /// normals say which side is shaded, and the winding then says the same to everything
+    /// that orients faces by it (the fields' face masks, the flat occluders). Returns how many
+    /// triangles were reversed.
+    pub fn rewind_to_normals(&mut self) -> usize {
+        if self.normals.len() != self.positions.len() {
+            return 0;
+        }
+        let mut reversed = 0;
+        for t in self.indices.chunks_exact_mut(3) {
+            let [a, b, c] = [0, 1, 2].map(|k| t[k] as usize);
+            let face = (self.positions[b] - self.positions[a]).cross(self.positions[c] - self.positions[a]);
+            if face.dot(self.normals[a] + self.normals[b] + self.normals[c]) < 0.0 {
+                t.swap(1, 2);
+                reversed += 1;
+            }
+        }
+        reversed
+    }
+
     /// Tangents from a fixed object-space direction: `+X` projected onto each vertex's
     /// tangent plane (`+Z` where the normal is nearly ±X). The field is smooth wherever the
     /// normal is, which is what an anisotropic BRDF without texture coordinates needs.
@@ -402,6 +423,11 @@ mod tests {
             *n = -*n;
         }
         assert_eq!(m.faces_against_normals(), (2, 2));
+        let before = m.indices.clone();
+        assert_eq!(m.rewind_to_normals(), 2);
+        assert_eq!(m.faces_against_normals(), (0, 2));
+        assert_ne!(m.indices, before);
+        assert_eq!(m.rewind_to_normals(), 0);
     }
 
     #[test]
