@@ -58,6 +58,25 @@ fn frame_from_normal_tangent(normal: vec3<f32>, tangent: vec3<f32>) -> Frame {
     return Frame(t.xyz, cross(n, t.xyz), n);
 }
 
+// rsl_sphere::frame::MIN_VIEW_COS: the least cosine between a pixel's shading normal and
+// its view where its face sees the eye.
+const MIN_VIEW_COS: f32 = 0.05;
+
+// Frame::toward_view's normal: the unit normal n turned toward the unit view, in the plane of
+// the two, until n·view = MIN_VIEW_COS, where the face (unit, on n's side) sees the eye but
+// n leans away from it (a silhouette); n itself otherwise.
+fn normal_toward_view(n: vec3<f32>, view: vec3<f32>, face: vec3<f32>) -> vec3<f32> {
+    let c = dot(n, view);
+    if !(c < MIN_VIEW_COS) || dot(face, view) <= 0.0 {
+        return n;
+    }
+    let u = try_normalize(n - c * view);
+    if u.w == 0.0 {
+        return face;
+    }
+    return MIN_VIEW_COS * view + sqrt(1.0 - MIN_VIEW_COS * MIN_VIEW_COS) * u.xyz;
+}
+
 fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(v, f.t), dot(v, f.b), dot(v, f.n));
 }

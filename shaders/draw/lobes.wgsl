@@ -258,8 +258,14 @@ fn shade_lobes(@builtin(global_invocation_id) id: vec3<u32>) {
     var radiance = ratio;
     if material != NO_MATERIAL {
         let position = w.x * a.position.xyz + w.y * b.position.xyz + w.z * c.position.xyz;
-        let f = frame_from_normal(w.x * a.normal.xyz + w.y * b.normal.xyz + w.z * c.normal.xyz);
+        let interpolated = frame_from_normal(w.x * a.normal.xyz + w.y * b.normal.xyz + w.z * c.normal.xyz);
         let view = normalize_or_zero(lobe.eye.xyz - position);
+        // A silhouette's normal turned toward the eye where the face sees it (pixel_point).
+        var seen = normalize_or_zero(cross(b.position.xyz - a.position.xyz, c.position.xyz - a.position.xyz));
+        if dot(seen, interpolated.n) < 0.0 {
+            seen = -seen;
+        }
+        let f = frame_from_normal(normal_toward_view(interpolated.n, view, seen));
         radiance = lobe_radiance(material, f, to_local(f, view)) * lobe.eye.w * ratio;
     }
     // Alpha: the object's index + 1 (covered by an object).

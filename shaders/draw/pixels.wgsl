@@ -392,9 +392,16 @@ fn pixel_radiance(t: u32, w: vec3<f32>) -> vec3<f32> {
         n += f.n * w[k];
         tangent += f.t * w[k];
     }
-    let sf = frame_from_normal_tangent(n, tangent);
+    let shading = frame_from_normal_tangent(n, tangent);
+    // A silhouette's normal turned toward the eye where the face sees it (pixel_point).
+    var seen = normalize_or_zero(cross(b - a, cc - a));
+    if dot(seen, shading.n) < 0.0 {
+        seen = -seen;
+    }
+    let view = normalize_or_zero(pixel.eye.xyz - x);
+    let sf = frame_from_normal_tangent(normal_toward_view(shading.n, view, seen), shading.t);
     let table = table_of(o);
-    let lookup = view_lookup(table, to_local(sf, normalize_or_zero(pixel.eye.xyz - x)), pixel.eye.w);
+    let lookup = view_lookup(table, to_local(sf, view), pixel.eye.w);
     let lambertian = table.kind == TABLE_SINGLE;
     var radiance = vec3<f32>(0.0);
     if lambertian {

@@ -473,7 +473,7 @@ impl Composite {
                         let (radiance, shader, frames) = &shaders[d];
                         let mesh =
                             rsl_shade::PixelMesh { positions: &positions[i], indices, frames: Some(frames), radiance };
-                        let point = rsl_shade::pixel_point(&mesh, f).expect("a mesh with frames");
+                        let point = rsl_shade::pixel_point(&mesh, f, camera.eye).expect("a mesh with frames");
                         shader.shade(&mesh, &point, buf)
                     });
                     let (x, y) = ((k % camera.width as usize) as u32, (k / camera.width as usize) as u32);

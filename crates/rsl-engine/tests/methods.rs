@@ -330,6 +330,49 @@ fn inverted_normals(kind: Kind, test: &str) {
     assert_eq!(ia.pixels, ib.pixels, "{kind:?}: per pixel");
 }
 
+// ---- Silhouettes of a coarse ball ----------------------------------------------------------
+
+fn silhouettes(kind: Kind, test: &str) {
+    // A ball of few triangles in a white furnace, seen close: along its silhouette the
+    // pixels hit faces that see the eye while their corners' interpolated normals lean
+    // away from it. Nothing shadows a convex ball, so every pixel it covers reflects light;
+    // drawn per pixel or estimated there, none is black (they were, one-sided BRDFs
+    // reflecting nothing toward a view below the interpolated normal). Drawings that
+    // interpolate the vertices keep the vertex convention and are not held to this.
+    if kind.id.capabilities().image == rsl_engine::registry::ImageKind::Vertices {
+        return;
+    }
+    let s = common::scene(
+        rsl_scene::build::SceneBuilder::new()
+            .preset(Preset::Draft)
+            .knob("aa", 1)
+            .constant(Vec3::ONE)
+            .rsl_count(24)
+            .camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO)
+            .image(64, 48)
+            .object(rsl_scene::build::ObjectBuilder::sphere("ball", 1.0, 6).material(common::ggx(0.3, 0.8, 0.1))),
+    );
+    let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+    let request = Request { time: 0.0, image: true, vertices: false, exposure: None };
+    let frame = method.render(&engine, &s, &request).expect("frame");
+    let image = frame.image.expect("an image");
+    let covered = image.covered.iter().filter(|&&c| c).count();
+    let black: Vec<usize> =
+        (0..image.pixels.len()).filter(|&k| image.covered[k] && image.pixels[k].max_element() <= 0.0).collect();
+    assert!(covered > 500, "{kind:?}: the ball covers {covered} pixels");
+    assert!(
+        black.is_empty(),
+        "{kind:?}: {} of {covered} covered pixels black, first at {:?}",
+        black.len(),
+        &black[..black.len().min(5)]
+    );
+}
+
+#[test]
+fn silhouettes_every_method() {
+    each("silhouettes", silhouettes);
+}
+
 #[test]
 fn inverted_normals_every_method() {
     each("inverted_normals", inverted_normals);

@@ -138,20 +138,27 @@ pub struct PixelPoint<'f> {
     pub fragment: &'f Fragment,
 }
 
-/// The point fragment `f` shows of `mesh` (object `f.mesh`), its shading frame
-/// interpolated from the corners' frames; `None` for a mesh without frames (its vertices
-/// are interpolated).
-pub fn pixel_point<'f>(mesh: &PixelMesh<'_>, f: &'f Fragment) -> Option<PixelPoint<'f>> {
+/// The point fragment `f` shows of `mesh` (object `f.mesh`) to the eye at `eye`, its
+/// shading frame interpolated from the corners' frames and, on a silhouette, turned toward
+/// the eye ([`Frame::toward_view`]); `None` for a mesh without frames (its vertices are
+/// interpolated).
+pub fn pixel_point<'f>(mesh: &PixelMesh<'_>, f: &'f Fragment, eye: Vec3) -> Option<PixelPoint<'f>> {
     let fr = mesh.frames?;
     let t = 3 * f.triangle as usize;
     let corner = |k: usize| &fr[mesh.indices[t + k] as usize];
     let wts = f.weights;
     let n = corner(0).n * wts.x + corner(1).n * wts.y + corner(2).n * wts.z;
     let tan = corner(0).t * wts.x + corner(1).t * wts.y + corner(2).t * wts.z;
+    let frame = Frame::from_normal_tangent(n, tan);
+    let position = f.interpolate(mesh.indices, mesh.positions);
+    // A silhouette's normal turned toward the eye where the face sees it (as the truth's).
+    let [a, b, c] = [0, 1, 2].map(|k| mesh.positions[mesh.indices[t + k] as usize]);
+    let face = (b - a).cross(c - a).normalize_or_zero();
+    let face = if face.dot(frame.n) < 0.0 { -face } else { face };
     Some(PixelPoint {
         object: f.mesh as usize,
-        position: f.interpolate(mesh.indices, mesh.positions),
-        frame: Frame::from_normal_tangent(n, tan),
+        position,
+        frame: frame.toward_view((eye - position).normalize_or_zero(), face),
         fragment: f,
     })
 }
@@ -179,7 +186,7 @@ pub fn draw_pixels<S>(
             return background(ray());
         };
         let m = &meshes[f.mesh as usize];
-        match pixel_point(m, f) {
+        match pixel_point(m, f, camera.eye) {
             Some(point) => shade(&point, scratch),
             None => f.interpolate(m.indices, m.radiance),
         }

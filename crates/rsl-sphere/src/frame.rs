@@ -11,6 +11,10 @@ pub fn try_normalize(v: Vec3) -> Option<Vec3> {
     if len2.is_finite() && len2 > 0.0 { Some(v / len2.sqrt()) } else { None }
 }
 
+/// The least cosine between a pixel's shading normal and its view where its face sees the
+/// eye ([`Frame::toward_view`]).
+pub const MIN_VIEW_COS: f32 = 0.05;
+
 /// A right-handed orthonormal basis: `t × b = n`. Local coordinates are `(t, b, n)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
@@ -51,6 +55,23 @@ impl Frame {
             Some(t) => Self { t, b: n.cross(t), n },
             None => Self::from_normal(n),
         }
+    }
+
+    /// This frame as a pixel's shading frame seen along unit `view` (toward the eye), on a
+    /// face of unit normal `face` (on the shading normal's side). Where the face sees the eye
+    /// but the interpolated normal leans away from it — the silhouette of a smooth-shaded
+    /// mesh, which a one-sided BRDF would draw black — the normal is turned toward the view,
+    /// in the plane of the two, just far enough that `n·view` = [`MIN_VIEW_COS`] (the
+    /// tangent made orthogonal to it again). Unchanged where `n·view` is at least that, and
+    /// where the face itself does not see the eye (a back face reflects nothing).
+    pub fn toward_view(&self, view: Vec3, face: Vec3) -> Self {
+        let c = self.n.dot(view);
+        if c >= MIN_VIEW_COS || face.dot(view) <= 0.0 || c.is_nan() {
+            return *self;
+        }
+        let Some(u) = try_normalize(self.n - c * view) else { return Self::from_normal_tangent(face, self.t) };
+        let n = MIN_VIEW_COS * view + (1.0 - MIN_VIEW_COS * MIN_VIEW_COS).sqrt() * u;
+        Self::from_normal_tangent(n, self.t)
     }
 
     /// Local coordinates of a world vector.
@@ -111,5 +132,24 @@ mod tests {
         let z = Frame::from_normal_tangent(Vec3::ZERO, Vec3::ZERO);
         check_orthonormal(&z);
         assert_eq!(z.n, Vec3::Y);
+    }
+
+    #[test]
+    fn a_silhouettes_normal_is_turned_toward_the_view_only_where_its_face_sees_the_eye() {
+        let view = Vec3::Z;
+        let away = Frame::from_normal_tangent(Vec3::new(1.0, 0.0, -0.2), Vec3::Y);
+        let face = Vec3::new(1.0, 0.0, 0.1).normalize();
+        let turned = away.toward_view(view, face);
+        assert!((turned.n.dot(view) - MIN_VIEW_COS).abs() < 1e-6, "{:?}", turned.n);
+        // In the plane of the normal and the view, on the normal's side; still orthonormal.
+        assert!(turned.n.y.abs() < 1e-6 && turned.n.x > 0.99);
+        assert!((turned.n.length() - 1.0).abs() < 1e-6 && turned.t.dot(turned.n).abs() < 1e-6);
+        // A back face, and a normal already facing the eye, are left as they are.
+        assert_eq!(away.toward_view(view, -face), away);
+        let facing = Frame::from_normal(Vec3::new(0.3, 0.0, 1.0));
+        assert_eq!(facing.toward_view(view, face), facing);
+        // A normal straight away from the eye takes the face's.
+        let opposite = Frame::from_normal(-Vec3::Z);
+        assert!((opposite.toward_view(view, face).n - face).length() < 1e-6);
     }
 }

@@ -621,6 +621,8 @@ impl TruthScene {
                 let value = match self.hit(camera.eye, dir) {
                     None => self.background(dir),
                     Some((i, p, frame, face)) => {
+                        // A silhouette's normal turned toward the eye (docs/conventions.md).
+                        let frame = frame.toward_view(-dir, face);
                         let wo = frame.to_local(-dir);
                         if wo.z <= 0.0 {
                             Vec3::ZERO
