@@ -20,7 +20,7 @@ pub struct BenchArgs {
     /// `device` (cpu, gpu; default cpu)
     /// or a quality knob (table_resolution, view_samples, env_grid, ovdf_directions,
     /// ovdf_shells, ovdf_vectors, cpca_clusters, cpca_vectors, traced_lights, shadow_rays,
-    /// aa);
+    /// aa, bounces: each count of bounces is measured against a truth that follows as many);
     /// repeat for more. Default:
     /// rsl=10,30,60,100,300 and quality=draft,paper.
     #[arg(long = "sweep")]

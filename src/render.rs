@@ -87,6 +87,11 @@ pub struct RenderArgs {
     /// Seed of `--method truth` (the result is deterministic for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Bounces of light between surfaces (the scene's quality knob `bounces`, 0 to 8):
+    /// `--method truth` follows paths of up to N + 1 segments (0: the environment's light
+    /// alone). The other methods draw the direct light only.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=8))]
+    pub bounces: Option<u32>,
     /// Replace approximations of the RSL path by their exact values, to see what each
     /// costs: a comma-separated list of `light` (one RSL per environment texel), `brdf`
     /// (square integrals by quadrature), `self` and `occluders` (visibility by shadow rays),
@@ -347,6 +352,9 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         );
     }
     let mut scene = Scene::load(&args.scene)?;
+    if let Some(b) = args.bounces {
+        scene.quality.settings.bounces = b;
+    }
     if let Some((width, height)) = args.size {
         scene.camera.width = width;
         scene.camera.height = height;

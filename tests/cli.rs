@@ -631,3 +631,32 @@ fn flat_occluders_are_not_held_to_the_size_of_a_field_they_never_build() {
         .arg(dir.join("f.png")));
     assert!(ok, "{err}");
 }
+
+#[test]
+fn the_truth_follows_the_bounces_asked_for() {
+    let dir = out_dir("bounces");
+    // The ball over a white floor: each sees the other.
+    let scene = common::ball_scene(&dir, "floor.toml", |b| {
+        b.constant(glam::Vec3::ONE).object(
+            rsl_scene::build::ObjectBuilder::plane("floor", 4.0, 8)
+                .translation(glam::Vec3::new(0.0, -1.0, 0.0))
+                .material(rsl_scene::Brdf::Lambert { albedo: glam::Vec3::splat(0.8) }),
+        )
+    });
+    let mean = |bounces: &str| {
+        let ply = dir.join(format!("b{bounces}.ply"));
+        let (ok, _, err) = run(rsl()
+            .arg("render")
+            .arg(&scene)
+            .args(["--method", "truth", "--spp", "16", "--bounces", bounces, "--vertex-out"])
+            .arg(&ply));
+        assert!(ok, "{err}");
+        let data = rsl_engine::ply::read(&std::fs::read(&ply).unwrap()).unwrap();
+        data.vertices.iter().map(|v| f64::from(v[6] + v[7] + v[8])).sum::<f64>()
+    };
+    // Light one bounce off the other surfaces only adds.
+    let (direct, bounced) = (mean("0"), mean("1"));
+    assert!(bounced > direct, "{bounced} against {direct}");
+    let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--method", "truth", "--bounces", "9"]));
+    assert!(!ok && err.contains("--bounces"), "{err}");
+}

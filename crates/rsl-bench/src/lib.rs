@@ -257,16 +257,27 @@ fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) 
             Ok((pilot.noise(|_| true), cached))
         })?;
         for &t in &options.times {
+            // The scene's own truth first (the grid's top row), then one per other count of
+            // bounces a configuration asks for.
+            scene.quality = base;
             let (truth, cached) = truth_at(&scene, t, spp)?;
             summary.count_truth(cached);
+            let mut others: Vec<(u32, grid::TruthImage)> = Vec::new();
             let mut renders = Vec::new();
             for config in &options.configs {
                 scene.quality = config.quality(base)?;
+                let b = scene.quality.settings.bounces;
+                if b != base.settings.bounces && !others.iter().any(|o| o.0 == b) {
+                    let (tr, cached) = truth_at(&scene, t, spp)?;
+                    summary.count_truth(cached);
+                    others.push((b, tr));
+                }
+                let against = others.iter().find(|o| o.0 == b).map_or(&truth, |o| &o.1);
                 let engine = config_engine(&scene, options, config)?;
                 let method = methods.get(config, &engine, options)?;
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
                 let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
-                let err = grid::pixel_error(&image, &truth, &names)?;
+                let err = grid::pixel_error(&image, against, &names)?;
                 if let Some(r) =
                     summary.rows.iter_mut().find(|r| r.scene == name && r.config == config.id() && r.time == t)
                 {
@@ -544,9 +555,24 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             let (pilot, cached) = truth_at(&scene, options.times[0], spp)?;
             Ok((pilot.noise(None), cached))
         })?;
-        let keys: Vec<(f32, u64)> =
-            options.times.iter().map(|&t| (t, truth::key(&neutral, &scene, t, spp, options.seed))).collect();
-        let key_at = |t: f32| keys.iter().find(|(tt, _)| *tt == t).map(|(_, k)| *k);
+        // One truth per time and per count of bounces the configurations ask for (a quality
+        // knob a sweep may vary): each is measured against a truth that follows as many.
+        let bounce = |c: &Config| c.quality(base).map_or(base.settings.bounces, |q| q.settings.bounces);
+        let mut counts: Vec<u32> = options.configs.iter().map(bounce).collect();
+        counts.sort_unstable();
+        counts.dedup();
+        let at_bounces = |b: u32| {
+            let mut s = scene.clone();
+            s.quality.settings.bounces = b;
+            s
+        };
+        let keys: Vec<(f32, u32, u64)> = options
+            .times
+            .iter()
+            .flat_map(|&t| counts.iter().map(move |&b| (t, b)))
+            .map(|(t, b)| (t, b, truth::key(&neutral, &at_bounces(b), t, spp, options.seed)))
+            .collect();
+        let key_at = |t: f32, b: u32| keys.iter().find(|k| k.0 == t && k.1 == b).map(|k| k.2);
         let first = item;
         item += options.configs.len() * options.times.len();
         let mine: Vec<(&Config, f32)> = options
@@ -561,11 +587,9 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             .iter()
             .copied()
             .filter(|(c, t)| {
-                !summary
-                    .rows
-                    .iter()
-                    .chain(&joined)
-                    .any(|r| r.scene == name && r.config == c.id() && r.time == *t && r.truth_key == key_at(*t))
+                !summary.rows.iter().chain(&joined).any(|r| {
+                    r.scene == name && r.config == c.id() && r.time == *t && r.truth_key == key_at(*t, bounce(c))
+                })
             })
             .collect();
         summary.reused += mine.len() - todo.len();
@@ -588,7 +612,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                                 && r.config == c.id()
                                 && r.time == *t
                                 && r.oracle == *o
-                                && r.truth_key == key_at(*t)
+                                && r.truth_key == key_at(*t, bounce(c))
                         })
                     })
                     .collect()
@@ -598,19 +622,23 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         if todo.is_empty() && budget_todo.is_empty() {
             continue;
         }
-        // The truths, once per time: only the method-neutral layer is needed for them.
+        // The truths, once per time and count of bounces: only the method-neutral layer is
+        // needed for them.
         let mut truths = Vec::new();
         for &t in &options.times {
-            let (tr, cached) = truth_at(&scene, t, spp)?;
-            summary.count_truth(cached);
-            truths.push((t, tr));
+            for &b in &counts {
+                let (tr, cached) = truth_at(&at_bounces(b), t, spp)?;
+                summary.count_truth(cached);
+                truths.push((t, b, tr));
+            }
         }
         let task = format!("{name}: {} configuration(s) to measure", todo.len());
         let total = todo.len();
         options.progress.report(&rsl_engine::Event::Started { task: &task });
         for (done, (config, t)) in todo.into_iter().enumerate() {
             options.progress.report(&rsl_engine::Event::Advanced { task: &task, done, total });
-            let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
+            let b = bounce(config);
+            let truth = &truths.iter().find(|k| k.0 == t && k.1 == b).expect("a truth per time and bounces").2;
             scene.quality = config.quality(base)?;
             let start = Instant::now();
             let engine = config_engine(&scene, options, config).with_context(|| format!("{name}: {}", config.id()))?;
@@ -647,7 +675,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             )?;
             // It replaces a row measured against another truth.
             summary.rows.retain(|r| !(r.scene == name && r.config == row.config && r.time == t));
-            summary.rows.push(Row { truth_key: key_at(t), ..row });
+            summary.rows.push(Row { truth_key: key_at(t, b), ..row });
             summary.measured += 1;
             report::write_rows(&results, &summary.rows)?;
         }
@@ -656,7 +684,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
         // per texel (the light oracle) as the settings need.
         let mut prepared: Option<(String, Engine, usize)> = None;
         for (config, t, oracle, set) in budget_todo {
-            let truth = &truths.iter().find(|(tt, _)| *tt == t).expect("a truth per time").1;
+            let b = bounce(config);
+            let truth = &truths.iter().find(|k| k.0 == t && k.1 == b).expect("a truth per time and bounces").2;
             scene.quality = config.quality(base)?;
             let what = format!("{name}: {} with oracle {oracle}", config.id());
             if prepared.as_ref().is_none_or(|(id, _, _)| *id != config.id()) {
@@ -690,7 +719,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 ms,
                 rays: frame.shadow_rays,
                 objects,
-                truth_key: key_at(t),
+                truth_key: key_at(t, b),
             });
             summary.budget_measured += 1;
             budget::write_rows(&budget_file, &budget_rows)?;

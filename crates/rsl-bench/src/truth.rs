@@ -46,7 +46,8 @@ impl VertexTruth {
 }
 
 /// The key of the truth of `scene` (as `engine` prepared it) at `time`: the environment's
-/// radiance, every object's mesh, material, pose and shadow flag, the eye, and the sampling.
+/// radiance, every object's mesh, material, pose and shadow flag, the eye, the sampling, and
+/// the bounces of light it follows.
 pub fn key(engine: &Engine, scene: &Scene, time: f32, spp: u32, seed: u64) -> u64 {
     let state = scene.at(time);
     let mut h = KeyHasher::default()
@@ -59,6 +60,11 @@ pub fn key(engine: &Engine, scene: &Scene, time: f32, spp: u32, seed: u64) -> u6
         .u64(u64::from(spp))
         .u64(seed)
         .f32s(&[time]);
+    let bounces = scene.quality.settings.bounces;
+    if bounces > 0 {
+        // Keyed only when followed, so that the direct light's truths keep their keys.
+        h = h.str("bounces").u64(u64::from(bounces));
+    }
     for (i, o) in scene.objects.iter().enumerate() {
         let t = &state.objects[i];
         h = h

@@ -367,3 +367,27 @@ fn raising_any_single_knob_never_raises_the_error_beyond_the_truths_noise() {
         );
     }
 }
+
+#[test]
+fn each_count_of_bounces_is_measured_against_a_truth_that_follows_as_many() {
+    let d = dir("bounces");
+    let mut o = options(scene(&d), d.join("out"), d.join("cache"), &["rsl=8", "bounces=0,1"]);
+    (o.truth_spp, o.frames) = (32, 1);
+    let s = run(&o).unwrap();
+    assert_eq!(s.measured, 2);
+    // Per count of bounces a truth per vertex and one per pixel.
+    assert_eq!(s.truths_estimated, 4);
+    let row = |b: &str| s.rows.iter().find(|r| r.config.contains(&format!("bounces={b}"))).unwrap();
+    let (direct, bounced) = (row("0"), row("1"));
+    assert_ne!(direct.truth_key, bounced.truth_key);
+    // The same drawing (no method draws interreflections yet) against two truths.
+    assert_ne!(direct.relative_l2, bounced.relative_l2);
+    assert_ne!(direct.pixel_l2, bounced.pixel_l2);
+    // The direct light's truth is the one a scene without the knob has: its key is kept.
+    let mut plain = options(scene(&d), d.join("plain"), d.join("cache"), &["rsl=8"]);
+    (plain.truth_spp, plain.frames) = (32, 1);
+    let p = run(&plain).unwrap();
+    assert_eq!((p.truths_estimated, p.truths_reused), (0, 2));
+    assert_eq!(p.rows[0].truth_key, direct.truth_key);
+    assert_eq!(run(&o).unwrap().measured, 0, "both rows kept");
+}

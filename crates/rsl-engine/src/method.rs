@@ -587,7 +587,8 @@ impl Truth {
         })
     }
 
-    /// The truth scene (one BVH over every triangle) of `scene` at `state`.
+    /// The truth scene (one BVH over every triangle) of `scene` at `state`, following the
+    /// light through the scene's `bounces` (a quality knob).
     pub fn scene(engine: &Engine, scene: &Scene, state: &SceneState, env: EnvLight) -> Result<TruthScene> {
         engine.check(scene)?;
         let objects: Vec<TruthObject<'_>> = (0..engine.object_count())
@@ -599,7 +600,7 @@ impl Truth {
                 casts_shadows: scene.objects[i].casts_shadows,
             })
             .collect();
-        Ok(TruthScene::new(&objects, env, state.world_from_env)?)
+        Ok(TruthScene::new(&objects, env, state.world_from_env)?.with_bounces(scene.quality.settings.bounces))
     }
 }
 

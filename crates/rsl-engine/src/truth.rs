@@ -25,7 +25,7 @@ pub fn vertex_frames(scene: &Scene) -> Vec<VertexFrames> {
     scene.objects.iter().map(|o| VertexFrames::new(&o.mesh, o.material.is_anisotropic())).collect()
 }
 
-/// The truth scene at time `t`.
+/// The truth scene at time `t`, following the light through the scene's `bounces`.
 pub fn truth_scene(scene: &Scene, frames: &[VertexFrames], env: EnvLight, t: f32) -> Result<TruthScene> {
     let state = scene.at(t);
     let objects: Vec<TruthObject<'_>> = scene
@@ -41,5 +41,5 @@ pub fn truth_scene(scene: &Scene, frames: &[VertexFrames], env: EnvLight, t: f32
             casts_shadows: o.casts_shadows,
         })
         .collect();
-    Ok(TruthScene::new(&objects, env, state.world_from_env)?)
+    Ok(TruthScene::new(&objects, env, state.world_from_env)?.with_bounces(scene.quality.settings.bounces))
 }

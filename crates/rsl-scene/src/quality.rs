@@ -92,6 +92,12 @@ pub struct QualitySettings {
     /// environment's largest coefficients on the `env_grid` cube (Ng et al.'s figures use
     /// 100–200). The other methods ignore it.
     pub wavelet_terms: u32,
+    /// Bounces of light between surfaces: paths of up to `bounces + 1` segments, so 0 is
+    /// the environment's light alone (each direction another surface blocks is black) and 1
+    /// adds the light one bounce off the surfaces around. The Monte Carlo truth follows it;
+    /// no other method draws interreflections yet, so against a truth with bounces their
+    /// error includes the light they miss.
+    pub bounces: u32,
 }
 
 impl QualitySettings {
@@ -112,6 +118,7 @@ impl QualitySettings {
                 shadow_rays: 16,
                 aa: 1,
                 wavelet_terms: 200,
+                bounces: 0,
             },
             Preset::Standard => Self {
                 brdf_resolution: AUTO,
@@ -130,6 +137,7 @@ impl QualitySettings {
                 shadow_rays: 16,
                 aa: 16,
                 wavelet_terms: 200,
+                bounces: 0,
             },
             Preset::Paper => Self {
                 brdf_resolution: AUTO,
@@ -147,6 +155,7 @@ impl QualitySettings {
                 shadow_rays: 16,
                 aa: 16,
                 wavelet_terms: 200,
+                bounces: 0,
             },
             Preset::High => Self {
                 brdf_resolution: AUTO,
@@ -162,13 +171,14 @@ impl QualitySettings {
                 shadow_rays: 32,
                 aa: 64,
                 wavelet_terms: 200,
+                bounces: 0,
             },
         }
     }
 
     /// `(name, value)` of every knob, for summaries and overrides (`brdf_resolution` is
     /// [`AUTO`] when automatic; [`QualitySettings::value_text`] writes it).
-    pub fn knobs(&self) -> [(&'static str, u32); 13] {
+    pub fn knobs(&self) -> [(&'static str, u32); 14] {
         [
             ("brdf_resolution", self.brdf_resolution),
             ("view_samples", self.view_samples),
@@ -183,6 +193,7 @@ impl QualitySettings {
             ("shadow_rays", self.shadow_rays),
             ("aa", self.aa),
             ("wavelet_terms", self.wavelet_terms),
+            ("bounces", self.bounces),
         ]
     }
 
@@ -234,6 +245,8 @@ impl QualitySettings {
             "traced_lights" => (0, 64),
             "shadow_rays" => (0, 4096),
             "wavelet_terms" => (1, 6 * 512 * 512),
+            // rsl-truth's MAX_BOUNCES.
+            "bounces" => (0, 8),
             "aa" => {
                 if !u32::try_from(value).is_ok_and(valid_aa) {
                     return Err(format!(
@@ -268,6 +281,7 @@ impl QualitySettings {
             "shadow_rays" => self.shadow_rays = v,
             "aa" => self.aa = v,
             "wavelet_terms" => self.wavelet_terms = v,
+            "bounces" => self.bounces = v,
             _ => self.cpca_vectors = v,
         }
         Ok(())

@@ -220,6 +220,8 @@ pub struct TruthScene {
     scale: f32,
     /// Where a pixel's samples lie ([`TruthScene::with_pixel_filter`]).
     filter: PixelFilter,
+    /// Bounces of light between surfaces ([`TruthScene::with_bounces`]); 0: direct light only.
+    bounces: u32,
 }
 
 /// Where [`TruthScene::pixel`] takes a pixel's samples.
@@ -292,6 +294,10 @@ pub enum TruthError {
 
 /// The most samples per point (pixel or vertex) the estimator takes.
 pub const MAX_SPP: u32 = 1 << 16;
+
+/// The most bounces of light the estimator follows ([`TruthScene::with_bounces`]): each
+/// costs up to a ray per sample more.
+pub const MAX_BOUNCES: u32 = 8;
 
 impl TruthScene {
     /// Places every object and builds the BVH. `world_from_env` rotates the environment.
@@ -366,6 +372,7 @@ impl TruthScene {
             offset: 1e-4 * radius.max(f32::MIN_POSITIVE),
             scale,
             filter: PixelFilter::Box,
+            bounces: 0,
         })
     }
 
@@ -442,7 +449,8 @@ impl TruthScene {
         for _ in 0..samples.count() {
             let (ul, ub) = (latin_hypercube(samples.per, rng), latin_hypercube(samples.per, rng));
             for k in 0..samples.per {
-                let (y, r) = self.sample(receiver, origin, frame, wo, mask, [ul[k], ub[k]], rng.next_f32());
+                let lobe = rng.next_f32();
+                let (y, r) = self.sample(receiver, origin, frame, wo, mask, [ul[k], ub[k]], lobe, self.bounces, rng);
                 rays += r;
                 samples.add(y);
             }
@@ -453,6 +461,8 @@ impl TruthScene {
 
     /// One sample of each strategy, MIS-weighted (power heuristic): the sum, and the shadow
     /// rays traced.
+    /// With `bounces` left, a BRDF direction that meets a surface continues there, drawing
+    /// its random numbers from `rng` (none drawn at 0 bounces).
     #[allow(clippy::too_many_arguments)]
     fn sample(
         &self,
@@ -463,15 +473,18 @@ impl TruthScene {
         mask: Mask,
         [ul, ub]: [Vec2; 2],
         lobe: f32,
+        bounces: u32,
+        rng: &mut Pcg32,
     ) -> (Vec3, u64) {
         let brdf = &self.brdfs[receiver];
+        let weight_of = |w: Vec3| match mask {
+            Mask::None => 1.0,
+            Mask::Vertex(v) => self.faces[receiver].mask(v, w),
+            Mask::Face(n) => f32::from(u8::from(n.dot(w) > 0.0)),
+        };
         // The direction's weight: its mask times whether the shadow ray gets through.
         let seen = |w: Vec3, rays: &mut u64| {
-            let h = match mask {
-                Mask::None => 1.0,
-                Mask::Vertex(v) => self.faces[receiver].mask(v, w),
-                Mask::Face(n) => f32::from(u8::from(n.dot(w) > 0.0)),
-            };
+            let h = weight_of(w);
             if h <= 0.0 {
                 return 0.0;
             }
@@ -503,12 +516,51 @@ impl TruthScene {
             let f = brdf.eval_cos(wi, wo);
             if pdf_b > 0.0 && f != Vec3::ZERO {
                 let w = frame.to_world(wi).normalize();
-                let h = seen(w, &mut rays);
-                if h > 0.0 {
+                let escaped = |h: f32| {
                     let d_env = self.env_from_world * w;
                     let pdf_l = self.env.pdf(d_env);
                     let weight = pdf_b * pdf_b / (pdf_l * pdf_l + pdf_b * pdf_b);
-                    y += self.env.radiance(d_env) * f * (h * weight / pdf_b);
+                    self.env.radiance(d_env) * f * (h * weight / pdf_b)
+                };
+                if bounces == 0 {
+                    let h = seen(w, &mut rays);
+                    if h > 0.0 {
+                        y += escaped(h);
+                    }
+                } else {
+                    let h = weight_of(w);
+                    if h > 0.0 {
+                        rays += 1;
+                        match self.hit_past(origin, w, |owner| owner == receiver || self.casts[owner]) {
+                            None => y += escaped(h),
+                            Some((j, p, hit_frame, face)) => {
+                                // The surface met sends its own light back along −w: the
+                                // environment's sample there has its own MIS weight; this
+                                // direction is the only strategy that finds the surface.
+                                let back = -w;
+                                let hit_frame = hit_frame.toward_view(back, face);
+                                let wo_hit = hit_frame.to_local(back);
+                                if wo_hit.z > 0.0 {
+                                    let from = p + hit_frame.n * self.offset;
+                                    let u = [rng.next_2d(), rng.next_2d()];
+                                    let lobe_hit = rng.next_f32();
+                                    let (l, r) = self.sample(
+                                        j,
+                                        from,
+                                        &hit_frame,
+                                        wo_hit,
+                                        Mask::Face(face),
+                                        u,
+                                        lobe_hit,
+                                        bounces - 1,
+                                        rng,
+                                    );
+                                    rays += r;
+                                    y += l * f * (h / pdf_b);
+                                }
+                            }
+                        }
+                    }
                 }
             }
         }
@@ -565,12 +617,17 @@ impl TruthScene {
     /// The closest surface along a ray: object, world position, interpolated shading frame
     /// and the hit face's unit normal (on the shading normal's side).
     fn hit(&self, origin: Vec3, dir: Vec3) -> Option<(usize, Vec3, Frame, Vec3)> {
+        self.hit_past(origin, dir, |_| true)
+    }
+
+    /// [`TruthScene::hit`] among the triangles of the objects `blocks` accepts.
+    fn hit_past(&self, origin: Vec3, dir: Vec3, blocks: impl Fn(usize) -> bool) -> Option<(usize, Vec3, Frame, Vec3)> {
         let ray = Ray::new(Vec3A::from(origin * self.scale), Vec3A::from(dir), 0.0, f32::INFINITY);
         let mut hit = RayHit::none();
-        if !self
-            .bvh
-            .ray_traverse(ray, &mut hit, |ray, id| self.tris[self.bvh.primitive_indices[id] as usize].intersect(ray))
-        {
+        if !self.bvh.ray_traverse(ray, &mut hit, |ray, id| {
+            let k = self.bvh.primitive_indices[id] as usize;
+            if blocks(self.owners[k].0 as usize) { self.tris[k].intersect(ray) } else { f32::INFINITY }
+        }) {
             return None;
         }
         let k = self.bvh.primitive_indices[hit.primitive_id as usize] as usize;
@@ -590,6 +647,17 @@ impl TruthScene {
         let frame = Frame::from_normal_tangent(normal, tangent);
         let face = n.normalize_or_zero();
         Some((i, p, frame, if face.dot(frame.n) < 0.0 { -face } else { face }))
+    }
+
+    /// The same scene, its light followed through `bounces` bounces between surfaces (paths
+    /// of up to `bounces + 1` segments from the point estimated; at most [`MAX_BOUNCES`]): a
+    /// direction the BRDF samples that meets a surface (the object itself, or another that
+    /// casts shadows) brings that surface's own estimate toward the point, one sample of
+    /// each strategy there too. 0 (the default): the environment's light alone, each
+    /// blocked direction black — every figure as before.
+    pub fn with_bounces(mut self, bounces: u32) -> Self {
+        self.bounces = bounces.min(MAX_BOUNCES);
+        self
     }
 
     /// The same scene, its pixels sampled as `filter` says (the box filter by default).
@@ -629,7 +697,17 @@ impl TruthScene {
                         } else {
                             let origin = p + frame.n * self.offset;
                             let lobe = rng.next_f32();
-                            let (v, r) = self.sample(i, origin, &frame, wo, Mask::Face(face), [ul[k], ub[k]], lobe);
+                            let (v, r) = self.sample(
+                                i,
+                                origin,
+                                &frame,
+                                wo,
+                                Mask::Face(face),
+                                [ul[k], ub[k]],
+                                lobe,
+                                self.bounces,
+                                rng,
+                            );
                             rays += r;
                             v
                         }

@@ -366,3 +366,92 @@ fn a_sun_of_1e23_gives_a_finite_standard_error() {
         assert!(e.mean.x > 1e18, "the sun lights the plane: {}", e.mean);
     }
 }
+
+/// The inside of a hemispherical bowl of radius 1 (the sphere's lower half, `rings` bands of
+/// `2·rings` segments): normals and winding toward the centre.
+fn bowl(rings: u32) -> TriMesh {
+    let segments = 2 * rings;
+    let mut positions = Vec::new();
+    for r in 0..=rings {
+        let theta = std::f32::consts::FRAC_PI_2 * (1.0 + r as f32 / rings as f32);
+        for k in 0..segments {
+            let phi = std::f32::consts::TAU * k as f32 / segments as f32;
+            positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+        }
+    }
+    let mut indices = Vec::new();
+    for r in 0..rings {
+        for k in 0..segments {
+            let (a, b) = (r * segments + k, r * segments + (k + 1) % segments);
+            let (c, d) = (a + segments, b + segments);
+            for [p, q, w] in [[a, b, c], [b, d, c]] {
+                let [pp, qq, ww] = [p, q, w].map(|i| positions[i as usize]);
+                // Toward the centre: (q − p)×(w − p) points against p.
+                let inward = (qq - pp).cross(ww - pp).dot(pp) < 0.0;
+                indices.extend(if inward { [p, q, w] } else { [p, w, q] });
+            }
+        }
+    }
+    let normals = positions.iter().map(|p: &Vec3| -p.normalize()).collect();
+    TriMesh { positions, normals, tangents: None, indices }
+}
+
+#[test]
+fn light_bounces_in_a_bowl_as_the_spheres_view_factor_says() {
+    // From any point inside a sphere, each piece of its inner surface takes a share of the
+    // cosine-weighted directions equal to its share of the area (dF = dA / 4πR²): the bowl,
+    // half the sphere, hides exactly half of every interior point's light. In a unit white
+    // furnace a Lambert bowl of albedo ρ is then uniform, and each bounce adds the bowl's
+    // own light over the hidden half: L₀ = ρ/2, L_N = ρ(1/2 + L_{N−1}/2) (1 − 2^−(N+1) at
+    // ρ = 1: every path escapes at last).
+    let mesh = bowl(32);
+    let frames = VertexFrames::new(&mesh, false);
+    let eye = Vec3::ZERO;
+    for rho in [0.8f32, 1.0] {
+        let lambert = Brdf::Lambert { albedo: Vec3::splat(rho) };
+        let mut expected = rho / 2.0;
+        for bounces in 0..=2 {
+            let scene = TruthScene::new(
+                &[object(&mesh, &frames, lambert, Vec3::ZERO)],
+                EnvLight::Constant(Vec3::ONE),
+                Quat::IDENTITY,
+            )
+            .unwrap()
+            .with_bounces(bounces);
+            let (est, _) = scene.vertices(eye, 64, 11).unwrap();
+            // Away from the rim (whose faces see past the bowl's edge), the mean over the
+            // vertices, with its standard error.
+            let inner: Vec<_> = (0..mesh.vertex_count()).filter(|&v| mesh.positions[v].y < -0.3).collect();
+            let n = inner.len() as f32;
+            let mean = inner.iter().map(|&v| est[0][v].mean.x).sum::<f32>() / n;
+            let se = inner.iter().map(|&v| est[0][v].std_error.x.powi(2)).sum::<f32>().sqrt() / n;
+            // The 32-band bowl is a polyhedron: its view factors are the sphere's to 0.5 %.
+            let tolerance = 5.0 * se + 0.005 * expected;
+            assert!(
+                (mean - expected).abs() <= tolerance,
+                "ρ {rho}, {bounces} bounce(s): {mean} ± {se} against {expected} (tolerance {tolerance})"
+            );
+            eprintln!("ρ {rho}, {bounces} bounce(s): {mean:.4} ± {se:.4} against {expected:.4}");
+            // Per pixel alike: the bowl's bottom seen from its centre.
+            let camera = rsl_scene::Camera {
+                eye,
+                target: Vec3::new(0.0, -1.0, 0.0),
+                up: Vec3::Z,
+                fov_y: 0.8,
+                width: 8,
+                height: 8,
+            };
+            let (px, covered, _) = scene.pixels(&camera, 256, 12).unwrap();
+            assert!(covered.iter().all(|&c| c));
+            let mean = px.iter().map(|e| e.mean.x).sum::<f32>() / px.len() as f32;
+            let se = px.iter().map(|e| e.std_error.x.powi(2)).sum::<f32>().sqrt() / px.len() as f32;
+            let tolerance = 5.0 * se + 0.005 * expected;
+            assert!(
+                (mean - expected).abs() <= tolerance,
+                "ρ {rho}, {bounces} bounce(s), per pixel: {mean} ± {se} against {expected} (tolerance {tolerance})"
+            );
+            eprintln!("  per pixel: {mean:.4} ± {se:.4}");
+            expected = rho * (0.5 + expected / 2.0);
+        }
+    }
+}

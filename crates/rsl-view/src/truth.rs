@@ -23,6 +23,19 @@ impl Viewer {
         }
     }
 
+    /// The bounces of light the truth follows (the scene's quality knob `bounces`, at most
+    /// `rsl_truth::MAX_BOUNCES`): the truth starts over with them. The drawings carry the
+    /// direct light only, so the readout then includes the light they miss.
+    pub fn set_bounces(&mut self, bounces: u32) {
+        let bounces = bounces.min(rsl_truth::MAX_BOUNCES);
+        if bounces != self.scene.quality.settings.bounces {
+            self.scene.quality.settings.bounces = bounces;
+            if self.truth_on {
+                self.restart_truth();
+            }
+        }
+    }
+
     /// The RSL image against the truth so far (`None` before the truth's first pass).
     pub fn error_readout(&self) -> Option<ErrorReadout> {
         self.readout

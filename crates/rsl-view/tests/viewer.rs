@@ -295,6 +295,14 @@ fn the_progressive_truth_reads_out_the_error_and_restarts_on_edits() {
     h.state_mut().set_translation(0, Vec3::new(0.0, 0.2, 0.0)).unwrap();
     h.step();
     assert!(h.state().error_readout().is_none_or(|r2| r2.passes < r.passes), "the truth did not start over");
+    // So does asking the truth for a bounce of light: the scene's knob, saved with it.
+    step_until(&mut h, |v| v.error_readout().is_some_and(|r| r.passes >= 2));
+    let passes = h.state().error_readout().unwrap().passes;
+    h.state_mut().set_bounces(1);
+    assert_eq!(h.state().scene().quality.settings.bounces, 1);
+    assert!(h.state().error_readout().is_none(), "the truth did not start over for its bounces");
+    step_until(&mut h, |v| v.error_readout().is_some());
+    assert!(h.state().error_readout().unwrap().passes <= passes);
     h.state_mut().set_truth(false);
     assert!(h.state().truth_image().is_none());
 }
