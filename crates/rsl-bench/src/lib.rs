@@ -593,7 +593,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             })
             .collect();
         summary.reused += mine.len() - todo.len();
-        let budget_todo: Vec<(&Config, f32, &'static str, rsl_shade::Oracles)> = options
+        // Every budget setting of this scene, then this run's: its shard's, not yet measured.
+        let budget_all: Vec<(&Config, f32, &'static str, rsl_shade::Oracles)> = options
             .budget_rsl
             .map(|n| {
                 options
@@ -603,22 +604,26 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                     .filter(|c| c.rsl.unwrap_or(scene.environment.rsl_count) == n)
                     .flat_map(|c| options.times.iter().map(move |&t| (c, t)))
                     .flat_map(|(c, t)| budget::oracle_settings().into_iter().map(move |(o, set)| (c, t, o, set)))
-                    .enumerate()
-                    .filter(|(i, _)| options.shard.is_none_or(|s| s.takes(budget_item + i)))
-                    .map(|(_, w)| w)
-                    .filter(|(c, t, o, _)| {
-                        !budget_rows.iter().chain(&joined_budget).any(|r| {
-                            r.scene == name
-                                && r.config == c.id()
-                                && r.time == *t
-                                && r.oracle == *o
-                                && r.truth_key == key_at(*t, bounce(c))
-                        })
-                    })
                     .collect()
             })
             .unwrap_or_default();
-        budget_item += options.budget_rsl.map_or(0, |_| options.configs.len() * options.times.len());
+        let first_budget = budget_item;
+        budget_item += budget_all.len();
+        let budget_todo: Vec<(&Config, f32, &'static str, rsl_shade::Oracles)> = budget_all
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| options.shard.is_none_or(|s| s.takes(first_budget + i)))
+            .map(|(_, w)| w)
+            .filter(|(c, t, o, _)| {
+                !budget_rows.iter().chain(&joined_budget).any(|r| {
+                    r.scene == name
+                        && r.config == c.id()
+                        && r.time == *t
+                        && r.oracle == *o
+                        && r.truth_key == key_at(*t, bounce(c))
+                })
+            })
+            .collect();
         if todo.is_empty() && budget_todo.is_empty() {
             continue;
         }
