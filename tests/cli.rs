@@ -660,3 +660,20 @@ fn the_truth_follows_the_bounces_asked_for() {
     let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--method", "truth", "--bounces", "9"]));
     assert!(!ok && err.contains("--bounces"), "{err}");
 }
+
+#[test]
+fn precompute_shards_take_every_nth_scene_into_one_cache() {
+    let dir = out_dir("precompute-shard");
+    let a = common::ball_scene(&dir, "a.toml", |b| b.constant(glam::Vec3::ONE));
+    let b = common::ball_scene(&dir, "b.toml", |b| b.constant(glam::Vec3::splat(0.5)));
+    let cache = dir.join("cache");
+    for (k, scene) in [(0, &a), (1, &b)] {
+        let (ok, _, err) =
+            run(rsl().arg("precompute").arg(&a).arg(&b).args(["--shard", &format!("{k}/2"), "--cache"]).arg(&cache));
+        assert!(ok, "{err}");
+        assert!(err.contains("prepares 1 of 2 scene(s)"), "{err}");
+        assert!(err.contains(&scene.display().to_string()), "shard {k} prepared another scene: {err}");
+    }
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&a).args(["--shard", "0/2", "--no-cache"]));
+    assert!(!ok && err.contains("--shard"), "{err}");
+}
