@@ -102,8 +102,11 @@ pub fn bench_csv(data: &[u8]) {
         for (_, plot) in plots {
             let _ = plot.svg();
         }
-        for row in &rows {
-            let _ = rsl_bench::target::pick(&rows, &row.scene, 0.05);
+        let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
+        scenes.sort_unstable();
+        scenes.dedup();
+        for scene in scenes {
+            let _ = rsl_bench::target::pick(&rows, scene, 0.05);
         }
     }
     if let Ok(rows) = rsl_bench::budget::parse_rows(text, &path.with_file_name("budget.csv")) {

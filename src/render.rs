@@ -90,7 +90,7 @@ pub struct RenderArgs {
     /// Bounces of light between surfaces (the scene's quality knob `bounces`, 0 to 8):
     /// `--method truth` follows paths of up to N + 1 segments (0: the environment's light
     /// alone). The other methods draw the direct light only.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=8))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=i64::from(rsl_scene::quality::MAX_BOUNCES)))]
     pub bounces: Option<u32>,
     /// Replace approximations of the RSL path by their exact values, to see what each
     /// costs: a comma-separated list of `light` (one RSL per environment texel), `brdf`

@@ -91,14 +91,17 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
         }
     }
     write_atomic(path, s.as_bytes())?;
-    // `results.csv` beside `objects.csv`; a shard's `results-shard-K-of-N.csv` beside
-    // `objects-shard-K-of-N.csv`.
+    write_atomic(&objects_path(path), o.as_bytes())
+}
+
+/// The per-object file written beside results file `path`: `objects.csv` beside
+/// `results.csv`, a shard's `objects-shard-K-of-N.csv` beside its `results-shard-K-of-N.csv`.
+pub fn objects_path(path: &Path) -> std::path::PathBuf {
     let name = path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    let objects = match name.replacen("results", "objects", 1) {
-        o if o == name => "objects.csv".to_string(),
-        o => o,
-    };
-    write_atomic(&path.with_file_name(objects), o.as_bytes())
+    match name.replacen("results", "objects", 1) {
+        o if o == name => path.with_file_name("objects.csv"),
+        o => path.with_file_name(o),
+    }
 }
 
 /// The text of a file of the bench's (none when it does not exist), at most

@@ -151,7 +151,8 @@ pub fn merge(out: &Path, rows: &mut Vec<Row>, budget: &mut Vec<BudgetRow>) -> Re
     crate::report::write_rows(&results_file(out, None), rows)?;
     crate::budget::write_rows(&budget_file(out, None), budget)?;
     for &shard in &merged.joined {
-        for file in [results_file(out, Some(shard)), budget_file(out, Some(shard)), objects_file(out, Some(shard))] {
+        let results = results_file(out, Some(shard));
+        for file in [crate::report::objects_path(&results), results, budget_file(out, Some(shard))] {
             match std::fs::remove_file(&file) {
                 Ok(()) => {}
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
@@ -160,11 +161,6 @@ pub fn merge(out: &Path, rows: &mut Vec<Row>, budget: &mut Vec<BudgetRow>) -> Re
         }
     }
     Ok(merged)
-}
-
-/// `objects.csv`, or a shard's, in `out`: written beside its results file.
-pub fn objects_file(out: &Path, shard: Option<Shard>) -> PathBuf {
-    out.join(shard.map_or("objects.csv".into(), |s| format!("objects-{}.csv", s.tag())))
 }
 
 /// Refuses a shard of `count` where shards of another count have files in `out`: their

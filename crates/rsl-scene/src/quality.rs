@@ -2,6 +2,10 @@
 
 use serde::Deserialize;
 
+/// The most bounces of light the knob `bounces` takes (the truth follows each with up to a
+/// ray per sample more).
+pub const MAX_BOUNCES: u32 = 8;
+
 /// Whether `aa` is a valid number of samples per pixel: a square in 1..=64 (1: the centre
 /// alone, no antialiasing).
 pub fn valid_aa(aa: u32) -> bool {
@@ -245,8 +249,7 @@ impl QualitySettings {
             "traced_lights" => (0, 64),
             "shadow_rays" => (0, 4096),
             "wavelet_terms" => (1, 6 * 512 * 512),
-            // rsl-truth's MAX_BOUNCES.
-            "bounces" => (0, 8),
+            "bounces" => (0, i64::from(MAX_BOUNCES)),
             "aa" => {
                 if !u32::try_from(value).is_ok_and(valid_aa) {
                     return Err(format!(

@@ -295,9 +295,9 @@ pub enum TruthError {
 /// The most samples per point (pixel or vertex) the estimator takes.
 pub const MAX_SPP: u32 = 1 << 16;
 
-/// The most bounces of light the estimator follows ([`TruthScene::with_bounces`]): each
-/// costs up to a ray per sample more.
-pub const MAX_BOUNCES: u32 = 8;
+/// The most bounces of light the estimator follows ([`TruthScene::with_bounces`]): the
+/// quality knob's bound.
+pub use rsl_scene::quality::MAX_BOUNCES;
 
 impl TruthScene {
     /// Places every object and builds the BVH. `world_from_env` rotates the environment.
