@@ -679,7 +679,7 @@ impl GpuImage for GpuLobes {
         let antialias_ms = pass.antialias_ms.unwrap_or(0.0);
         timings.add("draw per pixel (GPU)", start.elapsed().as_secs_f64() * 1e3 - antialias_ms, pass.gpu_ms);
         if let Some(ms) = pass.antialias_ms {
-            timings.add("antialias (GPU)", ms, None);
+            timings.add("antialias (GPU)", ms, pass.antialias_gpu_ms);
         }
         let start = Instant::now();
         let (pixels, covered) = self.renderer.draw_mut().read_linear()?;

@@ -518,7 +518,7 @@ impl Method for GpuRsl {
             timings.add("shade", t.shade.wall_ms, t.shade.gpu_ms);
             timings.add(if self.per_pixel { "draw per pixel" } else { "draw" }, t.draw.wall_ms, t.draw.gpu_ms);
             if let Some(ms) = t.draw.antialias_ms {
-                timings.add("antialias", ms, None);
+                timings.add("antialias", ms, t.draw.antialias_gpu_ms);
             }
             timings.add("image readback", t.readback_ms, None);
             timings.add("tonemap", t.tonemap.wall_ms, t.tonemap.gpu_ms);

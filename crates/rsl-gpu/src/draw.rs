@@ -996,13 +996,13 @@ impl GpuDraw {
         wait("draw")?;
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
         // The antialiasing rounds, timed apart from the centres' pass.
-        let antialias_ms = if antialiased {
+        let (antialias_ms, timed) = if antialiased {
             let start = Instant::now();
-            self.antialias_image(&bound, &objects, camera, &params);
+            let timed = self.antialias_image(&bound, &objects, camera, &params);
             wait("antialias")?;
-            Some(start.elapsed().as_secs_f64() * 1e3)
+            (Some(start.elapsed().as_secs_f64() * 1e3), timed)
         } else {
-            None
+            (None, false)
         };
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Operation { operation: "draw pass", message: e.to_string() });
@@ -1016,7 +1016,8 @@ impl GpuDraw {
             Some((_, resolve)) => Some(self.ctx.pass_ms(resolve)?),
             _ => None,
         };
-        Ok(PassTime { gpu_ms, wall_ms, antialias_ms })
+        let antialias_gpu_ms = if timed { self.antialias_gpu_ms()? } else { None };
+        Ok(PassTime { gpu_ms, wall_ms, antialias_ms, antialias_gpu_ms })
     }
 }
 

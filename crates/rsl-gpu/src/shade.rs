@@ -190,6 +190,9 @@ pub struct PassTime {
     /// A draw pass's antialiasing rounds after it (`None`: not antialiased): their wall time
     /// from submission to completion, ms. Neither `gpu_ms` nor `wall_ms` counts them.
     pub antialias_ms: Option<f64>,
+    /// The antialiasing rounds' GPU time between their timestamps (adapters with timestamp
+    /// queries), ms.
+    pub antialias_gpu_ms: Option<f64>,
 }
 
 /// A shading pass's output read back: per object, per vertex.
@@ -875,7 +878,7 @@ impl GpuShading {
             None => None,
         };
         self.pixel_layout = layout;
-        Ok(PassTime { gpu_ms, wall_ms, antialias_ms: None })
+        Ok(PassTime { gpu_ms, wall_ms, antialias_ms: None, antialias_gpu_ms: None })
     }
 
     /// Where the last shading pass put what the RSL sum per pixel reads: `None` unless it was

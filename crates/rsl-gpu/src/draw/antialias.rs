@@ -9,6 +9,11 @@
 //! greatest luminance; the pixels whose samples span more than `SPREAD` × the image's mean
 //! then take the `k×k` grid of `aa` samples besides. The offsets are the CPU's, so the GPU's
 //! samples are the CPU's.
+//!
+//! Every round is recorded into one command encoder and submitted once: each round's
+//! parameters (the shifted camera, the samples counted) are staged in one buffer beforehand
+//! and copied into place between the rounds' passes, so the GPU runs the rounds back to
+//! back without a submission between them.
 
 use super::{Bound, DrawParams, GpuDraw, Objects, compute_entry, image_pass, render_pipeline_full};
 use crate::{GpuError, shaders};
@@ -16,6 +21,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use rsl_scene::Camera;
 use rsl_shade::antialias;
+use wgpu::util::DeviceExt;
 
 /// Mirrors WGSL `AaParams` in `shaders/common/antialias.wgsl`.
 #[repr(C)]
@@ -54,6 +60,9 @@ pub(super) struct AaPass {
     background: wgpu::RenderPipeline,
     params: wgpu::Buffer,
     means: wgpu::Buffer,
+    /// Timestamps at the start of the first round and the end of the last (adapters with
+    /// timestamp queries).
+    timer: Option<(wgpu::QuerySet, wgpu::Buffer)>,
     /// Per pixel of an image of the size given: the samples' sums, their spans of
     /// luminance and the round's mask.
     pixels: Option<((u32, u32), [wgpu::Buffer; 3])>,
@@ -149,8 +158,25 @@ impl AaPass {
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             means: buffer("mean luminance", u64::from(MAX_GROUPS + 1) * 8, wgpu::BufferUsages::STORAGE),
+            timer: ctx.pass_timer("antialias timestamps"),
             pixels: None,
         })
+    }
+}
+
+/// Parameters staged for the rounds: each at an offset aligned for a buffer copy.
+#[derive(Default)]
+struct Staged {
+    bytes: Vec<u8>,
+}
+
+impl Staged {
+    /// Adds `value`; returns its offset and size.
+    fn push<T: Pod>(&mut self, value: &T) -> (u64, u64) {
+        let at = self.bytes.len().next_multiple_of(wgpu::COPY_BUFFER_ALIGNMENT as usize);
+        self.bytes.resize(at, 0);
+        self.bytes.extend_from_slice(bytemuck::bytes_of(value));
+        (at as u64, std::mem::size_of::<T>() as u64)
     }
 }
 
@@ -188,6 +214,15 @@ impl GpuDraw {
         self.aa
     }
 
+    /// The GPU time of the last antialiasing rounds, between their timestamps, once they
+    /// are done (adapters with timestamp queries).
+    pub(super) fn antialias_gpu_ms(&self) -> Result<Option<f64>, GpuError> {
+        match self.aa_pass.as_ref().and_then(|p| p.timer.as_ref()) {
+            Some((_, resolved)) => Ok(Some(self.ctx.pass_ms(resolved)?)),
+            None => Ok(None),
+        }
+    }
+
     /// Makes the pipelines and per-pixel buffers for antialiasing an image of `width` ×
     /// `height` pixels.
     pub(super) fn prepare_antialias(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
@@ -222,14 +257,21 @@ impl GpuDraw {
     }
 
     /// Antialiases the image just drawn (`bound` drew `objects` with `params`, through
-    /// `camera`): submits the rounds without waiting for them. Needs
-    /// [`GpuDraw::prepare_antialias`] for the image's size first.
-    pub(super) fn antialias_image(&self, bound: &Bound, objects: &Objects<'_>, camera: &Camera, params: &DrawParams) {
+    /// `camera`): submits the rounds, in one submission, without waiting for them. Needs
+    /// [`GpuDraw::prepare_antialias`] for the image's size first. Whether the rounds were
+    /// timed ([`GpuDraw::antialias_gpu_ms`] reads the time once they are done).
+    pub(super) fn antialias_image(
+        &self,
+        bound: &Bound,
+        objects: &Objects<'_>,
+        camera: &Camera,
+        params: &DrawParams,
+    ) -> bool {
         let (Some(pass), Some(target)) = (&self.aa_pass, &self.target) else {
-            return;
+            return false;
         };
         let Some((_, [sums, spans, mask])) = &pass.pixels else {
-            return;
+            return false;
         };
         let (d, q) = (&self.ctx.device, &self.ctx.queue);
         let (width, height) = (target.width, target.height);
@@ -280,26 +322,47 @@ impl GpuDraw {
             pad: 0,
         };
         let tiles = (width.div_ceil(8), height.div_ceil(8));
-        let encoder = || d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("antialias") });
-        let run = |enc: &mut wgpu::CommandEncoder, steps: &[(&wgpu::ComputePipeline, (u32, u32))]| {
-            let mut cp = enc
-                .begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("antialias"), timestamp_writes: None });
+        // Every round's parameters, in the order the rounds need them.
+        let first = antialias::sample_offsets(self.aa.min(antialias::FIRST_ROUND));
+        let more = if self.aa > antialias::FIRST_ROUND { antialias::sample_offsets(self.aa) } else { Vec::new() };
+        let mut staged = Staged::default();
+        let edges_at = staged.push(&aa_params(0));
+        let shifted_at: Vec<_> = first.iter().chain(&more).map(|&o| staged.push(&shifted(params, o))).collect();
+        let first_at = staged.push(&aa_params(first.len() as u32));
+        let all_at = staged.push(&aa_params((first.len() + more.len()) as u32));
+        let centre_at = staged.push(params);
+        let staging = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("antialias rounds' parameters"),
+            contents: &staged.bytes,
+            usage: wgpu::BufferUsages::COPY_SRC,
+        });
+        let mut enc = d.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("antialias") });
+        let run = |enc: &mut wgpu::CommandEncoder,
+                   steps: &[(&wgpu::ComputePipeline, (u32, u32))],
+                   timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>| {
+            let mut cp =
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("antialias"), timestamp_writes });
             cp.set_bind_group(0, &compute_bind, &[]);
             for (pipeline, (x, y)) in steps {
                 cp.set_pipeline(pipeline);
                 cp.dispatch_workgroups(*x, *y, 1);
             }
         };
+        let put = |enc: &mut wgpu::CommandEncoder, (at, size): (u64, u64), into: &wgpu::Buffer| {
+            enc.copy_buffer_to_buffer(&staging, at, into, 0, size);
+        };
         let mean = [(&pass.partial_means, (groups, 1)), (&pass.mean, (1, 1))];
         // The edges of the centres' image.
-        q.write_buffer(&pass.params, 0, bytemuck::bytes_of(&aa_params(0)));
-        let mut enc = encoder();
-        run(&mut enc, &[mean[0], mean[1], (&pass.find_edges, tiles)]);
-        q.submit([enc.finish()]);
-        // One sample at offset `o` of every pixel of the round, added to its sums.
-        let sample = |o: [f32; 2]| {
-            q.write_buffer(&self.params, 0, bytemuck::bytes_of(&shifted(params, o)));
-            let mut enc = encoder();
+        put(&mut enc, edges_at, &pass.params);
+        let begin = pass.timer.as_ref().map(|(set, _)| wgpu::ComputePassTimestampWrites {
+            query_set: set,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: None,
+        });
+        run(&mut enc, &[mean[0], mean[1], (&pass.find_edges, tiles)], begin);
+        // One sample at the offset `at` holds, of every pixel of the round, added to its sums.
+        let sample = |enc: &mut wgpu::CommandEncoder, at: (u64, u64)| {
+            put(enc, at, &self.params);
             {
                 let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("antialias mask"),
@@ -321,42 +384,53 @@ impl GpuDraw {
                 rp.draw(0..3, 0..1);
             }
             {
-                let mut rp = image_pass(&mut enc, "antialias", (&color, &depth), wgpu::LoadOp::Load, None);
+                let mut rp = image_pass(enc, "antialias", (&color, &depth), wgpu::LoadOp::Load, None);
                 rp.set_pipeline(&pass.background);
                 rp.set_bind_group(0, &background_bind, &[]);
                 rp.draw(0..3, 0..1);
                 bound.record(&mut rp, objects);
             }
-            bound.shade_pixels(&mut enc, None);
-            run(&mut enc, &[(&pass.accumulate, tiles)]);
-            q.submit([enc.finish()]);
+            bound.shade_pixels(enc, None);
+            run(enc, &[(&pass.accumulate, tiles)], None);
         };
-        // The round's pixels set to the mean of their samples (`count`), then `after`.
-        let resolve = |count: usize, after: &[(&wgpu::ComputePipeline, (u32, u32))]| {
-            q.write_buffer(&pass.params, 0, bytemuck::bytes_of(&aa_params(count as u32)));
-            let mut enc = encoder();
+        // The round's pixels set to the mean of their samples (the count `at` holds), then
+        // `after`; the last resolve ends the timed span.
+        let resolve = |enc: &mut wgpu::CommandEncoder,
+                       at: (u64, u64),
+                       after: &[(&wgpu::ComputePipeline, (u32, u32))],
+                       last: bool| {
+            put(enc, at, &pass.params);
+            let end = pass.timer.as_ref().filter(|_| last).map(|(set, _)| wgpu::RenderPassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: None,
+                end_of_pass_write_index: Some(1),
+            });
             {
-                let mut rp = image_pass(&mut enc, "antialias", (&color, &depth), wgpu::LoadOp::Load, None);
+                let mut rp = image_pass(enc, "antialias", (&color, &depth), wgpu::LoadOp::Load, end);
                 rp.set_pipeline(&pass.resolve);
                 rp.set_bind_group(0, &resolve_bind, &[]);
                 rp.draw(0..3, 0..1);
             }
             if !after.is_empty() {
-                run(&mut enc, after);
+                run(enc, after, None);
             }
-            q.submit([enc.finish()]);
         };
-        let first = antialias::sample_offsets(self.aa.min(antialias::FIRST_ROUND));
-        first.iter().for_each(|&o| sample(o));
-        if self.aa > antialias::FIRST_ROUND {
-            // The image's mean after the first round picks the second round's pixels.
-            resolve(first.len(), &[mean[0], mean[1], (&pass.select_again, tiles)]);
-            let more = antialias::sample_offsets(self.aa);
-            more.iter().for_each(|&o| sample(o));
-            resolve(first.len() + more.len(), &[]);
+        let (first_rounds, more_rounds) = shifted_at.split_at(first.len());
+        first_rounds.iter().for_each(|&at| sample(&mut enc, at));
+        if more.is_empty() {
+            resolve(&mut enc, first_at, &[], true);
         } else {
-            resolve(first.len(), &[]);
+            // The image's mean after the first round picks the second round's pixels.
+            resolve(&mut enc, first_at, &[mean[0], mean[1], (&pass.select_again, tiles)], false);
+            more_rounds.iter().for_each(|&at| sample(&mut enc, at));
+            resolve(&mut enc, all_at, &[], true);
         }
-        q.write_buffer(&self.params, 0, bytemuck::bytes_of(params));
+        // The centres' parameters back for what follows.
+        put(&mut enc, centre_at, &self.params);
+        if let Some((set, resolved)) = &pass.timer {
+            enc.resolve_query_set(set, 0..2, resolved, 0);
+        }
+        q.submit([enc.finish()]);
+        pass.timer.is_some()
     }
 }

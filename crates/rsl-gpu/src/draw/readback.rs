@@ -48,7 +48,7 @@ impl GpuDraw {
             rgb
         })?;
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok((rgb, PassTime { gpu_ms: None, wall_ms, antialias_ms: None }))
+        Ok((rgb, PassTime { gpu_ms: None, wall_ms, antialias_ms: None, antialias_gpu_ms: None }))
     }
 
     /// Runs a tonemap pass over the last drawn image at `exposure`, writing to `output`
@@ -135,7 +135,12 @@ impl GpuDraw {
         let out = target.create_view(&wgpu::TextureViewDescriptor::default());
         let start = Instant::now();
         self.run_tonemap("tonemap into a texture", exposure, true, wgpu::BindingResource::TextureView(&out))?;
-        Ok(PassTime { gpu_ms: None, wall_ms: start.elapsed().as_secs_f64() * 1e3, antialias_ms: None })
+        Ok(PassTime {
+            gpu_ms: None,
+            wall_ms: start.elapsed().as_secs_f64() * 1e3,
+            antialias_ms: None,
+            antialias_gpu_ms: None,
+        })
     }
 
     /// Reads a [`DISPLAY`] texture back as interleaved 8-bit RGB (for tests and screenshots).
