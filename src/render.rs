@@ -87,9 +87,10 @@ pub struct RenderArgs {
     /// Seed of `--method truth` (the result is deterministic for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Bounces of light between surfaces (the scene's quality knob `bounces`, 0 to 8):
-    /// `--method truth` follows paths of up to N + 1 segments (0: the environment's light
-    /// alone). The other methods draw the direct light only.
+    /// Bounces of light between surfaces (the scene's quality knob `bounces`, 0 to 8; 0:
+    /// the environment's light alone): `--method truth` follows paths of up to N + 1
+    /// segments; the other methods gather them at the vertices (`bounce_rays` directions
+    /// each) and add them, interpolated, to their image.
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=i64::from(rsl_scene::quality::MAX_BOUNCES)))]
     pub bounces: Option<u32>,
     /// Replace approximations of the RSL path by their exact values, to see what each

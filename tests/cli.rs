@@ -643,20 +643,25 @@ fn the_truth_follows_the_bounces_asked_for() {
                 .material(rsl_scene::Brdf::Lambert { albedo: glam::Vec3::splat(0.8) }),
         )
     });
-    let mean = |bounces: &str| {
-        let ply = dir.join(format!("b{bounces}.ply"));
+    let mean = |method: &str, bounces: &str| {
+        let ply = dir.join(format!("{method}{bounces}.ply"));
         let (ok, _, err) = run(rsl()
             .arg("render")
             .arg(&scene)
-            .args(["--method", "truth", "--spp", "16", "--bounces", bounces, "--vertex-out"])
+            .args(["--method", method, "--spp", "16", "--bounces", bounces, "--vertex-out"])
             .arg(&ply));
         assert!(ok, "{err}");
         let data = rsl_engine::ply::read(&std::fs::read(&ply).unwrap()).unwrap();
         data.vertices.iter().map(|v| f64::from(v[6] + v[7] + v[8])).sum::<f64>()
     };
-    // Light one bounce off the other surfaces only adds.
-    let (direct, bounced) = (mean("0"), mean("1"));
+    // Light one bounce off the other surfaces only adds, in the truth and in the default
+    // method alike, and by about as much.
+    let (direct, bounced) = (mean("truth", "0"), mean("truth", "1"));
     assert!(bounced > direct, "{bounced} against {direct}");
+    let (drawn, gathered) = (mean("auto", "0"), mean("auto", "1"));
+    assert!(gathered > drawn, "{gathered} against {drawn}");
+    let (truth_gain, gain) = (bounced - direct, gathered - drawn);
+    assert!((gain - truth_gain).abs() < 0.25 * truth_gain, "gathered {gain}, the truth's bounce {truth_gain}");
     let (ok, _, err) = run(rsl().arg("render").arg(&scene).args(["--method", "truth", "--bounces", "9"]));
     assert!(!ok && err.contains("--bounces"), "{err}");
 }

@@ -655,7 +655,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             let mut prepare_ms = prepare_ms;
             for k in 0..options.frames {
                 let f = method.render(&engine, &scene, &request)?;
-                times.push(f.timings.ms("shade"));
+                // The vertices' shading, with the interreflections gathered at them.
+                times.push(f.timings.ms("shade") + f.timings.ms("interreflections"));
                 if k == 0 {
                     // What the lobe methods prepare on their first frame (the prefiltered
                     // environment, the transport lobes; the wavelet baseline's transport) is

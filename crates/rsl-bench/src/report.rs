@@ -305,7 +305,8 @@ pub fn reports(
     }
     let mut md = String::from(
         "# rsl bench\n\nPer scene and time: every configuration's preparation (wall ms from an empty memory \
-         store, bytes held), shading time per frame (median), and error per vertex against the Monte Carlo \
+         store, bytes held), shading time per frame (median; the vertices' shading, with the \
+         interreflections gathered at them where `bounces` asks), and error per vertex against the Monte Carlo \
          truth — relative L2 over the scene and per object, mean and 95th percentile of the per-vertex \
          relative error — with the truth's own noise (relative L2 of its standard errors). ★ marks the \
          Pareto front (no configuration is both faster and more accurate). Preparation is wall time \

@@ -6,6 +6,8 @@
 //! - [`Method`] is the one renderer interface: [`CpuRsl`], [`GpuRsl`] and [`Truth`] each turn
 //!   the prepared scene and a [`Request`] into a [`Frame`]; [`registry`] names every method
 //!   and builds it.
+//! - [`bounce`] adds interreflections (the quality knob `bounces`) to every method that is
+//!   not a Monte Carlo estimate.
 //! - [`Session`] draws frames of any method with only what changed since its last frame
 //!   drawn again, and runs methods' preparation on a worker thread (the viewer's loop).
 //! - [`Progress`] and [`Timings`] are the one way long work reports itself and what stages
@@ -13,6 +15,7 @@
 //! - [`output`] writes result files atomically, [`ply`] the per-vertex export.
 
 mod auto;
+pub mod bounce;
 pub mod cache;
 pub mod compose;
 pub mod engine;

@@ -290,13 +290,25 @@ pub fn rasterise(
     positions: &[Vec<Vec3>],
     radiance: &[Vec<Vec3>],
 ) -> Image {
+    rasterise_over(engine, scene, positions, radiance, |d| engine.background(state, d))
+}
+
+/// [`rasterise`] over `background` (radiance toward each world direction) instead of the
+/// environment.
+pub fn rasterise_over(
+    engine: &Engine,
+    scene: &Scene,
+    positions: &[Vec<Vec3>],
+    radiance: &[Vec<Vec3>],
+    background: impl Fn(Vec3) -> Vec3 + Sync,
+) -> Image {
     let meshes: Vec<RasterMesh<'_>> = scene
         .objects
         .iter()
         .enumerate()
         .map(|(i, o)| RasterMesh { positions: &positions[i], indices: &o.mesh.indices, radiance: &radiance[i] })
         .collect();
-    rsl_shade::rasterise_antialiased(&scene.camera, &meshes, engine.antialias(), |d| engine.background(state, d))
+    rsl_shade::rasterise_antialiased(&scene.camera, &meshes, engine.antialias(), background)
 }
 
 /// The CPU RSL path: the rayon fast path of the multiple product approximation and the CPU

@@ -318,7 +318,9 @@ impl MethodId {
                 "--method {self} needs the RSL layer (light set, tables, fields); the engine was prepared without it"
             );
         }
-        (self.registration().constructor)(engine, options).with_context(|| format!("method {self}"))
+        let method = (self.registration().constructor)(engine, options).with_context(|| format!("method {self}"))?;
+        // A Monte Carlo estimate follows the bounces itself; every other method gathers them.
+        Ok(if c.monte_carlo { method } else { Box::new(crate::bounce::Bounced::new(method)) })
     }
 
     /// The name and device of `text`: a method's name, or an alias (which may imply a

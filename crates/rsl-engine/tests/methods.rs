@@ -330,6 +330,88 @@ fn inverted_normals(kind: Kind, test: &str) {
     assert_eq!(ia.pixels, ib.pixels, "{kind:?}: per pixel");
 }
 
+// ---- Light bouncing inside a bowl -----------------------------------------------------------
+
+fn bowl_bounces(kind: Kind, test: &str) {
+    // From any point inside a sphere, each piece of its inner surface takes a share of the
+    // cosine-weighted directions equal to its share of the area, so the bowl (half the
+    // sphere) hides half of every inner point's light. In a unit white furnace a Lambert
+    // bowl of albedo ρ reflects L₀ = ρ/2 of the environment alone, and each bounce adds
+    // its own light over the hidden half: L_N = ρ(1/2 + L_{N−1}/2). Every method draws it
+    // through the registry, per vertex and per pixel (the bowl's inside seen from its
+    // centre, every pixel below the rim's band); with `bounces = 0` the frames are the
+    // method's own.
+    let dir = std::env::temp_dir().join(format!("rsl-methods-bounces-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("bowl.gltf");
+    write_bowl(&mesh, 16, true);
+    let rho = 0.8;
+    let mut s = rsl_scene::build::SceneBuilder::new()
+        .preset(Preset::Draft)
+        .knob("env_grid", 8)
+        .knob("table_resolution", 32)
+        .knob("bounce_rays", 64)
+        .constant(Vec3::ONE)
+        .rsl_count(384)
+        .camera(Vec3::new(0.0, -0.05, 0.0), Vec3::new(0.0, -1.0, 0.35))
+        .image(16, 16)
+        .fov_y_degrees(40.0)
+        .object(rsl_scene::build::ObjectBuilder::mesh("bowl", &mesh).material(lambert(rho)))
+        .build(dir.join("bowl.toml"))
+        .expect("the bowl's scene");
+    let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+    let inner: Vec<usize> =
+        (0..engine.mesh(0).vertex_count()).filter(|&v| engine.mesh(0).positions[v].y < -0.3).collect();
+    let mut expected = rho / 2.0;
+    for bounces in 0..=2 {
+        s.quality.settings.bounces = bounces;
+        let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
+        let f = match method.render(&engine, &s, &request) {
+            Ok(f) => f,
+            Err(e) if bounces > 0 && !kind.id.capabilities().layers.rsl => {
+                // Without the RSL layer there is nothing to gather from: a clear error.
+                let e = format!("{e:#}");
+                assert!(e.contains("interreflections") && e.contains("RSL"), "{kind:?}: {e}");
+                return;
+            }
+            Err(e) => panic!("{kind:?}, {bounces} bounce(s): {e:#}"),
+        };
+        let n = inner.len() as f32;
+        let mean = inner.iter().map(|&v| f.radiance[0][v].x).sum::<f32>() / n;
+        let image = f.image.as_ref().expect("an image");
+        assert!(image.covered.iter().all(|&c| c), "{kind:?}: the bowl fills the image");
+        let pixels = image.pixels.iter().map(|p| p.x).sum::<f32>() / image.pixels.len() as f32;
+        eprintln!("{kind:?}, {bounces} bounce(s): vertices {mean:.4}, pixels {pixels:.4}, against {expected:.4}");
+        match kind.error {
+            ErrorModel::StandardError => {
+                let se = f.std_error.as_ref().expect("standard errors");
+                let se = inner.iter().map(|&v| se[0][v].x.powi(2)).sum::<f32>().sqrt() / n;
+                let tolerance = 5.0 * se + 0.005 * expected;
+                assert!((mean - expected).abs() <= tolerance, "{kind:?}, {bounces}: {mean} ± {se} against {expected}");
+            }
+            ErrorModel::Tables => {
+                // The light set and table (1 %, BASE), the bowl's polyhedral view factors
+                // (0.5 %) and, per bounce, the hidden half found by 64 directions a vertex
+                // (their mean over the inner vertices, 1 %).
+                let tolerance = (BASE + 0.005 + 0.01 * bounces as f32) * expected;
+                for (what, got) in [("vertices", mean), ("pixels", pixels)] {
+                    assert!(
+                        (got - expected).abs() <= tolerance,
+                        "{kind:?}, {bounces} bounce(s), {what}: {got} against {expected} (tolerance {tolerance})"
+                    );
+                }
+            }
+            ErrorModel::Unbounded => assert!(mean.is_finite() && pixels.is_finite()),
+        }
+        expected = rho * (0.5 + expected / 2.0);
+    }
+}
+
+#[test]
+fn bowl_bounces_every_method() {
+    each("bowl_bounces", bowl_bounces);
+}
+
 // ---- Silhouettes of a coarse ball ----------------------------------------------------------
 
 fn silhouettes(kind: Kind, test: &str) {

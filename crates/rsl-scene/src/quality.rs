@@ -98,10 +98,17 @@ pub struct QualitySettings {
     pub wavelet_terms: u32,
     /// Bounces of light between surfaces: paths of up to `bounces + 1` segments, so 0 is
     /// the environment's light alone (each direction another surface blocks is black) and 1
-    /// adds the light one bounce off the surfaces around. The Monte Carlo truth follows it;
-    /// no other method draws interreflections yet, so against a truth with bounces their
-    /// error includes the light they miss.
+    /// adds the light one bounce off the surfaces around. The Monte Carlo truth follows it
+    /// by sampling; every other method gathers it at each vertex (`bounce_rays` directions
+    /// from the vertex's BRDF, each bringing what the surface it meets sends back: that
+    /// surface's own shading along its normal, with the bounces before), its image adding
+    /// the gathered light interpolated across triangles.
     pub bounces: u32,
+    /// Directions gathered per vertex and bounce when `bounces` is above 0 (stratified over
+    /// the BRDF's sampling square; a square number stratifies best). Costs no
+    /// precomputation. 0 gathers nothing: the methods draw the direct light alone while the
+    /// truth follows `bounces` (what the bench measures the direct light's shortfall with).
+    pub bounce_rays: u32,
 }
 
 impl QualitySettings {
@@ -123,6 +130,7 @@ impl QualitySettings {
                 aa: 1,
                 wavelet_terms: 200,
                 bounces: 0,
+                bounce_rays: 16,
             },
             Preset::Standard => Self {
                 brdf_resolution: AUTO,
@@ -142,6 +150,7 @@ impl QualitySettings {
                 aa: 16,
                 wavelet_terms: 200,
                 bounces: 0,
+                bounce_rays: 64,
             },
             Preset::Paper => Self {
                 brdf_resolution: AUTO,
@@ -160,6 +169,7 @@ impl QualitySettings {
                 aa: 16,
                 wavelet_terms: 200,
                 bounces: 0,
+                bounce_rays: 64,
             },
             Preset::High => Self {
                 brdf_resolution: AUTO,
@@ -176,13 +186,14 @@ impl QualitySettings {
                 aa: 64,
                 wavelet_terms: 200,
                 bounces: 0,
+                bounce_rays: 256,
             },
         }
     }
 
     /// `(name, value)` of every knob, for summaries and overrides (`brdf_resolution` is
     /// [`AUTO`] when automatic; [`QualitySettings::value_text`] writes it).
-    pub fn knobs(&self) -> [(&'static str, u32); 14] {
+    pub fn knobs(&self) -> [(&'static str, u32); 15] {
         [
             ("brdf_resolution", self.brdf_resolution),
             ("view_samples", self.view_samples),
@@ -198,6 +209,7 @@ impl QualitySettings {
             ("aa", self.aa),
             ("wavelet_terms", self.wavelet_terms),
             ("bounces", self.bounces),
+            ("bounce_rays", self.bounce_rays),
         ]
     }
 
@@ -250,6 +262,7 @@ impl QualitySettings {
             "shadow_rays" => (0, 4096),
             "wavelet_terms" => (1, 6 * 512 * 512),
             "bounces" => (0, i64::from(MAX_BOUNCES)),
+            "bounce_rays" => (0, 4096),
             "aa" => {
                 if !u32::try_from(value).is_ok_and(valid_aa) {
                     return Err(format!(
@@ -285,6 +298,7 @@ impl QualitySettings {
             "aa" => self.aa = v,
             "wavelet_terms" => self.wavelet_terms = v,
             "bounces" => self.bounces = v,
+            "bounce_rays" => self.bounce_rays = v,
             _ => self.cpca_vectors = v,
         }
         Ok(())

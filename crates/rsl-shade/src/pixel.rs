@@ -58,8 +58,13 @@ impl Covers {
     /// weights renormalised over those), 0 where none does.
     pub fn at(&self, indices: &[u32], fragment: &Fragment, out: &mut [f32]) {
         let t = 3 * fragment.triangle as usize;
-        let corners = [0, 1, 2].map(|k| indices[t + k] as usize * self.lights);
-        let w = fragment.weights.to_array();
+        self.at_corners([0, 1, 2].map(|k| indices[t + k]), fragment.weights, out);
+    }
+
+    /// [`Covers::at`] the point of weights `weights` of the triangle of vertices `corners`.
+    pub fn at_corners(&self, corners: [u32; 3], weights: Vec3, out: &mut [f32]) {
+        let corners = corners.map(|c| c as usize * self.lights);
+        let w = weights.to_array();
         for (l, o) in out.iter_mut().enumerate().take(self.lights) {
             let (mut sum, mut weight) = (0.0, 0.0);
             for k in 0..3 {

@@ -54,6 +54,9 @@ pub struct FrameSetup<'a> {
     /// Per light, its [`rsl_vis::mask::reach`].
     pub(crate) reaches: Vec<(f32, f32)>,
     pub(crate) eye: Vec3,
+    /// Each vertex seen along its own shading normal rather than from the eye
+    /// ([`FrameSetup::along_normals`]).
+    pub(crate) along_normals: bool,
     pub(crate) terms: Terms,
     pub(crate) traced: TracedSetup,
 }
@@ -77,9 +80,19 @@ impl<'a> FrameSetup<'a> {
             cones: lights.iter().map(|l| Cone::new(l.cone_half_angle())).collect(),
             reaches: lights.iter().map(|l| rsl_vis::mask::reach(l.half_diagonal)).collect(),
             eye,
+            along_normals: false,
             terms,
             traced: TracedSetup { flags: vec![false; lights.len()], ..TracedSetup::default() },
         }
+    }
+
+    /// The same frame with every vertex seen along its own shading normal instead of from
+    /// the eye: each vertex's radiance toward its normal, which for a Lambertian surface is
+    /// its radiance in every direction above it (no vertex faces away). What a surface sends
+    /// to the others ([`shade`] of this setup is the first bounce's source).
+    pub fn along_normals(mut self) -> Self {
+        self.along_normals = true;
+        self
     }
 
     /// The parallel work items of a frame: `(object, block)` for every block of `size`

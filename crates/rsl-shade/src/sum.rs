@@ -116,7 +116,7 @@ impl<'a> FrameSetup<'a> {
         let placed = &self.placed[i];
         let x = placed.position(v);
         let frame = placed.shading_frame(v);
-        let view = frame.to_local((self.eye - x).normalize_or_zero());
+        let view = if self.along_normals { Vec3::Z } else { frame.to_local((self.eye - x).normalize_or_zero()) };
         AtVertex { placed, x, frame, view, lookup: placed.object.table.view_lookup(view) }
     }
 
@@ -219,8 +219,14 @@ impl<'a> FrameSetup<'a> {
     /// `frame`, each light weighted by its cover `covers[l]` (the RSL sum at a point that
     /// is not a vertex: a pixel's).
     pub fn point(&self, i: usize, x: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
+        self.point_toward(i, (self.eye - x).normalize_or_zero(), frame, covers, stats)
+    }
+
+    /// [`FrameSetup::point`] toward world direction `view` (unit) instead of the eye: what a
+    /// point of object `i` sends toward another surface.
+    pub fn point_toward(&self, i: usize, view: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
         let table = &self.placed[i].object.table;
-        let lookup = table.view_lookup(frame.to_local((self.eye - x).normalize_or_zero()));
+        let lookup = table.view_lookup(frame.to_local(view));
         if lookup == ViewLookup::Below {
             return Vec3::ZERO;
         }

@@ -235,6 +235,52 @@ pub enum PixelFilter {
     Centre,
 }
 
+/// Where a ray met a surface ([`TruthScene::gather`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    /// The object met.
+    pub object: usize,
+    /// Its triangle's corners (the object's vertex numbers).
+    pub corners: [u32; 3],
+    /// The corners' weights at the point met (barycentric, summing to 1).
+    pub weights: Vec3,
+    /// The triangle's unit normal, on the side of the shading normal.
+    pub face: Vec3,
+    /// The world point met.
+    pub point: Vec3,
+    /// The shading frame there (the corners' normals and tangents interpolated).
+    pub frame: Frame,
+    /// The unit direction back along the ray (toward where it came from).
+    pub toward: Vec3,
+}
+
+/// Toward where [`TruthScene::gather`] reflects the light it gathers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GatherView {
+    /// Toward this eye (world position).
+    Eye(Vec3),
+    /// Along each vertex's own shading normal (what a surface sends on to the others).
+    Normals,
+}
+
+/// `n` points of the unit square, stratified: one in each cell of a √n × √n grid where n is
+/// a square, else a Latin hypercube.
+fn stratified(n: usize, rng: &mut Pcg32) -> Vec<Vec2> {
+    let side = (n as f64).sqrt().round() as usize;
+    if side * side != n {
+        return latin_hypercube(n, rng);
+    }
+    let cell = 1.0 / side as f32;
+    (0..n)
+        .map(|k| {
+            let (i, j) = (k % side, k / side);
+            let x = ((i as f32 + rng.next_f32()) * cell).min(1.0 - f32::EPSILON);
+            let y = ((j as f32 + rng.next_f32()) * cell).min(1.0 - f32::EPSILON);
+            Vec2::new(x, y)
+        })
+        .collect()
+}
+
 /// Which directions count at a point, besides the shadow ray.
 #[derive(Clone, Copy, Debug)]
 enum Mask {
@@ -622,6 +668,12 @@ impl TruthScene {
 
     /// [`TruthScene::hit`] among the triangles of the objects `blocks` accepts.
     fn hit_past(&self, origin: Vec3, dir: Vec3, blocks: impl Fn(usize) -> bool) -> Option<(usize, Vec3, Frame, Vec3)> {
+        let hit = self.hit_surface(origin, dir, blocks)?;
+        Some((hit.object, hit.point, hit.frame, hit.face))
+    }
+
+    /// The closest surface along a ray among the triangles of the objects `blocks` accepts.
+    fn hit_surface(&self, origin: Vec3, dir: Vec3, blocks: impl Fn(usize) -> bool) -> Option<SurfaceHit> {
         let ray = Ray::new(Vec3A::from(origin * self.scale), Vec3A::from(dir), 0.0, f32::INFINITY);
         let mut hit = RayHit::none();
         if !self.bvh.ray_traverse(ray, &mut hit, |ray, id| {
@@ -646,7 +698,92 @@ impl TruthScene {
         let tangent = fa.t * wa + fb.t * wb + fc.t * wc;
         let frame = Frame::from_normal_tangent(normal, tangent);
         let face = n.normalize_or_zero();
-        Some((i, p, frame, if face.dot(frame.n) < 0.0 { -face } else { face }))
+        Some(SurfaceHit {
+            object: i,
+            corners: [idx[0], idx[1], idx[2]],
+            weights: Vec3::new(wa, wb, wc),
+            face: if face.dot(frame.n) < 0.0 { -face } else { face },
+            point: p,
+            frame,
+            toward: -dir,
+        })
+    }
+
+    /// One bounce of light gathered at vertex `vertex` of object `receiver`: the light that
+    /// the surfaces it sees (itself, and the objects that cast shadows) send toward it,
+    /// reflected toward `view`, from `rays` directions drawn from its BRDF (stratified,
+    /// deterministic for `seed` and the vertex). `source` gives what a surface sends back
+    /// along a ray that meets it (toward `hit.toward`); a surface met from behind its face
+    /// sends nothing, and directions that meet nothing bring nothing (the environment's
+    /// light is the direct part's). Weighted by the vertex's face-averaged mask, as the
+    /// estimate is.
+    pub fn gather(
+        &self,
+        receiver: usize,
+        vertex: usize,
+        view: GatherView,
+        rays: u32,
+        seed: u64,
+        source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync),
+    ) -> Vec3 {
+        let frame = &self.frames[receiver][vertex];
+        let x = self.positions[receiver][vertex];
+        let wo = match view {
+            GatherView::Eye(eye) => frame.to_local((eye - x).normalize_or_zero()),
+            GatherView::Normals => Vec3::Z,
+        };
+        if wo.z <= 0.0 || rays == 0 {
+            return Vec3::ZERO;
+        }
+        let origin = x + frame.n * self.offset;
+        let brdf = &self.brdfs[receiver];
+        let mut rng =
+            Pcg32::new(seed ^ ((receiver as u64) << 40) ^ (vertex as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let mut sum = Vec3::ZERO;
+        for u in stratified(rays as usize, &mut rng) {
+            let lobe = rng.next_f32();
+            let Some(wi) = brdf.sample(wo, u, lobe) else { continue };
+            let pdf = brdf.pdf(wo, wi);
+            let f = brdf.eval_cos(wi, wo);
+            if wi.z <= 0.0 || pdf.is_nan() || pdf <= 0.0 || f == Vec3::ZERO {
+                continue;
+            }
+            let w = frame.to_world(wi).normalize();
+            let h = self.faces[receiver].mask(vertex, w);
+            if h <= 0.0 {
+                continue;
+            }
+            let Some(mut hit) = self.hit_surface(origin, w, |owner| owner == receiver || self.casts[owner]) else {
+                continue;
+            };
+            // The face met must face back along the ray (one-sided surfaces); a silhouette's
+            // shading normal turned toward it, as the truth's is.
+            if hit.face.dot(-w) <= 0.0 {
+                continue;
+            }
+            hit.frame = hit.frame.toward_view(-w, hit.face);
+            sum += source(&hit) * f * (h / pdf);
+        }
+        sum / rays as f32
+    }
+
+    /// [`TruthScene::gather`] at every vertex of every object, in parallel: per object, per
+    /// vertex.
+    pub fn gather_all(
+        &self,
+        view: GatherView,
+        rays: u32,
+        seed: u64,
+        source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync),
+    ) -> Vec<Vec<Vec3>> {
+        (0..self.positions.len())
+            .map(|i| {
+                (0..self.positions[i].len())
+                    .into_par_iter()
+                    .map(|v| self.gather(i, v, view, rays, seed, source))
+                    .collect()
+            })
+            .collect()
     }
 
     /// The same scene, its light followed through `bounces` bounces between surfaces (paths

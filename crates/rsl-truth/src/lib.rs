@@ -11,6 +11,7 @@ pub mod estimate;
 pub mod metrics;
 
 pub use estimate::{
-    EnvLight, Estimate, MAX_BOUNCES, MAX_SPP, PixelFilter, TruthError, TruthObject, TruthScene, TruthStats,
+    EnvLight, Estimate, GatherView, MAX_BOUNCES, MAX_SPP, PixelFilter, SurfaceHit, TruthError, TruthObject, TruthScene,
+    TruthStats,
 };
 pub use metrics::{CompareError, Metrics, compare};

@@ -110,26 +110,26 @@ impl Viewer {
         if truth != self.truth_on {
             self.set_truth(truth);
         }
+        let mut bounces = self.scene.quality.settings.bounces;
+        let bounce_label = |n: u32| match n {
+            0 => "direct light only".to_owned(),
+            1 => "1 bounce".to_owned(),
+            n => format!("{n} bounces"),
+        };
+        egui::ComboBox::from_label("light")
+            .selected_text(bounce_label(bounces))
+            .show_ui(ui, |ui| {
+                for n in [0, 1, 2] {
+                    ui.selectable_value(&mut bounces, n, bounce_label(n));
+                }
+            })
+            .response
+            .on_hover_text(
+                "Bounces of light between surfaces (the quality knob `bounces`): the drawings gather them at \
+                 the vertices, and the truth follows as many",
+            );
+        self.set_bounces(bounces);
         if self.truth_on {
-            let mut bounces = self.scene.quality.settings.bounces;
-            let bounce_label = |n: u32| match n {
-                0 => "direct light only".to_owned(),
-                1 => "1 bounce".to_owned(),
-                n => format!("{n} bounces"),
-            };
-            egui::ComboBox::from_label("truth's light")
-                .selected_text(bounce_label(bounces))
-                .show_ui(ui, |ui| {
-                    for n in [0, 1, 2] {
-                        ui.selectable_value(&mut bounces, n, bounce_label(n));
-                    }
-                })
-                .response
-                .on_hover_text(
-                    "Bounces of light between surfaces the truth follows (the quality knob `bounces`); \
-                     the drawings carry the direct light only, so the readout then counts what they miss",
-                );
-            self.set_bounces(bounces);
             let mut show = self.show_truth;
             ui.horizontal(|ui| {
                 ui.radio_value(&mut show, false, "show RSL");

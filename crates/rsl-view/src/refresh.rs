@@ -198,7 +198,10 @@ impl Viewer {
         let still = !changes.moved;
         let partial = still && self.linear.is_some();
         let t0 = Instant::now();
-        let gpu_frame = match self.wgpu.as_mut().filter(|w| w.shades) {
+        // The GPU's shading pass draws the direct light alone: with bounces the vertices are
+        // shaded through the session, which gathers them.
+        let bounces = self.scene.quality.settings.bounces;
+        let gpu_frame = match self.wgpu.as_mut().filter(|w| w.shades && bounces == 0) {
             Some(w) => match w.shade(engine, &self.scene, self.time) {
                 Ok(frame) => Some(frame),
                 Err(e) => {

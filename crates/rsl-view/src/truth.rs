@@ -23,13 +23,18 @@ impl Viewer {
         }
     }
 
-    /// The bounces of light the truth follows (the scene's quality knob `bounces`, at most
-    /// `rsl_truth::MAX_BOUNCES`): the truth starts over with them. The drawings carry the
-    /// direct light only, so the readout then includes the light they miss.
+    /// The bounces of light between surfaces (the scene's quality knob `bounces`, at most
+    /// `rsl_truth::MAX_BOUNCES`): the drawings gather them at the vertices
+    /// (`rsl_engine::bounce`), drawn again at once, and the truth starts over following as
+    /// many. While there are bounces the vertices are shaded on the CPU (the GPU's shading
+    /// pass draws the direct light alone).
     pub fn set_bounces(&mut self, bounces: u32) {
         let bounces = bounces.min(rsl_truth::MAX_BOUNCES);
         if bounces != self.scene.quality.settings.bounces {
             self.scene.quality.settings.bounces = bounces;
+            self.force_pixels = !self.vertices_only();
+            self.pixels_pending = None;
+            self.mark_all();
             if self.truth_on {
                 self.restart_truth();
             }

@@ -1,0 +1,197 @@
+//! Interreflections for every method that draws the environment's direct light: the quality
+//! knob `bounces` (0: none, each direction another surface blocks stays black).
+//!
+//! At each vertex, `bounce_rays` directions drawn from its BRDF (stratified, fixed per vertex
+//! so that frames do not flicker) are traced through every object that casts shadows and the
+//! object itself ([`rsl_truth::TruthScene::gather`]); a direction that meets a surface brings
+//! what that surface sends back, weighted by the BRDF over its sampling density. What a
+//! surface sends is its own RSL shading: a Lambertian surface's radiance is the same toward
+//! every direction above it, so its vertices are shaded along their normals
+//! ([`rsl_shade::FrameSetup::along_normals`]) and interpolated at the point met; a glossy
+//! surface's is the RSL sum at the point met toward the receiver, every light's cover
+//! interpolated from its vertices as the per-pixel drawing does. For `bounces` above 1 the
+//! surfaces gather their own bounces first, each along its normal (a glossy surface's
+//! earlier bounces taken as sending toward every direction what they send along its
+//! normal), so the light of N bounces costs N gathers.
+//!
+//! The method draws the direct light as it always does; the gathered light is added to each
+//! vertex's radiance and, in the image, interpolated across triangles (the CPU rasteriser,
+//! antialiased as the image is) and added to every pixel. It turns and moves with the
+//! objects: nothing is precomputed. The direct part is the method's own, so with `bounces =
+//! 0` every frame is exactly what the method draws alone.
+
+use crate::engine::Engine;
+use crate::method::{Changes, Frame, Kept, Method, Preparation, Prepared, Request, Truth, rasterise_over};
+use anyhow::{Result, bail};
+use glam::Vec3;
+use rsl_scene::{Scene, SceneState};
+use rsl_shade::Terms;
+use rsl_truth::{EnvLight, GatherView, SurfaceHit};
+use std::time::Instant;
+
+/// The seed of the gathers' directions (one per bounce).
+const SEED: u64 = 0x6f75_6e63_655f_7273;
+
+/// The light of `bounces` bounces between the surfaces of `scene` at `state`, reflected
+/// toward the camera's eye, per object and vertex; and each vertex's world position. Needs
+/// the engine's RSL layer (the sources are its shading).
+pub fn interreflections(
+    engine: &Engine,
+    scene: &Scene,
+    state: &SceneState,
+    bounces: u32,
+    rays: u32,
+) -> Result<(Vec<Vec<Vec3>>, Vec<Vec<Vec3>>)> {
+    if !engine.layers().rsl {
+        bail!(
+            "interreflections (bounces = {bounces}) are gathered from the RSL path's shading, which this engine was \
+             prepared without: use a method of the RSL path (rsl, pixel, hybrid, lobe, auto) or bounces = 0"
+        );
+    }
+    let setup = engine.setup(scene, state, scene.camera.eye, Terms::default())?.along_normals();
+    // What each surface sends: a Lambertian one the same toward every direction (its
+    // vertices' radiance along their normals, interpolated); a glossy one the RSL sum at the
+    // point met toward the receiver, over every light's cover interpolated from its
+    // vertices.
+    let n = scene.objects.len();
+    let glossy: Vec<bool> = (0..n).map(|i| !setup.view_independent(i)).collect();
+    let lambertian: Vec<bool> = glossy.iter().map(|g| !g).collect();
+    let (mut direct, _) = rsl_shade::shade_objects(&setup, &lambertian);
+    let (along, covers, _) = rsl_shade::shade_covers(&setup, &glossy);
+    for i in (0..n).filter(|&i| glossy[i]) {
+        direct[i] = along[i].clone();
+    }
+    let lights = setup.light_count();
+    let direct_at = |hit: &SurfaceHit| match &covers[hit.object] {
+        Some(c) => {
+            let mut at = vec![0.0; lights];
+            c.at_corners(hit.corners, hit.weights, &mut at);
+            let mut stats = rsl_shade::FrameStats::default();
+            setup.point_toward(hit.object, hit.toward, &hit.frame, &at, &mut stats)
+        }
+        None => at(&direct, hit),
+    };
+    // Only the geometry is traced: the environment is the direct part's.
+    let truth = Truth::scene(engine, scene, state, EnvLight::Constant(Vec3::ZERO))?;
+    // The bounces before the last, gathered along each vertex's normal.
+    let mut before: Option<Vec<Vec<Vec3>>> = None;
+    for k in 1..bounces {
+        let source = |hit: &SurfaceHit| direct_at(hit) + before.as_deref().map_or(Vec3::ZERO, |b| at(b, hit));
+        before = Some(truth.gather_all(GatherView::Normals, rays, SEED ^ u64::from(k), &source));
+    }
+    let source = |hit: &SurfaceHit| direct_at(hit) + before.as_deref().map_or(Vec3::ZERO, |b| at(b, hit));
+    let toward_eye = truth.gather_all(GatherView::Eye(scene.camera.eye), rays, SEED, &source);
+    let positions = (0..n).map(|i| truth.positions(i).to_vec()).collect();
+    Ok((toward_eye, positions))
+}
+
+/// What `radiance` (per object, per vertex) holds at the point `hit` met, interpolated.
+fn at(radiance: &[Vec<Vec3>], hit: &SurfaceHit) -> Vec3 {
+    let r = &radiance[hit.object];
+    let [a, b, c] = hit.corners.map(|k| r[k as usize]);
+    a * hit.weights.x + b * hit.weights.y + c * hit.weights.z
+}
+
+/// A method with the scene's interreflections added ([`interreflections`]) whenever its
+/// quality asks for bounces; with none, the method itself, frame for frame. The registry
+/// builds every method that is not a Monte Carlo estimate (which follows the bounces by
+/// itself) inside one.
+pub struct Bounced {
+    inner: Box<dyn Method>,
+}
+
+impl Bounced {
+    /// `inner`, with interreflections where the scene's quality asks.
+    pub fn new(inner: Box<dyn Method>) -> Self {
+        Self { inner }
+    }
+
+    /// The request the inner method gets: the vertices' radiance too, since the gathered
+    /// light is added to them.
+    fn inner_request(scene: &Scene, request: &Request) -> Request {
+        let q = scene.quality.settings;
+        if q.bounces > 0 && q.bounce_rays > 0 { Request { vertices: true, ..*request } } else { *request }
+    }
+
+    /// Adds the interreflections of the frame's scene to `frame`.
+    fn add_bounces(engine: &Engine, scene: &Scene, frame: &mut Frame) -> Result<()> {
+        let q = scene.quality.settings;
+        if q.bounces == 0 || q.bounce_rays == 0 {
+            return Ok(());
+        }
+        let start = Instant::now();
+        let (indirect, positions) = interreflections(engine, scene, &frame.state, q.bounces, q.bounce_rays)?;
+        if frame.has_vertices() {
+            for (r, g) in frame.radiance.iter_mut().zip(&indirect) {
+                for (r, g) in r.iter_mut().zip(g) {
+                    *r += *g;
+                }
+            }
+        }
+        if let Some(image) = &mut frame.image {
+            let gathered = rasterise_over(engine, scene, &positions, &indirect, |_| Vec3::ZERO);
+            for (p, g) in image.pixels.iter_mut().zip(&gathered.pixels) {
+                *p += *g;
+            }
+            // The device's encoding is of the direct light alone.
+            frame.encoded = None;
+        }
+        frame.timings.add("interreflections", start.elapsed().as_secs_f64() * 1e3, None);
+        Ok(())
+    }
+}
+
+impl Method for Bounced {
+    fn describe(&self) -> String {
+        self.inner.describe()
+    }
+
+    fn bytes(&self) -> usize {
+        self.inner.bytes()
+    }
+
+    fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
+        let mut frame = self.inner.render(engine, scene, &Self::inner_request(scene, request))?;
+        Self::add_bounces(engine, scene, &mut frame)?;
+        Ok(frame)
+    }
+
+    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
+        self.inner.preparation(engine)
+    }
+
+    fn install(&mut self, prepared: Prepared) {
+        self.inner.install(prepared);
+    }
+
+    /// The inner method's frame for what changed; the interreflections gathered whole
+    /// (another object's move changes what every surface receives).
+    fn render_changed(
+        &mut self,
+        engine: &Engine,
+        scene: &Scene,
+        request: &Request,
+        changes: &Changes,
+        kept: &mut Kept,
+    ) -> Result<Frame> {
+        let mut frame =
+            self.inner.render_changed(engine, scene, &Self::inner_request(scene, request), changes, kept)?;
+        Self::add_bounces(engine, scene, &mut frame)?;
+        Ok(frame)
+    }
+
+    fn explain(&mut self, engine: &Engine, scene: &Scene) -> Result<Vec<String>> {
+        let mut lines = self.inner.explain(engine, scene)?;
+        let q = scene.quality.settings;
+        if q.bounces > 0 && q.bounce_rays > 0 {
+            let what = if q.bounces == 1 { "1 bounce".to_string() } else { format!("{} bounces", q.bounces) };
+            for l in &mut lines {
+                l.push_str(&format!(
+                    "; interreflections: {what} gathered from {} directions per vertex, interpolated",
+                    q.bounce_rays
+                ));
+            }
+        }
+        Ok(lines)
+    }
+}
