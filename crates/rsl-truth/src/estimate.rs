@@ -737,8 +737,10 @@ impl TruthScene {
         }
         let origin = x + frame.n * self.offset;
         let brdf = &self.brdfs[receiver];
-        let mut rng =
-            Pcg32::new(seed ^ ((receiver as u64) << 40) ^ (vertex as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        // The same directions at every vertex of the object, in each vertex's own frame: the
+        // gathered light then varies smoothly over a surface (its error a smooth bias, not
+        // noise from vertex to vertex).
+        let mut rng = Pcg32::new(seed ^ ((receiver as u64) << 40));
         let mut sum = Vec3::ZERO;
         for u in stratified(rays as usize, &mut rng) {
             let lobe = rng.next_f32();

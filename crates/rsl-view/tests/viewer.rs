@@ -258,6 +258,31 @@ fn moving_an_object_reshades_only_what_its_shadow_reaches() {
     assert_eq!(fresh.radiance, v.radiance(), "a partial reshade differs from a full one");
 }
 
+#[test]
+fn bounces_are_drawn_and_follow_an_object_that_moves() {
+    let Some(mut h) = far_apart_harness("bounces_are_drawn_and_follow_an_object_that_moves") else { return };
+    // Per object, what the view shows beyond the direct light (shaded afresh).
+    let gathered = |v: &Viewer| {
+        let direct = v.engine().unwrap().shade(v.scene(), 0.0).unwrap().radiance;
+        let sum = |r: &[Vec3]| r.iter().map(|c| f64::from(c.x + c.y + c.z)).sum::<f64>();
+        (0..3).map(|i| sum(&v.radiance()[i]) - sum(&direct[i])).collect::<Vec<_>>()
+    };
+    assert!(gathered(h.state()).iter().all(|&g| g.abs() < 1e-3), "no bounce before asking");
+    // One bounce: the two near balls light each other, which the view draws at once; the
+    // far ball sees nothing to gather.
+    h.state_mut().set_bounces(1);
+    h.step();
+    let near = gathered(h.state());
+    assert!(near[0] > 0.5 && near[1] > 0.5, "{near:?}");
+    assert!(near[2].abs() < 1e-3, "{near:?}");
+    // `a` moves away: the light it sent its neighbour falls with it, frame by frame.
+    h.state_mut().set_translation(0, Vec3::new(-3.0, 0.0, 0.0)).unwrap();
+    h.step();
+    let apart = gathered(h.state());
+    eprintln!("gathered per object: together {near:?}, apart {apart:?}");
+    assert!(apart[1] < 0.5 * near[1], "{apart:?} against {near:?}");
+}
+
 /// Steps the UI until `done` or 60 s pass.
 fn step_until(h: &mut Harness<'static, Viewer>, done: impl Fn(&Viewer) -> bool) {
     let start = std::time::Instant::now();
