@@ -5,14 +5,16 @@
 //! so that frames do not flicker) are traced through every object that casts shadows and the
 //! object itself ([`rsl_truth::TruthScene::gather`]); a direction that meets a surface brings
 //! what that surface sends back, weighted by the BRDF over its sampling density. What a
-//! surface sends is its own RSL shading: a Lambertian surface's radiance is the same toward
-//! every direction above it, so its vertices are shaded along their normals
-//! ([`rsl_shade::FrameSetup::along_normals`]) and interpolated at the point met; a glossy
-//! surface's is the RSL sum at the point met toward the receiver, every light's cover
-//! interpolated from its vertices as the per-pixel drawing does. For `bounces` above 1 the
-//! surfaces gather their own bounces first, each along its normal (a glossy surface's
-//! earlier bounces taken as sending toward every direction what they send along its
-//! normal), so the light of N bounces costs N gathers.
+//! surface sends is its own RSL shading at the point met, as the per-pixel drawing shades a
+//! point: the traced lights (a sun) with their shadows traced from there
+//! ([`rsl_shade::FrameSetup::traced_cover_at`], one ray each), every other light's cover
+//! interpolated from the surface's vertices (shaded along their normals,
+//! [`rsl_shade::FrameSetup::along_normals`], so that none faces away); a Lambertian surface
+//! sends the same toward every direction, a glossy one its RSL sum toward the receiver
+//! ([`rsl_shade::FrameSetup::point_toward`]). For `bounces` above 1 the surfaces gather
+//! their own bounces first, each along its normal (a glossy surface's earlier bounces taken
+//! as sending toward every direction what they send along its normal), so the light of N
+//! bounces costs N gathers.
 //!
 //! The method draws the direct light as it always does; the gathered light is added to each
 //! vertex's radiance and, in the image, interpolated across triangles (the CPU rasteriser,
@@ -49,27 +51,34 @@ pub fn interreflections(
         );
     }
     let setup = engine.setup(scene, state, scene.camera.eye, Terms::default())?.along_normals();
-    // What each surface sends: a Lambertian one the same toward every direction (its
-    // vertices' radiance along their normals, interpolated); a glossy one the RSL sum at the
-    // point met toward the receiver, over every light's cover interpolated from its
-    // vertices.
+    // What each surface sends from the point met, as the per-pixel drawing shades a point:
+    // the traced lights (a sun) with their shadows traced from there, every other light's
+    // cover interpolated from the surface's vertices; a Lambertian surface sends the same
+    // toward every direction (its other lights' radiance interpolated, as its vertices
+    // have it along their normals), a glossy one its RSL sum toward the receiver.
     let n = scene.objects.len();
-    let glossy: Vec<bool> = (0..n).map(|i| !setup.view_independent(i)).collect();
-    let lambertian: Vec<bool> = glossy.iter().map(|g| !g).collect();
-    let (mut direct, _) = rsl_shade::shade_objects(&setup, &lambertian);
-    let (along, covers, _) = rsl_shade::shade_covers(&setup, &glossy);
-    for i in (0..n).filter(|&i| glossy[i]) {
-        direct[i] = along[i].clone();
-    }
+    let (_, covers, _) = rsl_shade::shade_covers(&setup, &vec![true; n]);
+    let lambertian: Vec<bool> = (0..n).map(|i| setup.view_independent(i)).collect();
+    let traced = setup.traced_lights();
     let lights = setup.light_count();
-    let direct_at = |hit: &SurfaceHit| match &covers[hit.object] {
-        Some(c) => {
-            let mut at = vec![0.0; lights];
+    let direct_at = |hit: &SurfaceHit| {
+        let Some(c) = &covers[hit.object] else { return Vec3::ZERO };
+        let j = hit.object;
+        let mut at = vec![0.0; lights];
+        let mut base = Vec3::ZERO;
+        if lambertian[j] {
+            let [a, b, d] = hit.corners.map(|k| c.untraced[k as usize]);
+            base = a * hit.weights.x + b * hit.weights.y + d * hit.weights.z;
+        } else {
             c.at_corners(hit.corners, hit.weights, &mut at);
-            let mut stats = rsl_shade::FrameStats::default();
-            setup.point_toward(hit.object, hit.toward, &hit.frame, &at, &mut stats)
         }
-        None => at(&direct, hit),
+        let mut rays = 0;
+        for &l in &traced {
+            // One ray, the square's centre: each gathered direction draws its own.
+            at[l] = setup.traced_cover_at(j, (hit.point, hit.frame.n, hit.face), l, 1, &mut rays);
+        }
+        let mut stats = rsl_shade::FrameStats::default();
+        base + setup.point_toward(j, hit.toward, &hit.frame, &at, &mut stats)
     };
     // Only the geometry is traced: the environment is the direct part's.
     let truth = Truth::scene(engine, scene, state, EnvLight::Constant(Vec3::ZERO))?;
