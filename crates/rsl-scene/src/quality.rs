@@ -101,8 +101,8 @@ pub struct QualitySettings {
     /// adds the light one bounce off the surfaces around. The Monte Carlo truth follows it
     /// by sampling; every other method gathers it at each vertex (`bounce_rays` directions
     /// from the vertex's BRDF, each bringing what the surface it meets sends back: that
-    /// surface's own shading along its normal, with the bounces before), its image adding
-    /// the gathered light interpolated across triangles.
+    /// surface's own RSL shading at the point met, with the bounces before), its image
+    /// adding the gathered light interpolated across triangles.
     pub bounces: u32,
     /// Directions gathered per vertex and bounce when `bounces` is above 0 (stratified over
     /// the BRDF's sampling square; a square number stratifies best). Costs no
