@@ -34,16 +34,25 @@ use std::time::Instant;
 /// The seed of the gathers' directions (one per bounce).
 const SEED: u64 = 0x6f75_6e63_655f_7273;
 
+/// The light gathered at every vertex ([`interreflections`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Gathered {
+    /// Per object, per vertex: the light of the bounces, toward the camera's eye.
+    pub light: Vec<Vec<Vec3>>,
+    /// Per object, per vertex: the world position.
+    pub positions: Vec<Vec<Vec3>>,
+}
+
 /// The light of `bounces` bounces between the surfaces of `scene` at `state`, reflected
-/// toward the camera's eye, per object and vertex; and each vertex's world position. Needs
-/// the engine's RSL layer (the sources are its shading).
+/// toward the camera's eye, at every vertex. Needs the engine's RSL layer (the sources are
+/// its shading).
 pub fn interreflections(
     engine: &Engine,
     scene: &Scene,
     state: &SceneState,
     bounces: u32,
     rays: u32,
-) -> Result<(Vec<Vec<Vec3>>, Vec<Vec<Vec3>>)> {
+) -> Result<Gathered> {
     if !engine.layers().rsl {
         bail!(
             "interreflections (bounces = {bounces}) are gathered from the RSL path's shading, which this engine was \
@@ -91,7 +100,7 @@ pub fn interreflections(
     let source = |hit: &SurfaceHit| direct_at(hit) + before.as_deref().map_or(Vec3::ZERO, |b| at(b, hit));
     let toward_eye = truth.gather_all(GatherView::Eye(scene.camera.eye), rays, SEED, &source);
     let positions = (0..n).map(|i| truth.positions(i).to_vec()).collect();
-    Ok((toward_eye, positions))
+    Ok(Gathered { light: toward_eye, positions })
 }
 
 /// What `radiance` (per object, per vertex) holds at the point `hit` met, interpolated.
@@ -129,7 +138,8 @@ impl Bounced {
             return Ok(());
         }
         let start = Instant::now();
-        let (indirect, positions) = interreflections(engine, scene, &frame.state, q.bounces, q.bounce_rays)?;
+        let Gathered { light: indirect, positions } =
+            interreflections(engine, scene, &frame.state, q.bounces, q.bounce_rays)?;
         if frame.has_vertices() {
             for (r, g) in frame.radiance.iter_mut().zip(&indirect) {
                 for (r, g) in r.iter_mut().zip(g) {
