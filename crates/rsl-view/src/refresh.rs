@@ -189,8 +189,9 @@ impl Viewer {
             found = self.session.changes(engine, &self.scene, preview, self.time)?;
             changes = found.clone();
         }
-        // Drawn again whole (a new drawing or device), whatever changed in the scene.
-        if std::mem::take(&mut self.redraw) {
+        // Drawn again whole (a new drawing or device), whatever changed in the scene; with
+        // bounces, whatever changes one object's light changes what the others gather.
+        if std::mem::take(&mut self.redraw) || self.scene.quality.settings.bounces > 0 {
             changes.moved = true;
         }
         // Only radiance changed (material edits): the image is redrawn where those objects
