@@ -61,28 +61,38 @@ pub fn interreflections(
     }
     let setup = engine.setup(scene, state, scene.camera.eye, Terms::default())?.along_normals();
     // What each surface sends from the point met, as the per-pixel drawing shades a point:
-    // the traced lights (a sun) with their shadows traced from there, every other light's
+    // the traced lights (a sun) with their shadows traced from there where one's shadow
+    // edge crosses the triangle met (its corners' covers differ), every other light's
     // cover interpolated from the surface's vertices; a Lambertian surface sends the same
-    // toward every direction (its other lights' radiance interpolated, as its vertices
-    // have it along their normals), a glossy one its RSL sum toward the receiver.
+    // toward every direction (where no traced shadow edge crosses, its vertices' radiance
+    // along their normals, interpolated), a glossy one its RSL sum toward the receiver.
     let n = scene.objects.len();
-    let (_, covers, _) = rsl_shade::shade_covers(&setup, &vec![true; n]);
+    let (along, covers, _) = rsl_shade::shade_covers(&setup, &vec![true; n]);
     let lambertian: Vec<bool> = (0..n).map(|i| setup.view_independent(i)).collect();
     let traced = setup.traced_lights();
     let lights = setup.light_count();
     let direct_at = |hit: &SurfaceHit| {
         let Some(c) = &covers[hit.object] else { return Vec3::ZERO };
         let j = hit.object;
+        let [a, b, d] = hit.corners.map(|k| k as usize * c.lights);
+        let edge = |l: usize| c.values[a + l] != c.values[b + l] || c.values[a + l] != c.values[d + l];
+        let crossed: Vec<usize> = traced.iter().copied().filter(|&l| edge(l)).collect();
+        if lambertian[j] && crossed.is_empty() {
+            return at(&along, hit);
+        }
         let mut at = vec![0.0; lights];
         let mut base = Vec3::ZERO;
         if lambertian[j] {
             let [a, b, d] = hit.corners.map(|k| c.untraced[k as usize]);
             base = a * hit.weights.x + b * hit.weights.y + d * hit.weights.z;
+            for &l in &traced {
+                at[l] = c.values[hit.corners[0] as usize * c.lights + l].max(0.0);
+            }
         } else {
             c.at_corners(hit.corners, hit.weights, &mut at);
         }
         let mut rays = 0;
-        for &l in &traced {
+        for &l in &crossed {
             // One ray, the square's centre: each gathered direction draws its own.
             at[l] = setup.traced_cover_at(j, (hit.point, hit.frame.n, hit.face), l, 1, &mut rays);
         }
