@@ -1,8 +1,9 @@
 //! Interreflections for every method that draws the environment's direct light: the quality
 //! knob `bounces` (0: none, each direction another surface blocks stays black).
 //!
-//! At each vertex, `bounce_rays` directions drawn from its BRDF (stratified, fixed per vertex
-//! so that frames do not flicker) are traced through every object that casts shadows and the
+//! At each vertex, `bounce_rays` directions drawn from its BRDF (stratified; the same set at
+//! every vertex of an object, in the vertex's own frame, so that the gathered light varies
+//! smoothly over a surface and does not flicker from frame to frame) are traced through every object that casts shadows and the
 //! object itself ([`rsl_truth::TruthScene::gather`]); a direction that meets a surface brings
 //! what that surface sends back, weighted by the BRDF over its sampling density. What a
 //! surface sends is its own RSL shading at the point met, as the per-pixel drawing shades a
