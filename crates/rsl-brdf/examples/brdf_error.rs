@@ -39,6 +39,7 @@ fn main() {
         Brdf::Ggx { alpha: 0.3, specular: g(1.0), diffuse: g(0.0) },
         Brdf::Ggx { alpha: 0.1, specular: g(1.0), diffuse: g(0.0) },
         Brdf::Beckmann { alpha: 0.3, specular: g(1.0), diffuse: g(0.1) },
+        Brdf::Gltf { base_color: Vec3::new(0.8, 0.3, 0.1), metallic: 0.0, roughness: 0.5 },
     ];
     let mut rng = Pcg32::new(17);
     let cell = 2.0 / 32.0;
@@ -84,6 +85,9 @@ fn main() {
                     format!("{} α={alpha}", brdf.name())
                 }
                 Brdf::Ward { alpha_x, .. } => format!("{} α={alpha_x}", brdf.name()),
+                Brdf::Gltf { metallic, roughness, .. } => {
+                    format!("{} metallic {metallic} roughness {roughness}", brdf.name())
+                }
                 Brdf::Lambert { .. } => brdf.name().to_string(),
             };
             println!("| {name} | {n} | {:.1e} | {:.1e} |", worst[0], worst[1]);

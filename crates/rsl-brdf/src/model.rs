@@ -80,6 +80,35 @@ pub enum Brdf {
         /// Lambertian albedo.
         diffuse: Vec3,
     },
+    /// glTF 2.0's metallic-roughness material as the specification's appendix B writes it:
+    /// the GGX distribution with `α = roughness²`, separable Smith-GGX masking, Schlick's
+    /// Fresnel at the half vector with `F0 = mix(0.04, base colour, metallic)`, and a
+    /// diffuse term weighted by what the Fresnel term leaves, with
+    /// `c_diff = base colour·(1 − metallic)`:
+    /// `ρ = F·D·G1(wi)·G1(wo)/(4 cos θi cos θo) + (1 − F)·c_diff/π`,
+    /// `F = F0 + (1 − F0)(1 − wo·h)⁵`. Fresnel makes the diffuse term depend on the view
+    /// too, so the model has no view-independent Lambertian term: [`Brdf::diffuse`] is zero
+    /// and tables hold the whole BRDF per view.
+    Gltf {
+        /// Base colour (linear RGB).
+        base_color: Vec3,
+        /// Metalness in `[0, 1]`.
+        metallic: f32,
+        /// Perceptual roughness in `[MIN_ROUGHNESS, 1]`; `α = roughness²`.
+        roughness: f32,
+    },
+}
+
+/// Fresnel reflectance at normal incidence of glTF's dielectric (an index of refraction of 1.5).
+pub const GLTF_DIELECTRIC_F0: f32 = 0.04;
+
+/// Smallest glTF roughness accepted: `α = 0.01² = MIN_ALPHA`.
+pub const MIN_ROUGHNESS: f32 = 0.01;
+
+/// glTF's metallic-roughness parameters as the BRDF uses them: `F0`, `c_diff` and `α`.
+pub fn gltf_terms(base_color: Vec3, metallic: f32, roughness: f32) -> (Vec3, Vec3, f32) {
+    let f0 = Vec3::splat(GLTF_DIELECTRIC_F0).lerp(base_color, metallic);
+    (f0, base_color * (1.0 - metallic), roughness * roughness)
 }
 
 /// A parameter out of range.
@@ -110,6 +139,7 @@ impl Brdf {
             Brdf::Ward { .. } => "ward",
             Brdf::Ggx { .. } => "ggx",
             Brdf::Beckmann { .. } => "beckmann",
+            Brdf::Gltf { .. } => "gltf",
         }
     }
 
@@ -165,6 +195,22 @@ impl Brdf {
                 colour("specular", specular)?;
                 colour("diffuse", diffuse)
             }
+            Brdf::Gltf { base_color, metallic, roughness } => {
+                colour("base_color", base_color)?;
+                if !(metallic.is_finite() && (0.0..=1.0).contains(&metallic)) {
+                    return err("metallic", format!("must be in [0, 1], got {metallic}"));
+                }
+                if !(roughness.is_finite() && (MIN_ROUGHNESS..=1.0).contains(&roughness)) {
+                    return err(
+                        "roughness",
+                        format!(
+                            "must be in [{MIN_ROUGHNESS}, 1] (below, the lobe is narrower than α = {MIN_ALPHA}, which \
+                             cannot be tabulated), got {roughness}"
+                        ),
+                    );
+                }
+                Ok(())
+            }
         }
     }
 
@@ -183,6 +229,7 @@ impl Brdf {
             Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
                 h.f32s(&[*alpha_x, *alpha_y]).f32s(&v(specular)).f32s(&v(diffuse))
             }
+            Brdf::Gltf { base_color, metallic, roughness } => h.f32s(&v(base_color)).f32s(&[*metallic, *roughness]),
         }
         .finish()
     }
@@ -202,10 +249,13 @@ impl Brdf {
             | Brdf::Ward { specular, .. }
             | Brdf::Ggx { specular, .. }
             | Brdf::Beckmann { specular, .. } => *specular == Vec3::ZERO,
+            // F0 ≥ 0.04 for a dielectric, and Fresnel reflects at grazing whatever F0 is.
+            Brdf::Gltf { .. } => false,
         }
     }
 
-    /// The Lambertian albedo `kd` of the diffuse term (`albedo` for a Lambertian BRDF).
+    /// The Lambertian albedo `kd` of the diffuse term (`albedo` for a Lambertian BRDF); zero
+    /// for a glTF material, whose diffuse term depends on the view (its Fresnel weight).
     pub fn diffuse(&self) -> Vec3 {
         match *self {
             Brdf::Lambert { albedo } => albedo,
@@ -215,11 +265,13 @@ impl Brdf {
             | Brdf::Ward { diffuse, .. }
             | Brdf::Ggx { diffuse, .. }
             | Brdf::Beckmann { diffuse, .. } => diffuse,
+            Brdf::Gltf { .. } => Vec3::ZERO,
         }
     }
 
     /// The same BRDF without its diffuse term (the specular part alone; a Lambertian BRDF
-    /// becomes black).
+    /// becomes black): with [`Brdf::diffuse`]'s term it makes the whole BRDF again. A glTF
+    /// material, whose diffuse term is not Lambertian, stays whole.
     pub fn specular_part(&self) -> Brdf {
         let mut out = *self;
         match &mut out {
@@ -230,8 +282,26 @@ impl Brdf {
             | Brdf::Ward { diffuse, .. }
             | Brdf::Ggx { diffuse, .. }
             | Brdf::Beckmann { diffuse, .. } => *diffuse = Vec3::ZERO,
+            Brdf::Gltf { .. } => {}
         }
         out
+    }
+
+    /// The BRDF as a lobe and a Lambertian albedo, for paths that fit lobes to a BRDF and
+    /// treat its diffuse term apart (the lobe path): [`Brdf::specular_part`] and
+    /// [`Brdf::diffuse`], but for a glTF material, whose view-dependent diffuse term is not
+    /// Lambertian: its specular term alone (`F·D·G1·G1/(4 cos θi cos θo)`, the same `F0`
+    /// and roughness) and the albedo `c_diff·(1 − F0)` — the diffuse term with the Fresnel
+    /// weight it has head on, exact there and too bright toward grazing half vectors, where
+    /// `(1 − F)` falls.
+    pub fn lambert_split(&self) -> (Brdf, Vec3) {
+        match *self {
+            Brdf::Gltf { base_color, metallic, roughness } => {
+                let (f0, c_diff, _) = gltf_terms(base_color, metallic, roughness);
+                (Brdf::Gltf { base_color: f0, metallic: 1.0, roughness }, c_diff * (Vec3::ONE - f0))
+            }
+            _ => (self.specular_part(), self.diffuse()),
+        }
     }
 
     /// The power `e` of `1/cos θ_o` by which the specular part's size grows with the view's
@@ -260,6 +330,7 @@ impl Brdf {
             Brdf::BlinnPhong { exponent, .. } => 2.0 / exponent.sqrt(),
             // Microfacet lobes in the light direction are about twice the normal distribution's.
             Brdf::CookTorrance { alpha, .. } | Brdf::Ggx { alpha, .. } | Brdf::Beckmann { alpha, .. } => 2.0 * alpha,
+            Brdf::Gltf { roughness, .. } => 2.0 * roughness * roughness,
             Brdf::Ward { alpha_x, alpha_y, .. } => 2.0 * alpha_x.min(alpha_y),
         })
     }
@@ -307,6 +378,15 @@ impl Brdf {
                 let h = wi + wo;
                 let v = beckmann_d(h, alpha) * beckmann_g1(wi, h, alpha) * beckmann_g1(wo, h, alpha) / (4.0 * ci * co);
                 specular * v + diffuse * FRAC_1_PI
+            }
+            Brdf::Gltf { base_color, metallic, roughness } => {
+                let (f0, c_diff, alpha) = gltf_terms(base_color, metallic, roughness);
+                // Both directions are above the horizon, so h = wi + wo is not zero.
+                let h = wi + wo;
+                let oh = (wo.dot(h) / h.length()).clamp(0.0, 1.0);
+                let f = f0 + (Vec3::ONE - f0) * (1.0 - oh).powi(5);
+                let v = ggx_d(h, alpha) * ggx_g1(wi, h, alpha) * ggx_g1(wo, h, alpha) / (4.0 * ci * co);
+                f * v + (Vec3::ONE - f) * c_diff * FRAC_1_PI
             }
         }
     }
@@ -394,6 +474,9 @@ impl std::fmt::Display for Brdf {
             | Brdf::Ggx { alpha, specular, diffuse }
             | Brdf::Beckmann { alpha, specular, diffuse } => {
                 write!(f, "{name} alpha {alpha} specular {:?} diffuse {:?}", rgb(specular), rgb(diffuse))
+            }
+            Brdf::Gltf { base_color, metallic, roughness } => {
+                write!(f, "gltf base_color {:?} metallic {metallic} roughness {roughness}", rgb(base_color))
             }
             Brdf::Ward { alpha_x, alpha_y, specular, diffuse } if alpha_x == alpha_y => {
                 write!(f, "ward alpha {alpha_x} specular {:?} diffuse {:?}", rgb(specular), rgb(diffuse))

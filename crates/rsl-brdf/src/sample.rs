@@ -10,7 +10,7 @@
 //! there, and the pdf still accounts for it. Half vectors facing away from `wo` give no
 //! sample (`None`), so the density integrates to one minus the probability of `None`.
 
-use crate::model::{Brdf, beckmann_d, ggx_d};
+use crate::model::{Brdf, beckmann_d, ggx_d, gltf_terms};
 use glam::{Vec2, Vec3};
 use rsl_sphere::Frame;
 use rsl_sphere::sampling::{cosine_hemisphere, luminance};
@@ -35,6 +35,15 @@ fn spherical(cos_t: f32, phi: f32) -> Vec3 {
 }
 
 impl Brdf {
+    /// The GGX roughness α of a GGX or glTF material (0 for the other models).
+    fn ggx_alpha(&self) -> f32 {
+        match *self {
+            Brdf::Ggx { alpha, .. } => alpha,
+            Brdf::Gltf { roughness, .. } => roughness * roughness,
+            _ => 0.0,
+        }
+    }
+
     /// Probability of sampling the diffuse lobe.
     pub fn diffuse_probability(&self) -> f32 {
         let (kd, ks) = match *self {
@@ -45,6 +54,13 @@ impl Brdf {
             | Brdf::Ward { specular, diffuse, .. }
             | Brdf::Ggx { specular, diffuse, .. }
             | Brdf::Beckmann { specular, diffuse, .. } => (luminance(diffuse), luminance(specular)),
+            Brdf::Gltf { base_color, metallic, roughness } => {
+                // The Fresnel term's mean over the cosine-weighted hemisphere is
+                // F0 + (1 − F0)·∫(1 − μ)⁵ 2μ dμ = F0 + (1 − F0)/21.
+                let (f0, c_diff, _) = gltf_terms(base_color, metallic, roughness);
+                let f = f0 + (Vec3::ONE - f0) / 21.0;
+                (luminance(c_diff * (Vec3::ONE - f)), luminance(f))
+            }
         };
         if kd + ks > 0.0 { kd / (kd + ks) } else { 1.0 }
     }
@@ -69,7 +85,8 @@ impl Brdf {
                 let tan2 = -alpha * alpha * (1.0 - u.x).max(1e-30).ln();
                 spherical(1.0 / (1.0 + tan2).sqrt(), phi)
             }
-            Brdf::Ggx { alpha, .. } => {
+            Brdf::Ggx { .. } | Brdf::Gltf { .. } => {
+                let alpha = self.ggx_alpha();
                 let tan2 = alpha * alpha * u.x / (1.0 - u.x).max(1e-30);
                 spherical(1.0 / (1.0 + tan2).sqrt(), phi)
             }
@@ -112,7 +129,7 @@ impl Brdf {
                 let ph = match *self {
                     Brdf::BlinnPhong { exponent, .. } => (exponent + 1.0) / (2.0 * PI) * h.z.powf(exponent),
                     Brdf::CookTorrance { alpha, .. } | Brdf::Beckmann { alpha, .. } => beckmann_d(h, alpha) * h.z,
-                    Brdf::Ggx { alpha, .. } => ggx_d(h, alpha) * h.z,
+                    Brdf::Ggx { .. } | Brdf::Gltf { .. } => ggx_d(h, self.ggx_alpha()) * h.z,
                     Brdf::Ward { alpha_x, alpha_y, .. } => {
                         let e = ((h.x / alpha_x).powi(2) + (h.y / alpha_y).powi(2)) / (h.z * h.z);
                         (-e).exp() / (PI * alpha_x * alpha_y * h.z * h.z * h.z)

@@ -17,6 +17,8 @@ fn models() -> Vec<Brdf> {
         Brdf::Ward { alpha_x: 0.25, alpha_y: 0.25, specular: ks, diffuse: Vec3::ZERO },
         Brdf::Ggx { alpha: 0.2, specular: ks, diffuse: kd },
         Brdf::Beckmann { alpha: 0.25, specular: ks, diffuse: Vec3::ZERO },
+        Brdf::Gltf { base_color: Vec3::new(0.8, 0.4, 0.2), metallic: 0.0, roughness: 0.45 },
+        Brdf::Gltf { base_color: Vec3::new(0.95, 0.64, 0.54), metallic: 1.0, roughness: 0.3 },
     ]
 }
 

@@ -9,7 +9,7 @@ use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Oracles;
 
 mod common;
-use common::{cap_radiance, cap_scene, facing, furnace_ball, ggx, lambert};
+use common::{cap_radiance, cap_scene, directional_albedo, facing, furnace_ball, ggx, lambert};
 use rsl_scene::{Brdf, Preset};
 
 fn render(engine: &mut Engine, scene: &Scene, oracles: Oracles) -> Frame {
@@ -38,23 +38,6 @@ fn every_oracle_at_once_returns_a_lambert_balls_albedo_in_a_furnace() {
     // little from the texels'); no table, no field, no fitted set.
     assert!(worst < 0.01, "worst relative error {worst}");
     assert!(f.shadow_rays > 0);
-}
-
-/// `∫ ρ(ω, v) cos θ · h(ω) dω` over the hemisphere by a fine midpoint rule in (cos θ, φ), `h`
-/// a weight on local directions.
-fn directional_albedo(b: &rsl_brdf::Brdf, view: Vec3, h: &dyn Fn(Vec3) -> f32) -> Vec3 {
-    let (nu, np) = (2000, 400);
-    let mut sum = Vec3::ZERO;
-    for i in 0..nu {
-        let c = (i as f32 + 0.5) / nu as f32;
-        let s = (1.0 - c * c).sqrt();
-        for j in 0..np {
-            let phi = 2.0 * std::f32::consts::PI * (j as f32 + 0.5) / np as f32;
-            let d = Vec3::new(s * phi.cos(), s * phi.sin(), c);
-            sum += b.eval(d, view) * (c * h(d));
-        }
-    }
-    sum * (2.0 * std::f32::consts::PI / (nu * np) as f32)
 }
 
 #[test]

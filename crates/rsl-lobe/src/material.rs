@@ -336,7 +336,9 @@ impl MaterialLobes {
         }
         let v = params.views.max(2);
         let thetas = polar_views(v, theta_max());
-        let specular_part = brdf.specular_part();
+        // A glTF material's diffuse term (weighted by 1 − F) is not Lambertian: the lobes
+        // take its specular term, the cosine lobe `c_diff·(1 − F0)` (`Brdf::lambert_split`).
+        let (specular_part, d) = brdf.lambert_split();
         let has_specular = !brdf.is_lambertian();
         let problems: Vec<Option<ViewProblem>> = thetas
             .par_iter()
@@ -363,7 +365,6 @@ impl MaterialLobes {
             })
             .collect();
         let single = problems.iter().flatten().map(|p| p.kappa).collect();
-        let d = brdf.diffuse();
         let diffuse = (d != Vec3::ZERO).then(|| WeightedLobe { weight: d, lobe: Vmf::new(Vec3::Z, COSINE_KAPPA) });
         Ok(Self { brdf: *brdf, thetas, specular, single, diffuse })
     }

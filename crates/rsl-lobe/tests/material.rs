@@ -34,6 +34,8 @@ fn a_constant_environment_returns_the_directional_albedo() {
         Brdf::Ggx { alpha: 0.1, specular: Vec3::new(0.9, 0.7, 0.5), diffuse: Vec3::splat(0.1) },
         Brdf::Beckmann { alpha: 0.3, specular: Vec3::splat(0.8), diffuse: Vec3::ZERO },
         Brdf::Lambert { albedo: Vec3::new(0.2, 0.4, 0.6) },
+        Brdf::Gltf { base_color: Vec3::new(0.95, 0.64, 0.54), metallic: 1.0, roughness: 0.5 },
+        Brdf::Gltf { base_color: Vec3::new(0.8, 0.3, 0.1), metallic: 0.0, roughness: 0.6 },
     ] {
         let lobes = MaterialLobes::fit(&brdf, &FitParams::default()).unwrap();
         for deg in [0.0f32, 25.0, 50.0, 70.0] {

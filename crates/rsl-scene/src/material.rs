@@ -8,7 +8,8 @@ use rsl_brdf::Brdf;
 use serde::{Deserialize, Serialize};
 
 /// The BRDF models a scene may name (the `model` key of `material`).
-pub const MODEL_NAMES: [&str; 7] = ["lambert", "phong", "blinn_phong", "cook_torrance", "ward", "ggx", "beckmann"];
+pub const MODEL_NAMES: [&str; 8] =
+    ["lambert", "phong", "blinn_phong", "cook_torrance", "ward", "ggx", "beckmann", "gltf"];
 
 /// A material as the scene file writes it: a BRDF model and its parameters.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
@@ -95,6 +96,23 @@ pub(crate) enum MaterialFile {
         #[serde(default)]
         diffuse: [f32; 3],
     },
+    /// glTF 2.0's metallic-roughness material (the specification's appendix B), with its
+    /// defaults (`pbrMetallicRoughness`: white, metallic 1, roughness 1).
+    Gltf {
+        /// Base colour, linear RGB.
+        #[serde(default = "white")]
+        base_color: [f32; 3],
+        /// Metalness in `[0, 1]`.
+        #[serde(default = "one")]
+        metallic: f32,
+        /// Perceptual roughness in `[0.01, 1]` (`α = roughness²`).
+        #[serde(default = "one")]
+        roughness: f32,
+    },
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 fn default_albedo() -> [f32; 3] {
@@ -146,6 +164,9 @@ impl MaterialFile {
             MaterialFile::Beckmann { alpha, specular, diffuse } => {
                 Brdf::Beckmann { alpha, specular: v(specular), diffuse: v(diffuse) }
             }
+            MaterialFile::Gltf { base_color, metallic, roughness } => {
+                Brdf::Gltf { base_color: v(base_color), metallic, roughness }
+            }
         };
         brdf.validate().map_err(|e| (e.parameter.to_string(), e.problem))?;
         Ok(brdf)
@@ -178,6 +199,9 @@ impl MaterialFile {
             }
             Brdf::Beckmann { alpha, specular, diffuse } => {
                 MaterialFile::Beckmann { alpha: *alpha, specular: a(specular), diffuse: a(diffuse) }
+            }
+            Brdf::Gltf { base_color, metallic, roughness } => {
+                MaterialFile::Gltf { base_color: a(base_color), metallic: *metallic, roughness: *roughness }
             }
         }
     }

@@ -1,7 +1,8 @@
 //! Scene-file parsing and validation: every class of user error gives its located message,
 //! and nothing a user writes makes the loader panic.
 
-use rsl_scene::{EnvironmentSource, MeshSource, Preset, Scene, SceneError};
+use glam::Vec3;
+use rsl_scene::{Brdf, EnvironmentSource, MeshSource, Preset, Scene, SceneError};
 use std::path::{Path, PathBuf};
 
 fn data(rel: &str) -> PathBuf {
@@ -187,6 +188,21 @@ fn bad_material_parameters_name_the_parameter() {
     expect_err(ball("{ model = \"lambert\", albedo = [1e38, 0.5, 0.5] }"), &["material.albedo", "[0, 1]"]);
     expect_err(ball("{ model = \"ggx\", alpha = 0.2, specular = [1.2, 0.5, 0.5] }"), &["material.specular"]);
     ball("{ model = \"lambert\", albedo = [1.0, 0.0, 1.0] }").unwrap();
+    expect_err(ball("{ model = \"gltf\", roughness = 0.0 }"), &["material.roughness", "[0.01, 1]"]);
+    expect_err(ball("{ model = \"gltf\", metallic = -0.5 }"), &["material.metallic"]);
+    // glTF's defaults: a white, fully metallic, fully rough material.
+    let s = ball("{ model = \"gltf\" }").unwrap();
+    assert_eq!(s.objects[0].material, Brdf::Gltf { base_color: Vec3::ONE, metallic: 1.0, roughness: 1.0 });
+    let s = ball("{ model = \"gltf\", base_color = [0.8, 0.1, 0.1], metallic = 0.0, roughness = 0.4 }").unwrap();
+    assert_eq!(
+        s.objects[0].material,
+        Brdf::Gltf { base_color: Vec3::new(0.8, 0.1, 0.1), metallic: 0.0, roughness: 0.4 }
+    );
+    let dir = temp_dir("gltf-material");
+    let file = dir.join("written.toml");
+    std::fs::write(&file, s.to_toml(&file).unwrap()).unwrap();
+    assert_eq!(Scene::load(&file).unwrap().objects[0].material, s.objects[0].material, "written and read back");
+    std::fs::remove_dir_all(&dir).unwrap();
     let s = parse("[[objects]]\nname = \"a\"\nprimitive = { kind = \"sphere\", radius = 1.0 }\nmaterial = { model = \"ward\", alpha_x = 0.1, alpha_y = 0.3 }\n").unwrap();
     assert!(s.objects[0].material.is_anisotropic());
     // Anisotropic materials get tangents.

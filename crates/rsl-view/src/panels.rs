@@ -417,6 +417,11 @@ pub(crate) fn material_controls(ui: &mut egui::Ui, m: &mut Brdf) {
             rgb(ui, "specular", specular);
             rgb(ui, "diffuse", diffuse);
         }
+        Brdf::Gltf { base_color, metallic, roughness } => {
+            rgb(ui, "base colour", base_color);
+            ui.add(egui::Slider::new(metallic, 0.0..=1.0).text("metallic"));
+            ui.add(egui::Slider::new(roughness, 0.14..=1.0).text("roughness"));
+        }
         _ => {
             ui.label("(this model's parameters are edited in the scene file)");
         }

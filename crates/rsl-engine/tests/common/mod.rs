@@ -46,6 +46,23 @@ pub fn relative_l2(a: &[Vec3], b: &[Vec3]) -> f64 {
     rsl_truth::compare(a, b, None).expect("comparable radiance").relative_l2
 }
 
+/// `∫ ρ(ω, v) cos θ · h(ω) dω` over the hemisphere by a fine midpoint rule in (cos θ, φ), `h`
+/// a weight on local directions.
+pub fn directional_albedo(b: &rsl_brdf::Brdf, view: Vec3, h: &dyn Fn(Vec3) -> f32) -> Vec3 {
+    let (nu, np) = (2000, 400);
+    let mut sum = Vec3::ZERO;
+    for i in 0..nu {
+        let c = (i as f32 + 0.5) / nu as f32;
+        let s = (1.0 - c * c).sqrt();
+        for j in 0..np {
+            let phi = 2.0 * std::f32::consts::PI * (j as f32 + 0.5) / np as f32;
+            let d = Vec3::new(s * phi.cos(), s * phi.sin(), c);
+            sum += b.eval(d, view) * (c * h(d));
+        }
+    }
+    sum * (2.0 * std::f32::consts::PI / (nu * np) as f32)
+}
+
 /// A ball of radius 1 and `resolution` with `material` in a constant white environment of
 /// `rsl_count` lights, at `preset` with `knobs` over it, seen from +Z.
 pub fn furnace_ball(material: Brdf, preset: Preset, knobs: &[(&str, i64)], rsl_count: u32, resolution: u32) -> Scene {
