@@ -33,10 +33,16 @@ pub fn scene_toml(data: &[u8]) {
     }
 }
 
-/// A glTF or GLB file's bytes, imported into a mesh and validated.
+/// A glTF or GLB file's bytes, imported into a mesh and validated, and as a scene (its
+/// nodes, materials and cameras).
 pub fn gltf_import(data: &[u8]) {
     if let Ok((mesh, _)) = rsl_scene::gltf_import::import_bytes(data, Path::new(NOWHERE)) {
         let _ = mesh.validate();
+    }
+    if let Ok(scene) = rsl_scene::gltf_import::import_scene_bytes(data, Path::new(NOWHERE)) {
+        for o in &scene.objects {
+            let _ = o.mesh.validate();
+        }
     }
 }
 

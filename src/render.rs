@@ -47,8 +47,13 @@ impl PrepareArgs {
 /// Arguments of `rsl render`.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
-    /// The scene file (TOML).
+    /// The scene: a scene file (TOML), or a glTF file (.glb, .gltf) opened as a scene — each
+    /// node's meshes objects with their glTF materials, the file's camera or one framed on
+    /// it, a constant white environment unless --env names a map.
     pub scene: PathBuf,
+    /// An environment map (.exr or .hdr) lighting the scene in place of its own.
+    #[arg(long)]
+    pub env: Option<PathBuf>,
     /// Scene time in seconds of a single frame.
     #[arg(long, conflicts_with = "frames")]
     pub time: Option<f32>,
@@ -353,6 +358,9 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         );
     }
     let mut scene = Scene::load(&args.scene)?;
+    if let Some(env) = &args.env {
+        scene.set_environment_map(env)?;
+    }
     if let Some(b) = args.bounces {
         scene.quality.settings.bounces = b;
     }

@@ -9,8 +9,12 @@ use std::path::PathBuf;
 /// Arguments of `rsl view`.
 #[derive(Debug, clap::Args)]
 pub struct ViewArgs {
-    /// The scene file (TOML).
+    /// The scene: a scene file (TOML), or a glTF file (.glb, .gltf) opened as a scene (as
+    /// `rsl render` opens it).
     pub scene: PathBuf,
+    /// An environment map (.exr or .hdr) lighting the scene in place of its own.
+    #[arg(long)]
+    pub env: Option<PathBuf>,
     /// Render the whole UI headless (no display needed) to this PNG and exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
@@ -43,6 +47,9 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         }
     }
     let mut scene = Scene::load(&args.scene)?;
+    if let Some(env) = &args.env {
+        scene.set_environment_map(env)?;
+    }
     if let Some(png) = &args.screenshot {
         crate::outputs::Outputs::new().scene(&scene).output(png, "--screenshot").check()?;
     }

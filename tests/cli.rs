@@ -682,3 +682,31 @@ fn precompute_shards_take_every_nth_scene_into_one_cache() {
     let (ok, _, err) = run(rsl().arg("precompute").arg(&a).args(["--shard", "0/2", "--no-cache"]));
     assert!(!ok && err.contains("--shard"), "{err}");
 }
+
+/// `rsl render model.gltf` opens a glTF file as a scene: its objects, materials and camera,
+/// lit by `--env`'s map; what the import leaves out is said once each; `rsl scene` lists
+/// the objects; a missing map is named.
+#[test]
+fn a_gltf_file_renders_as_a_scene_with_its_camera_and_an_environment_map() {
+    let dir = out_dir("gltf-scene");
+    let model = rsl_scene::build::write_sample_gltf(&dir).unwrap();
+    let png = dir.join("model.png");
+    let (ok, _, err) = run(rsl()
+        .args(["render"])
+        .arg(&model)
+        .args(["--env", "data/hdri/studio.exr", "--size", "48x32"])
+        .args(["--device", "cpu", "--out"])
+        .arg(&png));
+    assert!(ok, "{err}");
+    assert!(png.is_file());
+    assert_eq!(err.matches("its textures are not read").count(), 1, "{err}");
+    assert_eq!(err.matches("KHR_materials_emissive_strength is not read").count(), 1, "{err}");
+    let (ok, out, err) = run(rsl().arg("scene").arg(&model));
+    assert!(ok, "{err}");
+    for part in ["Tet#2", "Quad/1", "sample.gltf (mesh 1 primitive 0)"] {
+        assert!(out.contains(part), "summary lacks {part}:\n{out}");
+    }
+    let (ok, _, err) = run(rsl().args(["render"]).arg(&model).args(["--env", "no/such/map.exr", "--out"]).arg(&png));
+    assert!(!ok && err.contains("no/such/map.exr") && err.contains("no such environment map"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

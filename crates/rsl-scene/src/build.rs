@@ -265,6 +265,75 @@ impl ObjectBuilder {
     }
 }
 
+/// Writes a small glTF scene (`sample.gltf` and its `sample.bin`) into `dir` and returns the
+/// `.gltf` path, for tests and examples of opening glTF files as scenes: a tetrahedron mesh
+/// instanced by two nodes named `Tet` (at x = 1, and at x = −1 scaled twice), a mesh of two
+/// triangles (two primitives: a red dielectric of roughness 0.005 with a base-colour
+/// texture, and no material) under a node `Parent` at y = 1 as its child `Quad` at z = 1, a
+/// perspective camera `Cam` at z = 5 (vertical field 0.7 rad, aspect 1.5), a gold metal of
+/// roughness 0.4 on the tetrahedra, and the extension `KHR_materials_emissive_strength`
+/// listed as used.
+pub fn write_sample_gltf(dir: &Path) -> std::io::Result<PathBuf> {
+    let f = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let tet = f(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    let tet_idx: Vec<u8> = [0u16, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3].iter().flat_map(|i| i.to_le_bytes()).collect();
+    let tri_a = f(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    let tri_b = f(&[1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0]);
+    let mut bin = Vec::new();
+    let mut views = Vec::new();
+    for (bytes, target) in [(&tet, 34962), (&tet_idx, 34963), (&tri_a, 34962), (&tri_b, 34962)] {
+        views.push(format!(
+            r#"{{"buffer":0,"byteOffset":{},"byteLength":{},"target":{target}}}"#,
+            bin.len(),
+            bytes.len()
+        ));
+        bin.extend_from_slice(bytes);
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+    }
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "extensionsUsed": ["KHR_materials_emissive_strength"],
+  "scene": 0,
+  "scenes": [{{"nodes": [0, 1, 2, 4]}}],
+  "nodes": [
+    {{"name": "Tet", "mesh": 0, "translation": [1, 0, 0]}},
+    {{"name": "Tet", "mesh": 0, "translation": [-1, 0, 0], "scale": [2, 2, 2]}},
+    {{"name": "Parent", "translation": [0, 1, 0], "children": [3]}},
+    {{"name": "Quad", "mesh": 1, "translation": [0, 0, 1]}},
+    {{"name": "Cam", "camera": 0, "translation": [0, 0, 5]}}
+  ],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.7, "aspectRatio": 1.5, "znear": 0.01}}}}],
+  "meshes": [
+    {{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}},
+    {{"primitives": [{{"attributes": {{"POSITION": 2}}, "material": 1}}, {{"attributes": {{"POSITION": 3}}}}]}}
+  ],
+  "materials": [
+    {{"name": "gold", "pbrMetallicRoughness": {{"baseColorFactor": [1.0, 0.78, 0.34, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.4}}}},
+    {{"name": "red", "pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.1, 0.1, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.005, "baseColorTexture": {{"index": 0}}}}}}
+  ],
+  "textures": [{{"source": 0}}],
+  "images": [{{"uri": "checker.png"}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 1]}},
+    {{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}},
+    {{"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}
+  ],
+  "bufferViews": [{}],
+  "buffers": [{{"uri": "sample.bin", "byteLength": {}}}]
+}}"#,
+        views.join(", "),
+        bin.len()
+    );
+    std::fs::write(dir.join("sample.bin"), &bin)?;
+    let path = dir.join("sample.gltf");
+    std::fs::write(&path, json)?;
+    Ok(path)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,5 +1,7 @@
 //! glTF 2.0 import: every triangle primitive of the file, node transforms applied, merged
-//! into one mesh.
+//! into one mesh ([`import`], a scene object's `mesh`); or the file's scene, each primitive
+//! of each node an object with its transform and material, and its cameras
+//! ([`import_scene`], `rsl render model.glb`).
 //!
 //! Buffers may be the GLB binary chunk or files next to the glTF; embedded `data:` URIs are
 //! not supported. Missing normals are computed (area-weighted); vertex normals are
@@ -7,6 +9,8 @@
 
 use glam::{Mat4, Vec3, Vec4};
 use gltf::mesh::Mode;
+use rsl_brdf::Brdf;
+use rsl_brdf::model::MIN_ROUGHNESS;
 use rsl_sphere::mesh::TriMesh;
 use std::path::Path;
 
@@ -123,9 +127,8 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
     Ok(gltf::Gltf { document, blob })
 }
 
-/// Imports a glTF file's bytes, reading external buffers from the folder `base`.
-pub fn import_bytes(bytes: &[u8], base: &Path) -> Result<(TriMesh, ImportReport), String> {
-    let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
+/// Reads every buffer of `gltf`: the GLB binary chunk, or files in the folder `base`.
+fn load_buffers(gltf: &gltf::Gltf, base: &Path) -> Result<Vec<Vec<u8>>, String> {
     let mut buffers: Vec<Vec<u8>> = Vec::new();
     for buffer in gltf.buffers() {
         let data = match buffer.source() {
@@ -152,101 +155,319 @@ pub fn import_bytes(bytes: &[u8], base: &Path) -> Result<(TriMesh, ImportReport)
         }
         buffers.push(data);
     }
+    Ok(buffers)
+}
 
-    let mut mesh = TriMesh::default();
-    let mut report = ImportReport::default();
-    let mut instances: Vec<(gltf::Mesh, Mat4)> = Vec::new();
-    let scene = gltf.default_scene().or_else(|| gltf.scenes().next());
-    match scene {
+/// The triangles of one primitive in its mesh's own space (normals repaired or computed,
+/// counted in `report`); `None` for a primitive that is not a triangle list.
+fn read_primitive(
+    m: &gltf::Mesh,
+    prim: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    report: &mut ImportReport,
+) -> Result<Option<TriMesh>, String> {
+    if prim.mode() != Mode::Triangles {
+        report.skipped_non_triangle += 1;
+        return Ok(None);
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+    let where_ = || format!("mesh {} primitive {}", m.index(), prim.index());
+    let Some(read) = reader.read_positions() else {
+        return Err(match prim.get(&gltf::Semantic::Positions) {
+            None => format!("{}: no POSITION attribute", where_()),
+            Some(a) => format!(
+                "{}: POSITION accessor {} ({} elements) cannot be read: its buffer view is missing or reaches \
+                 beyond its buffer",
+                where_(),
+                a.index(),
+                a.count()
+            ),
+        });
+    };
+    let positions: Vec<Vec3> = read.map(Vec3::from).collect();
+    if let Some(a) = prim.get(&gltf::Semantic::Positions)
+        && positions.len() != a.count()
+    {
+        return Err(format!(
+            "{}: POSITION accessor {} declares {} elements, its buffer holds {}",
+            where_(),
+            a.index(),
+            a.count(),
+            positions.len()
+        ));
+    }
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    let mut part = TriMesh { positions, normals: Vec::new(), tangents: None, indices };
+    if let Some(n) = reader.read_normals() {
+        part.normals = n.map(Vec3::from).collect();
+    }
+    if let Some(t) = reader.read_tangents() {
+        part.tangents = Some(t.map(Vec4::from).collect());
+    }
+    if let Some(bad) = part.indices.iter().find(|&&i| i as usize >= part.positions.len()) {
+        return Err(format!("{}: index {bad} out of range ({} vertices)", where_(), part.positions.len()));
+    }
+    // Checked per primitive: two ragged ones summing to a multiple of 3 made a
+    // triangle of two primitives' vertices.
+    if !part.indices.len().is_multiple_of(3) {
+        return Err(format!(
+            "{}: {} {} is not a multiple of 3 (triangles)",
+            where_(),
+            part.indices.len(),
+            if prim.indices().is_some() { "indices" } else { "vertices (no index accessor)" }
+        ));
+    }
+    if part.normals.len() != part.positions.len() {
+        report.computed_normals += 1;
+        part.normals.clear();
+    }
+    if let Some(t) = &part.tangents
+        && t.len() != part.positions.len()
+    {
+        part.tangents = None;
+    }
+    part.repair_normals();
+    report.primitives += 1;
+    Ok(Some(part))
+}
+
+/// Every node of the file's scene (its default one, else its first) with its world matrix
+/// (the hierarchy's transforms multiplied down), in the order met; without a scene, every
+/// mesh once at the origin as a node of no index.
+/// A node (none for a file without a scene), its mesh and its world matrix.
+type Placed<'a> = (Option<gltf::Node<'a>>, Option<gltf::Mesh<'a>>, Mat4);
+
+fn nodes_with_world(gltf: &gltf::Gltf) -> Result<Vec<Placed<'_>>, String> {
+    let mut out = Vec::new();
+    match gltf.default_scene().or_else(|| gltf.scenes().next()) {
         Some(scene) => {
             let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+            stack.reverse();
             let mut visited = 0usize;
             while let Some((node, parent)) = stack.pop() {
                 visited += 1;
                 if visited > 1_000_000 {
                     return Err("node hierarchy is cyclic or too deep".into());
                 }
-                let local = Mat4::from_cols_array_2d(&node.transform().matrix());
-                let world = parent * local;
-                if let Some(m) = node.mesh() {
-                    instances.push((m, world));
-                }
-                stack.extend(node.children().map(|c| (c, world)));
+                let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+                let children: Vec<_> = node.children().map(|c| (c, world)).collect();
+                out.push((Some(node.clone()), node.mesh(), world));
+                stack.extend(children.into_iter().rev());
             }
         }
-        None => instances.extend(gltf.meshes().map(|m| (m, Mat4::IDENTITY))),
+        None => out.extend(gltf.meshes().map(|m| (None, Some(m), Mat4::IDENTITY))),
     }
+    Ok(out)
+}
 
-    for (m, world) in instances {
+/// Imports a glTF file's bytes, reading external buffers from the folder `base`.
+pub fn import_bytes(bytes: &[u8], base: &Path) -> Result<(TriMesh, ImportReport), String> {
+    let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
+    let buffers = load_buffers(&gltf, base)?;
+    let mut mesh = TriMesh::default();
+    let mut report = ImportReport::default();
+    for (_, m, world) in nodes_with_world(&gltf)? {
+        let Some(m) = m else { continue };
         for prim in m.primitives() {
-            if prim.mode() != Mode::Triangles {
-                report.skipped_non_triangle += 1;
-                continue;
+            if let Some(mut part) = read_primitive(&m, &prim, &buffers, &mut report)? {
+                part.transform(&world);
+                mesh.append(&part);
             }
-            let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
-            let where_ = || format!("mesh {} primitive {}", m.index(), prim.index());
-            let Some(read) = reader.read_positions() else {
-                return Err(match prim.get(&gltf::Semantic::Positions) {
-                    None => format!("{}: no POSITION attribute", where_()),
-                    Some(a) => format!(
-                        "{}: POSITION accessor {} ({} elements) cannot be read: its buffer view is missing or reaches \
-                         beyond its buffer",
-                        where_(),
-                        a.index(),
-                        a.count()
-                    ),
-                });
-            };
-            let positions: Vec<Vec3> = read.map(Vec3::from).collect();
-            if let Some(a) = prim.get(&gltf::Semantic::Positions)
-                && positions.len() != a.count()
-            {
-                return Err(format!(
-                    "{}: POSITION accessor {} declares {} elements, its buffer holds {}",
-                    where_(),
-                    a.index(),
-                    a.count(),
-                    positions.len()
-                ));
-            }
-            let indices: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..positions.len() as u32).collect(),
-            };
-            let mut part = TriMesh { positions, normals: Vec::new(), tangents: None, indices };
-            if let Some(n) = reader.read_normals() {
-                part.normals = n.map(Vec3::from).collect();
-            }
-            if let Some(t) = reader.read_tangents() {
-                part.tangents = Some(t.map(Vec4::from).collect());
-            }
-            if let Some(bad) = part.indices.iter().find(|&&i| i as usize >= part.positions.len()) {
-                return Err(format!("{}: index {bad} out of range ({} vertices)", where_(), part.positions.len()));
-            }
-            // Checked per primitive: two ragged ones summing to a multiple of 3 made a
-            // triangle of two primitives' vertices.
-            if !part.indices.len().is_multiple_of(3) {
-                return Err(format!(
-                    "{}: {} {} is not a multiple of 3 (triangles)",
-                    where_(),
-                    part.indices.len(),
-                    if prim.indices().is_some() { "indices" } else { "vertices (no index accessor)" }
-                ));
-            }
-            if part.normals.len() != part.positions.len() {
-                report.computed_normals += 1;
-                part.normals.clear();
-            }
-            if let Some(t) = &part.tangents
-                && t.len() != part.positions.len()
-            {
-                part.tangents = None;
-            }
-            part.repair_normals();
-            part.transform(&world);
-            mesh.append(&part);
-            report.primitives += 1;
         }
     }
     Ok((mesh, report))
+}
+
+/// One triangle primitive of a glTF mesh as a scene object: its triangles in the mesh's own
+/// space (shared by every node that instances the mesh), its node's world transform, the
+/// file's material.
+#[derive(Clone, Debug)]
+pub struct ImportedObject {
+    /// The node's name, else `node<index>`; with `/<primitive>` when its mesh has several.
+    pub name: String,
+    /// The triangles, shared between instances of the same mesh and primitive.
+    pub mesh: std::sync::Arc<TriMesh>,
+    /// The node's world transform; the identity where the triangles were moved instead (a
+    /// world matrix with shear or a mirror, which a translation, rotation and per-axis
+    /// scale cannot hold).
+    pub transform: crate::Transform,
+    /// The primitive's material as rsl's `gltf` model (glTF's default material where it
+    /// names none).
+    pub material: Brdf,
+    /// Where it came from: `(mesh, primitive)` indices, `None` where its triangles were
+    /// moved into world space.
+    pub part: Option<(usize, usize)>,
+}
+
+/// A perspective camera of the file, placed by its node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImportedCamera {
+    /// The node's position.
+    pub eye: Vec3,
+    /// Its view direction (the node's −Z).
+    pub forward: Vec3,
+    /// Its up direction (the node's +Y).
+    pub up: Vec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f32,
+    /// Width over height, where the file gives it.
+    pub aspect: Option<f32>,
+}
+
+/// A glTF file's scene: its objects, its perspective cameras in node order, what the import
+/// left out or changed (one line each), and its counts.
+#[derive(Clone, Debug, Default)]
+pub struct ImportedScene {
+    /// Every triangle primitive of every node with a mesh.
+    pub objects: Vec<ImportedObject>,
+    /// The perspective cameras, in node order.
+    pub cameras: Vec<ImportedCamera>,
+    /// What was left out or changed: extensions, textures, transparency, emission, clamped
+    /// roughness, orthographic cameras (each once).
+    pub notices: Vec<String>,
+    /// Primitives read, skipped, given computed normals.
+    pub report: ImportReport,
+}
+
+/// rsl's `gltf` material for glTF material `m`: its metallic-roughness factors (the default
+/// material's where the primitive names none). Textures, transparency, emission and a
+/// roughness below [`MIN_ROUGHNESS`] are noted in `notices` (once per material).
+fn material_of(m: &gltf::Material, notices: &mut Vec<String>) -> Result<Brdf, String> {
+    let pbr = m.pbr_metallic_roughness();
+    let name = match (m.index(), m.name()) {
+        (Some(i), Some(n)) => format!("material {i} (\"{n}\")"),
+        (Some(i), None) => format!("material {i}"),
+        (None, _) => "the default material".to_string(),
+    };
+    let [r, g, b, a] = pbr.base_color_factor();
+    let mut note = |what: String| {
+        let line = format!("{name}: {what}");
+        if !notices.contains(&line) {
+            notices.push(line);
+        }
+    };
+    if pbr.base_color_texture().is_some() || pbr.metallic_roughness_texture().is_some() {
+        note("its textures are not read; its factors alone are used".into());
+    }
+    if a < 1.0 || m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+        note("transparency is not drawn; it is opaque".into());
+    }
+    if m.emissive_factor() != [0.0; 3] {
+        note("emission is not drawn".into());
+    }
+    let mut roughness = pbr.roughness_factor();
+    if roughness < MIN_ROUGHNESS {
+        note(format!("roughness {roughness} is drawn as {MIN_ROUGHNESS}, the narrowest lobe rsl tabulates"));
+        roughness = MIN_ROUGHNESS;
+    }
+    let brdf = Brdf::Gltf { base_color: Vec3::new(r, g, b), metallic: pbr.metallic_factor(), roughness };
+    brdf.validate().map_err(|e| format!("{name}.pbrMetallicRoughness: {}: {}", e.parameter, e.problem))?;
+    Ok(brdf)
+}
+
+/// The world matrix as a translation, rotation and per-axis scale, where it is one (no
+/// shear, no mirror, no zero scale).
+fn decompose(world: &Mat4) -> Option<crate::Transform> {
+    let (scale, rotation, translation) = world.to_scale_rotation_translation();
+    if !(scale.min_element() > 0.0 && scale.is_finite() && rotation.is_finite() && translation.is_finite()) {
+        return None;
+    }
+    let back = Mat4::from_scale_rotation_translation(scale, rotation, translation);
+    let size = world.to_cols_array().iter().fold(1.0f32, |m, v| m.max(v.abs()));
+    let off = (back - *world).to_cols_array().iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    (off <= 1e-5 * size).then_some(crate::Transform { translation, rotation: rotation.normalize(), scale })
+}
+
+/// Imports `path`'s scene (`.glb` or `.gltf`): each triangle primitive of each node with a
+/// mesh becomes an object, instances of a mesh sharing its triangles; the file's
+/// materials and perspective cameras. Errors are plain messages; the caller adds the file.
+pub fn import_scene(path: &Path) -> Result<ImportedScene, String> {
+    let bytes =
+        rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| format!("cannot read: {e}"))?;
+    import_scene_bytes(&bytes, path.parent().unwrap_or(Path::new(".")))
+}
+
+/// [`import_scene`] of a file's bytes, reading external buffers from the folder `base`.
+pub fn import_scene_bytes(bytes: &[u8], base: &Path) -> Result<ImportedScene, String> {
+    let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
+    let buffers = load_buffers(&gltf, base)?;
+    let mut out = ImportedScene::default();
+    for ext in gltf.extensions_used() {
+        out.notices.push(format!("extension {ext} is not read"));
+    }
+    let mut shared: std::collections::HashMap<(usize, usize), std::sync::Arc<TriMesh>> = Default::default();
+    for (node, m, world) in nodes_with_world(&gltf)? {
+        let node_name = match &node {
+            Some(n) => n.name().map_or_else(|| format!("node{}", n.index()), str::to_string),
+            None => m.as_ref().map_or_else(String::new, |m| format!("mesh{}", m.index())),
+        };
+        if let Some(camera) = node.as_ref().and_then(|n| n.camera()) {
+            match camera.projection() {
+                gltf::camera::Projection::Perspective(p) if !(p.yfov() > 0.0 && p.yfov() < std::f32::consts::PI) => {
+                    out.notices
+                        .push(format!("{node_name}: a camera's yfov {} is not in (0, π); it is not read", p.yfov()));
+                }
+                gltf::camera::Projection::Perspective(p) => {
+                    let (_, rotation, translation) = world.to_scale_rotation_translation();
+                    let rotation = rotation.normalize();
+                    out.cameras.push(ImportedCamera {
+                        eye: translation,
+                        forward: rotation * Vec3::NEG_Z,
+                        up: rotation * Vec3::Y,
+                        fov_y: p.yfov(),
+                        aspect: p.aspect_ratio(),
+                    });
+                }
+                gltf::camera::Projection::Orthographic(_) => {
+                    out.notices.push(format!("{node_name}: an orthographic camera is not read"));
+                }
+            }
+        }
+        let Some(m) = m else { continue };
+        let several = m.primitives().len() > 1;
+        for prim in m.primitives() {
+            let key = (m.index(), prim.index());
+            let mesh = match shared.get(&key) {
+                Some(mesh) => Some(mesh.clone()),
+                None => read_primitive(&m, &prim, &buffers, &mut out.report)?.map(std::sync::Arc::new),
+            };
+            let Some(mesh) = mesh else { continue };
+            shared.insert(key, mesh.clone());
+            let name = if several { format!("{node_name}/{}", prim.index()) } else { node_name.clone() };
+            let material = material_of(&prim.material(), &mut out.notices)?;
+            let (mesh, transform, part) = match decompose(&world) {
+                Some(t) => (mesh, t, Some(key)),
+                None => {
+                    let mut moved = (*mesh).clone();
+                    moved.transform(&world);
+                    (std::sync::Arc::new(moved), crate::Transform::default(), None)
+                }
+            };
+            out.objects.push(ImportedObject { name, mesh, transform, material, part });
+        }
+    }
+    Ok(out)
+}
+
+/// The triangles of primitive `primitive` of mesh `mesh` of `path`, in the mesh's own
+/// space (what a scene saved from an imported glTF names).
+pub fn import_part(path: &Path, mesh: usize, primitive: usize) -> Result<(TriMesh, ImportReport), String> {
+    let bytes =
+        rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| format!("cannot read: {e}"))?;
+    let gltf = parse(&bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
+    let buffers = load_buffers(&gltf, path.parent().unwrap_or(Path::new(".")))?;
+    let meshes = gltf.meshes().len();
+    let m = gltf.meshes().nth(mesh).ok_or_else(|| format!("mesh {mesh}: the file has {meshes} meshes"))?;
+    let count = m.primitives().len();
+    let prim = m
+        .primitives()
+        .nth(primitive)
+        .ok_or_else(|| format!("mesh {mesh} has {count} primitives, not {}", primitive + 1))?;
+    let mut report = ImportReport::default();
+    let part = read_primitive(&m, &prim, &buffers, &mut report)?
+        .ok_or_else(|| format!("mesh {mesh} primitive {primitive} is not a triangle list"))?;
+    Ok((part, report))
 }

@@ -28,6 +28,7 @@
 pub mod build;
 mod error;
 pub mod gltf_import;
+mod gltf_scene;
 pub mod material;
 pub mod motion;
 pub mod primitive;
@@ -120,6 +121,26 @@ pub enum MeshSource {
     /// A glTF file.
     File {
         /// As written in the scene file.
+        written: String,
+        /// Resolved path.
+        path: PathBuf,
+    },
+    /// One primitive of one mesh of a glTF file, in the mesh's own space (an object of a
+    /// scene opened from a glTF file).
+    GltfPart {
+        /// As written in the scene file (the file's name when opened from it).
+        written: String,
+        /// Resolved path.
+        path: PathBuf,
+        /// The mesh's index in the file.
+        mesh: usize,
+        /// The primitive's index in the mesh.
+        primitive: usize,
+    },
+    /// The triangles of a glTF node whose transform has shear or a mirror, moved into world
+    /// space on import (a scene file cannot hold them: saving such a scene is refused).
+    GltfMoved {
+        /// The file's name.
         written: String,
         /// Resolved path.
         path: PathBuf,
@@ -282,6 +303,10 @@ impl Scene {
     /// Reads, parses and validates a scene file, importing or generating every mesh.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if matches!(ext.as_deref(), Some("glb" | "gltf")) {
+            return Self::from_gltf(path);
+        }
         let text = rsl_sphere::io::read_text_bounded(path, rsl_sphere::io::MAX_SCENE_BYTES)
             .map_err(|e| SceneError::file(path, format!("cannot read scene file: {e}")))?;
         Self::from_toml_str(&text, path)
@@ -319,7 +344,9 @@ impl Scene {
             files.push(path);
         }
         for o in &self.objects {
-            if let MeshSource::File { path, .. } = &o.source
+            if let MeshSource::File { path, .. }
+            | MeshSource::GltfPart { path, .. }
+            | MeshSource::GltfMoved { path, .. } = &o.source
                 && !files.contains(&path.as_path())
             {
                 files.push(path);
@@ -378,6 +405,10 @@ impl Scene {
         for o in &self.objects {
             let src = match &o.source {
                 MeshSource::File { written, .. } => written.clone(),
+                MeshSource::GltfPart { written, mesh, primitive, .. } => {
+                    format!("{written} (mesh {mesh} primitive {primitive})")
+                }
+                MeshSource::GltfMoved { written, .. } => format!("{written} (a sheared or mirrored node)"),
                 MeshSource::Primitive(p) => p.describe(),
             };
             let radius = o.mesh.bounding_sphere().map_or(0.0, |(_, r)| r) * o.transform.scale.max_element();

@@ -119,6 +119,11 @@ fn height() -> i64 {
 struct RawObject {
     name: Option<String>,
     mesh: Option<String>,
+    /// With `mesh`: one primitive of one glTF mesh, in the mesh's own space (what a scene
+    /// opened from a glTF file writes), rather than the whole file merged.
+    gltf_mesh: Option<usize>,
+    /// With `gltf_mesh`: the primitive (default 0).
+    gltf_primitive: Option<usize>,
     primitive: Option<Primitive>,
     #[serde(default)]
     translation: [f32; 3],
@@ -250,7 +255,7 @@ pub(crate) fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
     let camera = camera(&cx, raw.camera)?;
     let quality = quality(&cx, raw.quality)?;
     let mut objects = Vec::with_capacity(raw.objects.len());
-    let mut meshes: HashMap<PathBuf, Arc<TriMesh>> = HashMap::new();
+    let mut meshes: Meshes = HashMap::new();
     for (i, o) in raw.objects.into_iter().enumerate() {
         let obj = object(&cx, i, o, &mut meshes)?;
         if let Some(prev) = objects.iter().position(|p: &Object| p.name == obj.name) {
@@ -391,7 +396,36 @@ fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
     }
 }
 
-fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<TriMesh>>) -> Result<Object, SceneError> {
+type Meshes = HashMap<(PathBuf, Option<(usize, usize)>), Arc<TriMesh>>;
+
+/// A mesh read from the glTF file `path` (whole, or one part), checked: valid, its triangles
+/// rewound to follow their normals (with a warning), its skipped primitives said.
+pub(crate) fn checked_mesh(
+    path: &Path,
+    (mut m, report): (TriMesh, crate::gltf_import::ImportReport),
+) -> Result<TriMesh, SceneError> {
+    m.validate().map_err(|e| SceneError::file(path, e.to_string()))?;
+    let (_, faces) = m.faces_against_normals();
+    let against = m.rewind_to_normals();
+    if against > 0 {
+        tracing::warn!(
+            "{}: the normals of {against} of its {faces} triangles point against their winding; \
+             those triangles are rewound to follow their normals, which say the side rsl shades \
+             (if that is the inside, flip the file's normals)",
+            path.display()
+        );
+    }
+    if report.skipped_non_triangle > 0 {
+        tracing::warn!(
+            "{}: {} primitive(s) are not triangle lists (points, lines, strips or fans) and were left out",
+            path.display(),
+            report.skipped_non_triangle
+        );
+    }
+    Ok(m)
+}
+
+fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut Meshes) -> Result<Object, SceneError> {
     let name = match o.name {
         Some(n) if n.trim().is_empty() => return Err(cx.err(&format!("objects[{i}].name"), "is empty")),
         Some(n) if n.chars().any(char::is_control) => {
@@ -418,37 +452,37 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut HashMap<PathBuf, Arc<Tr
                 return Err(cx.err(&f("mesh"), format!("\"{written}\": expected a glTF file (.glb or .gltf)")));
             }
             let path = cx.existing_file(&f("mesh"), &written)?;
-            let mesh = match meshes.get(&path) {
+            let part = match (o.gltf_mesh, o.gltf_primitive) {
+                (Some(m), p) => Some((m, p.unwrap_or(0))),
+                (None, Some(_)) => {
+                    return Err(cx.err(&f("gltf_primitive"), "needs `gltf_mesh`, the mesh it is part of"));
+                }
+                (None, None) => None,
+            };
+            let key = (path.clone(), part);
+            let mesh = match meshes.get(&key) {
                 Some(m) => Arc::clone(m),
                 None => {
-                    let (mut m, report) =
-                        crate::gltf_import::import(&path).map_err(|msg| SceneError::file(&path, msg))?;
-                    m.validate().map_err(|e| SceneError::file(&path, e.to_string()))?;
-                    let (_, faces) = m.faces_against_normals();
-                    let against = m.rewind_to_normals();
-                    if against > 0 {
-                        tracing::warn!(
-                            "{}: the normals of {against} of its {faces} triangles point against their winding; \
-                             those triangles are rewound to follow their normals, which say the side rsl shades \
-                             (if that is the inside, flip the file's normals)",
-                            path.display()
-                        );
-                    }
-                    if report.skipped_non_triangle > 0 {
-                        tracing::warn!(
-                            "{}: {} primitive(s) are not triangle lists (points, lines, strips or fans) and were left out",
-                            path.display(),
-                            report.skipped_non_triangle
-                        );
-                    }
-                    let m = Arc::new(m);
-                    meshes.insert(path.clone(), Arc::clone(&m));
+                    let read = match part {
+                        None => crate::gltf_import::import(&path),
+                        Some((m, p)) => crate::gltf_import::import_part(&path, m, p),
+                    };
+                    let m = Arc::new(checked_mesh(&path, read.map_err(|msg| SceneError::file(&path, msg))?)?);
+                    meshes.insert(key, Arc::clone(&m));
                     m
                 }
             };
-            (MeshSource::File { written, path }, mesh)
+            match part {
+                None => (MeshSource::File { written, path }, mesh),
+                Some((mesh_index, primitive)) => {
+                    (MeshSource::GltfPart { written, path, mesh: mesh_index, primitive }, mesh)
+                }
+            }
         }
         (None, Some(p)) => {
+            if o.gltf_mesh.is_some() || o.gltf_primitive.is_some() {
+                return Err(cx.err(&f("gltf_mesh"), "goes with `mesh = \"file.glb\"`, not with `primitive`"));
+            }
             p.validate().map_err(|(field, msg)| cx.err(&f(&format!("primitive.{field}")), msg))?;
             let mesh = p.mesh();
             mesh.validate().map_err(|e| cx.err(&f("primitive"), e.to_string()))?;

@@ -142,6 +142,18 @@ impl Scene {
                 MeshSource::File { written, path } => {
                     t.insert("mesh".into(), Value::String(path_for(written, path, &self.path, to)));
                 }
+                MeshSource::GltfPart { written, path, mesh, primitive } => {
+                    t.insert("mesh".into(), Value::String(path_for(written, path, &self.path, to)));
+                    t.insert("gltf_mesh".into(), Value::Integer(*mesh as i64));
+                    t.insert("gltf_primitive".into(), Value::Integer(*primitive as i64));
+                }
+                MeshSource::GltfMoved { written, .. } => {
+                    return Err(serde::ser::Error::custom(format!(
+                        "object \"{}\" is a node of {written} whose transform has shear or a mirror, which a \
+                         scene file cannot hold",
+                        o.name
+                    )));
+                }
                 MeshSource::Primitive(p) => {
                     t.insert("primitive".into(), Value::try_from(p)?);
                 }

@@ -1,0 +1,138 @@
+//! A glTF file opened as a scene: its nodes' meshes as objects with their transforms and
+//! materials, instances sharing their triangles, its camera, what the import leaves out
+//! said, and the scene saved as a scene file and read back the same.
+
+use glam::Vec3;
+use rsl_scene::build::write_sample_gltf;
+use rsl_scene::gltf_import::import_scene;
+use rsl_scene::{Brdf, MeshSource, Scene};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rsl-gltf-scene-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn nodes_become_objects_with_their_transforms_materials_and_camera() {
+    let dir = temp_dir("objects");
+    let path = write_sample_gltf(&dir).unwrap();
+    let s = Scene::load(&path).unwrap();
+    let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["Tet", "Tet#2", "Quad/0", "Quad/1"]);
+    // The two instances of the tetrahedron share its triangles (its fields are built once).
+    assert!(Arc::ptr_eq(&s.objects[0].mesh, &s.objects[1].mesh));
+    assert_eq!(s.objects[0].mesh.triangle_count(), 4);
+    assert_eq!(s.objects[0].transform.translation, Vec3::new(1.0, 0.0, 0.0));
+    assert_eq!(s.objects[1].transform.translation, Vec3::new(-1.0, 0.0, 0.0));
+    assert_eq!(s.objects[1].transform.scale, Vec3::splat(2.0));
+    // The child's transform is its parent's times its own.
+    assert!((s.objects[2].transform.translation - Vec3::new(0.0, 1.0, 1.0)).length() < 1e-6);
+    let gold = Brdf::Gltf { base_color: Vec3::new(1.0, 0.78, 0.34), metallic: 1.0, roughness: 0.4 };
+    assert_eq!(s.objects[0].material, gold);
+    assert_eq!(s.objects[1].material, gold);
+    // Roughness 0.005 is drawn as 0.01; a primitive without a material takes glTF's default.
+    assert_eq!(
+        s.objects[2].material,
+        Brdf::Gltf { base_color: Vec3::new(0.8, 0.1, 0.1), metallic: 0.0, roughness: 0.01 }
+    );
+    assert_eq!(s.objects[3].material, Brdf::Gltf { base_color: Vec3::ONE, metallic: 1.0, roughness: 1.0 });
+    assert!(matches!(s.objects[2].source, MeshSource::GltfPart { mesh: 1, primitive: 0, .. }));
+    // The file's camera: at z = 5 looking down −Z, its field and aspect.
+    assert_eq!(s.camera.eye, Vec3::new(0.0, 0.0, 5.0));
+    assert!((s.camera.target - s.camera.eye).normalize().dot(Vec3::NEG_Z) > 0.9999);
+    assert!((s.camera.fov_y - 0.7).abs() < 1e-6);
+    assert_eq!((s.camera.width, s.camera.height), (720, 480));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn what_the_import_leaves_out_is_said_once_each() {
+    let dir = temp_dir("notices");
+    let imported = import_scene(&write_sample_gltf(&dir).unwrap()).unwrap();
+    let said = imported.notices.join("\n");
+    for expected in [
+        "extension KHR_materials_emissive_strength is not read",
+        "material 1 (\"red\"): its textures are not read; its factors alone are used",
+        "material 1 (\"red\"): roughness 0.005 is drawn as 0.01",
+    ] {
+        assert_eq!(said.matches(expected).count(), 1, "{expected:?} in:\n{said}");
+    }
+    assert_eq!(imported.cameras.len(), 1);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_scene_opened_from_gltf_is_saved_and_read_back_the_same() {
+    let dir = temp_dir("save");
+    let s = Scene::load(write_sample_gltf(&dir).unwrap()).unwrap();
+    let file = dir.join("edited.toml");
+    std::fs::write(&file, s.to_toml(&file).unwrap()).unwrap();
+    let back = Scene::load(&file).unwrap();
+    assert_eq!(back.objects.len(), s.objects.len());
+    for (a, b) in back.objects.iter().zip(&s.objects) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(a.material, b.material);
+        assert_eq!(a.transform, b.transform);
+        assert_eq!(a.mesh.positions, b.mesh.positions, "{}", a.name);
+        assert_eq!(a.mesh.indices, b.mesh.indices, "{}", a.name);
+    }
+    assert_eq!(back.camera, s.camera);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_environment_map_replaces_the_constant_one_and_bad_ones_are_named() {
+    let dir = temp_dir("env");
+    let mut s = Scene::load(write_sample_gltf(&dir).unwrap()).unwrap();
+    let e = s.set_environment_map(&dir.join("missing.exr")).unwrap_err().to_string();
+    assert!(e.contains("missing.exr") && e.contains("no such environment map"), "{e}");
+    let e = s.set_environment_map(&dir.join("sample.bin")).unwrap_err().to_string();
+    assert!(e.contains(".exr or .hdr"), "{e}");
+    let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
+    s.set_environment_map(&map).unwrap();
+    assert!(matches!(&s.environment.source, rsl_scene::EnvironmentSource::Map { path, .. } if *path == map));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_gltf_part_out_of_range_is_a_located_error() {
+    let dir = temp_dir("part");
+    write_sample_gltf(&dir).unwrap();
+    let text = "[environment]\nconstant = [1.0, 1.0, 1.0]\n[camera]\neye = [0.0, 1.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\n\
+                [[objects]]\nname = \"a\"\nmesh = \"sample.gltf\"\ngltf_mesh = 1\ngltf_primitive = 5\n";
+    let e = Scene::from_toml_str(text, &dir.join("scene.toml")).unwrap_err().to_string();
+    assert!(e.contains("sample.gltf") && e.contains("mesh 1 has 2 primitives"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+#[ignore = "writes the fuzz corpus input fuzz/corpus/gltf_import/scene_nodes_materials_camera.glb"]
+fn write_the_sample_as_glb_for_the_fuzz_corpus() {
+    let dir = temp_dir("glb");
+    let path = write_sample_gltf(&dir).unwrap();
+    let mut json = std::fs::read_to_string(&path).unwrap().replace(r#""uri": "sample.bin", "#, "");
+    let bin = std::fs::read(dir.join("sample.bin")).unwrap();
+    while !json.len().is_multiple_of(4) {
+        json.push(' ');
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut glb = Vec::new();
+    for v in [0x4654_6C67u32, 2, total as u32, json.len() as u32, 0x4E4F_534A] {
+        glb.extend_from_slice(&v.to_le_bytes());
+    }
+    glb.extend_from_slice(json.as_bytes());
+    for v in [bin.len() as u32, 0x004E_4942] {
+        glb.extend_from_slice(&v.to_le_bytes());
+    }
+    glb.extend_from_slice(&bin);
+    let imported = rsl_scene::gltf_import::import_scene_bytes(&glb, &dir).unwrap();
+    assert_eq!(imported.objects.len(), 4);
+    let out = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fuzz/corpus/gltf_import/scene_nodes_materials_camera.glb");
+    std::fs::write(out, glb).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
