@@ -153,13 +153,13 @@ fn gltf_furnace(kind: Kind, test: &str) {
         Brdf::Gltf { base_color: Vec3::new(0.8, 0.2, 0.1), metallic: 0.0, roughness: 0.8 },
         Brdf::Gltf { base_color: Vec3::new(1.0, 0.78, 0.34), metallic: 1.0, roughness: 0.6 },
     ];
+    let mesh = rsl_scene::Primitive::Sphere { radius: 1.0, resolution: 16 }.mesh();
+    let faces = rsl_sphere::faces::IncidentFaces::of(&mesh);
     let mut bad = Vec::new();
     for material in materials {
         let s = furnace_ball(material, Preset::Standard, &[("env_grid", 8)], 384, 16);
         let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
         let f = vertices_at(method.as_mut(), &engine, &s, 0.0);
-        let mesh = rsl_scene::Primitive::Sphere { radius: 1.0, resolution: 16 }.mesh();
-        let faces = rsl_sphere::faces::IncidentFaces::of(&mesh);
         let (mut checked, mut worst, mut failed) = (0, 0.0f32, 0);
         for v in (0..f.radiance[0].len()).filter(|&v| facing(&f, 0, v, s.camera.eye)) {
             let n = f.normals[0][v];

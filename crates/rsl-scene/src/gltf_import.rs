@@ -70,11 +70,33 @@ fn percent_decode(uri: &str) -> Result<String, String> {
     String::from_utf8(out).map_err(|_| "not UTF-8 after %-decoding".to_string())
 }
 
+/// A glTF file read, parsed and validated, with its buffers: read once, imported any of the
+/// ways below (a scene naming several parts of one file reads it once).
+pub struct GltfFile {
+    gltf: gltf::Gltf,
+    buffers: Vec<Vec<u8>>,
+}
+
+impl GltfFile {
+    /// Reads `path` (`.glb` or `.gltf`) and the buffers it names beside it. Errors are plain
+    /// messages; the caller adds the file.
+    pub fn open(path: &Path) -> Result<Self, String> {
+        let bytes = rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES)
+            .map_err(|e| format!("cannot read: {e}"))?;
+        Self::from_bytes(&bytes, path.parent().unwrap_or(Path::new(".")))
+    }
+
+    /// A file's bytes, its external buffers read from the folder `base`.
+    pub fn from_bytes(bytes: &[u8], base: &Path) -> Result<Self, String> {
+        let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
+        let buffers = load_buffers(&gltf, base)?;
+        Ok(Self { gltf, buffers })
+    }
+}
+
 /// Imports `path` (`.glb` or `.gltf`). Errors are plain messages; the caller adds the file.
 pub fn import(path: &Path) -> Result<(TriMesh, ImportReport), String> {
-    let bytes =
-        rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| format!("cannot read: {e}"))?;
-    import_bytes(&bytes, path.parent().unwrap_or(Path::new(".")))
+    GltfFile::open(path)?.merged()
 }
 
 /// Parses and validates a glTF or GLB file. The gltf crate's validation lets through
@@ -265,20 +287,25 @@ fn nodes_with_world(gltf: &gltf::Gltf) -> Result<Vec<Placed<'_>>, String> {
 
 /// Imports a glTF file's bytes, reading external buffers from the folder `base`.
 pub fn import_bytes(bytes: &[u8], base: &Path) -> Result<(TriMesh, ImportReport), String> {
-    let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
-    let buffers = load_buffers(&gltf, base)?;
-    let mut mesh = TriMesh::default();
-    let mut report = ImportReport::default();
-    for (_, m, world) in nodes_with_world(&gltf)? {
-        let Some(m) = m else { continue };
-        for prim in m.primitives() {
-            if let Some(mut part) = read_primitive(&m, &prim, &buffers, &mut report)? {
-                part.transform(&world);
-                mesh.append(&part);
+    GltfFile::from_bytes(bytes, base)?.merged()
+}
+
+impl GltfFile {
+    /// Every triangle primitive of the file, node transforms applied, merged into one mesh.
+    pub fn merged(&self) -> Result<(TriMesh, ImportReport), String> {
+        let mut mesh = TriMesh::default();
+        let mut report = ImportReport::default();
+        for (_, m, world) in nodes_with_world(&self.gltf)? {
+            let Some(m) = m else { continue };
+            for prim in m.primitives() {
+                if let Some(mut part) = read_primitive(&m, &prim, &self.buffers, &mut report)? {
+                    part.transform(&world);
+                    mesh.append(&part);
+                }
             }
         }
+        Ok((mesh, report))
     }
-    Ok((mesh, report))
 }
 
 /// One triangle primitive of a glTF mesh as a scene object: its triangles in the mesh's own
@@ -385,89 +412,96 @@ fn decompose(world: &Mat4) -> Option<crate::Transform> {
 /// mesh becomes an object, instances of a mesh sharing its triangles; the file's
 /// materials and perspective cameras. Errors are plain messages; the caller adds the file.
 pub fn import_scene(path: &Path) -> Result<ImportedScene, String> {
-    let bytes =
-        rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| format!("cannot read: {e}"))?;
-    import_scene_bytes(&bytes, path.parent().unwrap_or(Path::new(".")))
+    GltfFile::open(path)?.scene()
 }
 
 /// [`import_scene`] of a file's bytes, reading external buffers from the folder `base`.
 pub fn import_scene_bytes(bytes: &[u8], base: &Path) -> Result<ImportedScene, String> {
-    let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
-    let buffers = load_buffers(&gltf, base)?;
-    let mut out = ImportedScene::default();
-    for ext in gltf.extensions_used() {
-        out.notices.push(format!("extension {ext} is not read"));
-    }
-    let mut shared: std::collections::HashMap<(usize, usize), std::sync::Arc<TriMesh>> = Default::default();
-    for (node, m, world) in nodes_with_world(&gltf)? {
-        let node_name = match &node {
-            Some(n) => n.name().map_or_else(|| format!("node{}", n.index()), str::to_string),
-            None => m.as_ref().map_or_else(String::new, |m| format!("mesh{}", m.index())),
-        };
-        if let Some(camera) = node.as_ref().and_then(|n| n.camera()) {
-            match camera.projection() {
-                gltf::camera::Projection::Perspective(p) if !(p.yfov() > 0.0 && p.yfov() < std::f32::consts::PI) => {
-                    out.notices
-                        .push(format!("{node_name}: a camera's yfov {} is not in (0, π); it is not read", p.yfov()));
-                }
-                gltf::camera::Projection::Perspective(p) => {
-                    let (_, rotation, translation) = world.to_scale_rotation_translation();
-                    let rotation = rotation.normalize();
-                    out.cameras.push(ImportedCamera {
-                        eye: translation,
-                        forward: rotation * Vec3::NEG_Z,
-                        up: rotation * Vec3::Y,
-                        fov_y: p.yfov(),
-                        aspect: p.aspect_ratio(),
-                    });
-                }
-                gltf::camera::Projection::Orthographic(_) => {
-                    out.notices.push(format!("{node_name}: an orthographic camera is not read"));
-                }
-            }
-        }
-        let Some(m) = m else { continue };
-        let several = m.primitives().len() > 1;
-        for prim in m.primitives() {
-            let key = (m.index(), prim.index());
-            let mesh = match shared.get(&key) {
-                Some(mesh) => Some(mesh.clone()),
-                None => read_primitive(&m, &prim, &buffers, &mut out.report)?.map(std::sync::Arc::new),
-            };
-            let Some(mesh) = mesh else { continue };
-            shared.insert(key, mesh.clone());
-            let name = if several { format!("{node_name}/{}", prim.index()) } else { node_name.clone() };
-            let material = material_of(&prim.material(), &mut out.notices)?;
-            let (mesh, transform, part) = match decompose(&world) {
-                Some(t) => (mesh, t, Some(key)),
-                None => {
-                    let mut moved = (*mesh).clone();
-                    moved.transform(&world);
-                    (std::sync::Arc::new(moved), crate::Transform::default(), None)
-                }
-            };
-            out.objects.push(ImportedObject { name, mesh, transform, material, part });
-        }
-    }
-    Ok(out)
+    GltfFile::from_bytes(bytes, base)?.scene()
 }
 
-/// The triangles of primitive `primitive` of mesh `mesh` of `path`, in the mesh's own
-/// space (what a scene saved from an imported glTF names).
-pub fn import_part(path: &Path, mesh: usize, primitive: usize) -> Result<(TriMesh, ImportReport), String> {
-    let bytes =
-        rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| format!("cannot read: {e}"))?;
-    let gltf = parse(&bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
-    let buffers = load_buffers(&gltf, path.parent().unwrap_or(Path::new(".")))?;
-    let meshes = gltf.meshes().len();
-    let m = gltf.meshes().nth(mesh).ok_or_else(|| format!("mesh {mesh}: the file has {meshes} meshes"))?;
-    let count = m.primitives().len();
-    let prim = m
-        .primitives()
-        .nth(primitive)
-        .ok_or_else(|| format!("mesh {mesh} has {count} primitives, not {}", primitive + 1))?;
-    let mut report = ImportReport::default();
-    let part = read_primitive(&m, &prim, &buffers, &mut report)?
-        .ok_or_else(|| format!("mesh {mesh} primitive {primitive} is not a triangle list"))?;
-    Ok((part, report))
+impl GltfFile {
+    /// The file's scene, as [`import_scene`] describes it.
+    pub fn scene(&self) -> Result<ImportedScene, String> {
+        let (gltf, buffers) = (&self.gltf, &self.buffers);
+        let mut out = ImportedScene::default();
+        for ext in gltf.extensions_used() {
+            out.notices.push(format!("extension {ext} is not read"));
+        }
+        let mut shared: std::collections::HashMap<(usize, usize), std::sync::Arc<TriMesh>> = Default::default();
+        for (node, m, world) in nodes_with_world(gltf)? {
+            let node_name = match &node {
+                Some(n) => n.name().map_or_else(|| format!("node{}", n.index()), str::to_string),
+                None => m.as_ref().map_or_else(String::new, |m| format!("mesh{}", m.index())),
+            };
+            if let Some(camera) = node.as_ref().and_then(|n| n.camera()) {
+                match camera.projection() {
+                    gltf::camera::Projection::Perspective(p)
+                        if !(p.yfov() > 0.0 && p.yfov() < std::f32::consts::PI) =>
+                    {
+                        out.notices.push(format!(
+                            "{node_name}: a camera's yfov {} is not in (0, π); it is not read",
+                            p.yfov()
+                        ));
+                    }
+                    gltf::camera::Projection::Perspective(p) => {
+                        let (_, rotation, translation) = world.to_scale_rotation_translation();
+                        let rotation = rotation.normalize();
+                        out.cameras.push(ImportedCamera {
+                            eye: translation,
+                            forward: rotation * Vec3::NEG_Z,
+                            up: rotation * Vec3::Y,
+                            fov_y: p.yfov(),
+                            aspect: p.aspect_ratio(),
+                        });
+                    }
+                    gltf::camera::Projection::Orthographic(_) => {
+                        out.notices.push(format!("{node_name}: an orthographic camera is not read"));
+                    }
+                }
+            }
+            let Some(m) = m else { continue };
+            let several = m.primitives().len() > 1;
+            for prim in m.primitives() {
+                let key = (m.index(), prim.index());
+                let mesh = match shared.get(&key) {
+                    Some(mesh) => Some(mesh.clone()),
+                    None => read_primitive(&m, &prim, buffers, &mut out.report)?.map(std::sync::Arc::new),
+                };
+                let Some(mesh) = mesh else { continue };
+                shared.insert(key, mesh.clone());
+                let name = if several { format!("{node_name}/{}", prim.index()) } else { node_name.clone() };
+                let material = material_of(&prim.material(), &mut out.notices)?;
+                let (mesh, transform, part) = match decompose(&world) {
+                    Some(t) => (mesh, t, Some(key)),
+                    None => {
+                        let mut moved = (*mesh).clone();
+                        moved.transform(&world);
+                        (std::sync::Arc::new(moved), crate::Transform::default(), None)
+                    }
+                };
+                out.objects.push(ImportedObject { name, mesh, transform, material, part });
+            }
+        }
+        Ok(out)
+    }
+}
+
+impl GltfFile {
+    /// The triangles of primitive `primitive` of mesh `mesh`, in the mesh's own space (what a
+    /// scene file's `gltf_mesh` and `gltf_primitive` name).
+    pub fn part(&self, mesh: usize, primitive: usize) -> Result<(TriMesh, ImportReport), String> {
+        let (gltf, buffers) = (&self.gltf, &self.buffers);
+        let meshes = gltf.meshes().len();
+        let m = gltf.meshes().nth(mesh).ok_or_else(|| format!("mesh {mesh}: the file has {meshes} meshes"))?;
+        let count = m.primitives().len();
+        let prim = m
+            .primitives()
+            .nth(primitive)
+            .ok_or_else(|| format!("mesh {mesh} has {count} primitives, not {}", primitive + 1))?;
+        let mut report = ImportReport::default();
+        let part = read_primitive(&m, &prim, buffers, &mut report)?
+            .ok_or_else(|| format!("mesh {mesh} primitive {primitive} is not a triangle list"))?;
+        Ok((part, report))
+    }
 }

@@ -255,7 +255,7 @@ pub(crate) fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
     let camera = camera(&cx, raw.camera)?;
     let quality = quality(&cx, raw.quality)?;
     let mut objects = Vec::with_capacity(raw.objects.len());
-    let mut meshes: Meshes = HashMap::new();
+    let mut meshes = Meshes::default();
     for (i, o) in raw.objects.into_iter().enumerate() {
         let obj = object(&cx, i, o, &mut meshes)?;
         if let Some(prev) = objects.iter().position(|p: &Object| p.name == obj.name) {
@@ -396,7 +396,16 @@ fn quality(cx: &Ctx, q: Option<toml::Value>) -> Result<Quality, SceneError> {
     }
 }
 
-type Meshes = HashMap<(PathBuf, Option<(usize, usize)>), Arc<TriMesh>>;
+/// A mesh read from a file: the file, and the glTF mesh and primitive where it is one part.
+type MeshKey = (PathBuf, Option<(usize, usize)>);
+
+/// The meshes a scene file's objects read, by file and part, and the glTF files whose parts
+/// they name (each read once, however many of its parts the scene names).
+#[derive(Default)]
+struct Meshes {
+    read: HashMap<MeshKey, Arc<TriMesh>>,
+    files: HashMap<PathBuf, crate::gltf_import::GltfFile>,
+}
 
 /// A mesh read from the glTF file `path` (whole, or one part), checked: valid, its triangles
 /// rewound to follow their normals (with a warning), its skipped primitives said.
@@ -460,15 +469,22 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut Meshes) -> Result<Objec
                 (None, None) => None,
             };
             let key = (path.clone(), part);
-            let mesh = match meshes.get(&key) {
+            let mesh = match meshes.read.get(&key) {
                 Some(m) => Arc::clone(m),
                 None => {
                     let read = match part {
                         None => crate::gltf_import::import(&path),
-                        Some((m, p)) => crate::gltf_import::import_part(&path, m, p),
+                        Some((m, p)) => {
+                            if !meshes.files.contains_key(&path) {
+                                let file = crate::gltf_import::GltfFile::open(&path)
+                                    .map_err(|msg| SceneError::file(&path, msg))?;
+                                meshes.files.insert(path.clone(), file);
+                            }
+                            meshes.files[&path].part(m, p)
+                        }
                     };
                     let m = Arc::new(checked_mesh(&path, read.map_err(|msg| SceneError::file(&path, msg))?)?);
-                    meshes.insert(key, Arc::clone(&m));
+                    meshes.read.insert(key, Arc::clone(&m));
                     m
                 }
             };
