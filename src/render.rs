@@ -44,16 +44,39 @@ impl PrepareArgs {
     }
 }
 
+/// The scene `rsl render` and `rsl view` are given: a scene file or a glTF file (seen
+/// through its perspective camera `camera` where one is asked for), lit by the map `env`
+/// where one is given.
+pub(crate) fn open_scene(path: &Path, env: Option<&Path>, camera: Option<usize>) -> Result<Scene> {
+    let gltf = matches!(
+        path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
+        Some("glb" | "gltf")
+    );
+    let mut scene = match camera {
+        Some(_) if !gltf => bail!("--camera chooses a glTF file's camera; {} is a scene file", path.display()),
+        Some(k) => Scene::from_gltf_camera(path, Some(k))?,
+        None => Scene::load(path)?,
+    };
+    if let Some(env) = env {
+        scene.set_environment_map(env)?;
+    }
+    Ok(scene)
+}
+
 /// Arguments of `rsl render`.
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
     /// The scene: a scene file (TOML), or a glTF file (.glb, .gltf) opened as a scene — each
     /// node's meshes objects with their glTF materials, the file's camera or one framed on
-    /// it, a constant white environment unless --env names a map.
+    /// it, the bundled studio map unless --env names another.
     pub scene: PathBuf,
     /// An environment map (.exr or .hdr) lighting the scene in place of its own.
     #[arg(long)]
     pub env: Option<PathBuf>,
+    /// A glTF file's perspective camera to look through, numbered from 0 in node order
+    /// (default: its first; a camera framed on the scene where it has none).
+    #[arg(long)]
+    pub camera: Option<usize>,
     /// Scene time in seconds of a single frame.
     #[arg(long, conflicts_with = "frames")]
     pub time: Option<f32>,
@@ -357,10 +380,7 @@ pub fn render(args: &RenderArgs) -> Result<()> {
                 .join(" or ")
         );
     }
-    let mut scene = Scene::load(&args.scene)?;
-    if let Some(env) = &args.env {
-        scene.set_environment_map(env)?;
-    }
+    let mut scene = crate::render::open_scene(&args.scene, args.env.as_deref(), args.camera)?;
     if let Some(b) = args.bounces {
         scene.quality.settings.bounces = b;
     }

@@ -3,7 +3,6 @@
 use crate::render::PrepareArgs;
 use anyhow::{Context, Result, bail};
 use rsl_engine::MethodId;
-use rsl_engine::scene::Scene;
 use std::path::PathBuf;
 
 /// Arguments of `rsl view`.
@@ -15,6 +14,10 @@ pub struct ViewArgs {
     /// An environment map (.exr or .hdr) lighting the scene in place of its own.
     #[arg(long)]
     pub env: Option<PathBuf>,
+    /// A glTF file's perspective camera to look through, numbered from 0 in node order
+    /// (default: its first; a camera framed on the scene where it has none).
+    #[arg(long)]
+    pub camera: Option<usize>,
     /// Render the whole UI headless (no display needed) to this PNG and exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
@@ -46,10 +49,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             bail!("--frames must be in 1..={MAX_FRAMES}, got {}", args.frames);
         }
     }
-    let mut scene = Scene::load(&args.scene)?;
-    if let Some(env) = &args.env {
-        scene.set_environment_map(env)?;
-    }
+    let mut scene = crate::render::open_scene(&args.scene, args.env.as_deref(), args.camera)?;
     if let Some(png) = &args.screenshot {
         crate::outputs::Outputs::new().scene(&scene).output(png, "--screenshot").check()?;
     }

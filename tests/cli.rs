@@ -684,8 +684,8 @@ fn precompute_shards_take_every_nth_scene_into_one_cache() {
 }
 
 /// `rsl render model.gltf` opens a glTF file as a scene: its objects, materials and camera,
-/// lit by `--env`'s map; what the import leaves out is said once each; `rsl scene` lists
-/// the objects; a missing map is named.
+/// lit by `--env`'s map or else the bundled one; what the import leaves out is said once
+/// each; `rsl scene` lists the objects; a missing map and a missing camera are named.
 #[test]
 fn a_gltf_file_renders_as_a_scene_with_its_camera_and_an_environment_map() {
     let dir = out_dir("gltf-scene");
@@ -706,7 +706,18 @@ fn a_gltf_file_renders_as_a_scene_with_its_camera_and_an_environment_map() {
     for part in ["Tet#2", "Quad/1", "sample.gltf (mesh 1 primitive 0)"] {
         assert!(out.contains(part), "summary lacks {part}:\n{out}");
     }
+    assert!(out.contains("environment  bundled map studio"), "{out}");
     let (ok, _, err) = run(rsl().args(["render"]).arg(&model).args(["--env", "no/such/map.exr", "--out"]).arg(&png));
     assert!(!ok && err.contains("no/such/map.exr") && err.contains("no such environment map"), "{err}");
+    // Without --env, the bundled map lights it; --camera numbers the file's cameras.
+    let bundled = dir.join("bundled.png");
+    let (ok, _, err) = run(rsl()
+        .args(["render"])
+        .arg(&model)
+        .args(["--camera", "0", "--size", "48x32", "--device", "cpu", "--out"])
+        .arg(&bundled));
+    assert!(ok && bundled.is_file(), "{err}");
+    let (ok, _, err) = run(rsl().args(["render"]).arg(&model).args(["--camera", "3", "--out"]).arg(&png));
+    assert!(!ok && err.contains("camera 3 was asked for, but the file has 1 perspective camera"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }

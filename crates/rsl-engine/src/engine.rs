@@ -306,19 +306,14 @@ impl Engine {
             EnvironmentSource::Map { written, path } => {
                 // (Negative texels clamped to 0 are reported by the loader, once.)
                 let loaded = rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?;
-                // Keyed by the decoded radiance (the file is read once).
-                let m = &loaded.map;
-                let key = m
-                    .texels()
-                    .iter()
-                    .fold(KeyHasher::default().str("map").u64(m.width() as u64).u64(m.height() as u64), |h, t| {
-                        h.f32s(&t.to_array())
-                    })
-                    .finish();
-                (EnvRadiance::Map(Arc::new(loaded.map)), key)
+                map_radiance(loaded.map)
             }
             EnvironmentSource::Constant(c) => {
                 (EnvRadiance::Constant(*c), KeyHasher::default().str("constant").f32s(&c.to_array()).finish())
+            }
+            EnvironmentSource::Bundled(name) => {
+                let loaded = rsl_env::load_bundled(name).with_context(|| format!("bundled environment map {name}"))?;
+                map_radiance(loaded.map)
             }
         };
         let brightest = match &radiance {
@@ -662,4 +657,17 @@ impl PreparedObject {
             ovdf: r.and_then(|r| r.ovdf.as_ref()).map_or(0, |(_, k)| *k),
         }
     }
+}
+
+/// A map as the environment's radiance, keyed by its decoded texels (a map file and the
+/// bundled copy of the same map share their caches).
+fn map_radiance(m: LatLongMap) -> (EnvRadiance, u64) {
+    let key = m
+        .texels()
+        .iter()
+        .fold(KeyHasher::default().str("map").u64(m.width() as u64).u64(m.height() as u64), |h, t| {
+            h.f32s(&t.to_array())
+        })
+        .finish();
+    (EnvRadiance::Map(Arc::new(m)), key)
 }

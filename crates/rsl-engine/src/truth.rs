@@ -17,6 +17,10 @@ pub fn env_light(scene: &Scene) -> Result<EnvLight> {
             EnvLight::map(Arc::new(loaded.map), env.intensity)
         }
         EnvironmentSource::Constant(c) => EnvLight::Constant(*c * env.intensity),
+        EnvironmentSource::Bundled(name) => {
+            let loaded = rsl_env::load_bundled(name).with_context(|| format!("bundled environment map {name}"))?;
+            EnvLight::map(Arc::new(loaded.map), env.intensity)
+        }
     })
 }
 

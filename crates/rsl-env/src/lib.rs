@@ -18,4 +18,4 @@ pub mod visualise;
 
 pub use cube_env::CubeEnv;
 pub use decompose::{Decomposition, LevelError, Rsl, RslInfo};
-pub use load::{EnvError, LoadedMap, decode_latlong, load_latlong};
+pub use load::{BUNDLED_NAMES, EnvError, LoadedMap, decode_latlong, load_bundled, load_latlong};

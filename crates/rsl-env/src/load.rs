@@ -169,3 +169,23 @@ pub fn from_rgb_f32(path: &Path, width: u32, height: u32, rgb: &[f32]) -> Result
         .map_err(|e| EnvError::Unreadable { path: path.to_path_buf(), message: e.to_string() })?;
     Ok(LoadedMap { map, clamped_negative: clamped, most_negative })
 }
+
+/// The bundled studio map (`data/hdri/studio.exr`, CC0: several area lights), compiled into
+/// the program: the environment of a glTF file opened without `--env`, and of a scene file
+/// whose `environment.bundled` names it.
+pub const BUNDLED_STUDIO: &[u8] = include_bytes!("../../../data/hdri/studio.exr");
+
+/// The names [`load_bundled`] knows.
+pub const BUNDLED_NAMES: &[&str] = &["studio"];
+
+/// A bundled map by name (see [`BUNDLED_NAMES`]).
+pub fn load_bundled(name: &str) -> Result<LoadedMap, EnvError> {
+    let path = Path::new("studio.exr (bundled)");
+    match name {
+        "studio" => decode_latlong(BUNDLED_STUDIO, path),
+        _ => Err(EnvError::Unreadable {
+            path: Path::new(name).to_path_buf(),
+            message: format!("no bundled map is called \"{name}\"; there is {}", BUNDLED_NAMES.join(", ")),
+        }),
+    }
+}

@@ -1,7 +1,7 @@
 //! Bad environment maps: every problem is a clear error naming the file and the problem,
 //! never a panic; negative values are clamped with a count.
 
-use rsl_env::{EnvError, load_latlong};
+use rsl_env::{EnvError, load_bundled, load_latlong};
 use std::path::{Path, PathBuf};
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -32,6 +32,16 @@ fn a_valid_exr_and_hdr_load_exactly() {
     assert_eq!(m.map.texel(0, 0).to_array(), [1.0, 2.0, 4.0]);
     let bundled = load_latlong(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/sky.exr")).unwrap();
     assert_eq!((bundled.map.width(), bundled.map.height()), (512, 256));
+}
+
+#[test]
+fn the_bundled_studio_map_is_the_file_it_was_built_from() {
+    let built_in = load_bundled("studio").unwrap();
+    let file = load_latlong(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr")).unwrap();
+    assert_eq!((built_in.map.width(), built_in.map.height()), (512, 256));
+    assert!(built_in.map.texels() == file.map.texels());
+    let err = load_bundled("sunset").unwrap_err().to_string();
+    assert!(err.contains("no bundled map is called \"sunset\"") && err.contains("studio"), "{err}");
 }
 
 #[test]

@@ -265,6 +265,29 @@ impl ObjectBuilder {
     }
 }
 
+/// A GLB file of the glTF JSON `json` (whose one buffer has no `uri`: the binary chunk) and
+/// the binary chunk `bin` (glTF 2.0, "GLB File Format Specification"): the JSON padded with
+/// spaces and the binary with zeros to multiples of 4 bytes.
+pub fn pack_glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut json = json.as_bytes().to_vec();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let padded = bin.len().next_multiple_of(4);
+    let total = 12 + 8 + json.len() + 8 + padded;
+    let mut glb = Vec::with_capacity(total);
+    for v in [0x4654_6C67u32, 2, total as u32, json.len() as u32, 0x4E4F_534A] {
+        glb.extend_from_slice(&v.to_le_bytes());
+    }
+    glb.extend_from_slice(&json);
+    for v in [padded as u32, 0x004E_4942] {
+        glb.extend_from_slice(&v.to_le_bytes());
+    }
+    glb.extend_from_slice(bin);
+    glb.resize(total, 0);
+    glb
+}
+
 /// Writes a small glTF scene (`sample.gltf` and its `sample.bin`) into `dir` and returns the
 /// `.gltf` path, for tests and examples of opening glTF files as scenes: a tetrahedron mesh
 /// instanced by two nodes named `Tet` (at x = 1, and at x = −1 scaled twice), a mesh of two

@@ -3,8 +3,8 @@
 //! of each node an object with its transform and material, and its cameras
 //! ([`import_scene`], `rsl render model.glb`).
 //!
-//! Buffers may be the GLB binary chunk or files next to the glTF; embedded `data:` URIs are
-//! not supported. Missing normals are computed (area-weighted); vertex normals are
+//! Buffers may be the GLB binary chunk, files next to the glTF, or embedded base64 `data:`
+//! URIs. Missing normals are computed (area-weighted); vertex normals are
 //! renormalised. Non-triangle primitives (points, lines) are skipped and counted.
 
 use glam::{Mat4, Vec3, Vec4};
@@ -49,6 +49,49 @@ fn buffer_path(base: &Path, uri: &str) -> Result<std::path::PathBuf, String> {
         }
     }
     Ok(base.join(rel))
+}
+
+/// The bytes of a `data:` URI (`data:[<media type>];base64,<data>`, as glTF writes
+/// embedded buffers).
+fn data_uri(uri: &str) -> Result<Vec<u8>, String> {
+    let rest = uri.strip_prefix("data:").ok_or("not a data: URI")?;
+    let (header, data) = rest.split_once(',').ok_or("has no ',' before its data")?;
+    if !header.ends_with(";base64") {
+        return Err("is not base64-encoded (glTF embeds buffers as `data:…;base64,…`)".into());
+    }
+    base64_decode(data)
+}
+
+/// Decodes standard base64 (RFC 4648 §4: `A–Z a–z 0–9 + /`, `=` padding; whitespace is not
+/// allowed).
+fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
+    let value = |c: u8| -> Option<u32> {
+        Some(match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' => 62,
+            b'/' => 63,
+            _ => return None,
+        } as u32)
+    };
+    let body = text.trim_end_matches('=');
+    let padding = text.len() - body.len();
+    if padding > 2 || (padding > 0 && !text.len().is_multiple_of(4)) || body.len() % 4 == 1 {
+        return Err("its base64 has a wrong length or padding".into());
+    }
+    let mut out = Vec::with_capacity(body.len() / 4 * 3 + 2);
+    for (n, chunk) in body.as_bytes().chunks(4).enumerate() {
+        let mut bits = 0u32;
+        for (k, &c) in chunk.iter().enumerate() {
+            let v = value(c)
+                .ok_or_else(|| format!("its base64 has a character {:?} at position {}", c as char, 4 * n + k))?;
+            bits |= v << (18 - 6 * k);
+        }
+        let bytes = bits.to_be_bytes();
+        out.extend_from_slice(&bytes[1..chunk.len()]);
+    }
+    Ok(out)
 }
 
 /// Decodes `%XX` escapes of a URI.
@@ -158,7 +201,7 @@ fn load_buffers(gltf: &gltf::Gltf, base: &Path) -> Result<Vec<Vec<u8>>, String> 
                 gltf.blob.clone().ok_or("buffer refers to the GLB binary chunk, but there is none")?
             }
             gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
-                return Err(format!("buffer {}: embedded data URIs are not supported", buffer.index()));
+                data_uri(uri).map_err(|e| format!("buffer {} (a data: URI): {e}", buffer.index()))?
             }
             gltf::buffer::Source::Uri(uri) => {
                 let p =
@@ -482,6 +525,14 @@ impl GltfFile {
                 };
                 out.objects.push(ImportedObject { name, mesh, transform, material, part });
             }
+        }
+        match out.report.skipped_non_triangle {
+            0 => {}
+            n => out.notices.push(format!(
+                "{n} primitive{} of points or lines {} not drawn (rsl draws triangles)",
+                if n == 1 { "" } else { "s" },
+                if n == 1 { "is" } else { "are" }
+            )),
         }
         Ok(out)
     }

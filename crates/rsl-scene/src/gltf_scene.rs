@@ -3,7 +3,7 @@
 //! named from the file, with its node's transform and its material as rsl's `gltf` model;
 //! instances of a mesh share its triangles, so its fields are built once. The camera is the
 //! file's first perspective camera, else one framed on the objects' bounds; the
-//! environment a constant white one until `--env` names a map; the `standard` preset.
+//! environment the bundled studio map until `--env` names another; the `standard` preset.
 
 use crate::gltf_import::{ImportedCamera, import_scene};
 use crate::quality::{Preset, Quality};
@@ -39,6 +39,12 @@ impl Scene {
     /// import leaves out (textures, extensions, transparency…) is said once each as a
     /// warning.
     pub fn from_gltf(path: &Path) -> Result<Scene, SceneError> {
+        Self::from_gltf_camera(path, None)
+    }
+
+    /// [`Scene::from_gltf`] seen through the file's perspective camera number `camera`
+    /// (0 for the first, in node order; `rsl render --camera`), where it is given.
+    pub fn from_gltf_camera(path: &Path, camera: Option<usize>) -> Result<Scene, SceneError> {
         let imported = import_scene(path).map_err(|msg| SceneError::file(path, msg))?;
         for notice in &imported.notices {
             tracing::warn!("{}: {notice}", path.display());
@@ -85,14 +91,27 @@ impl Scene {
                 method: ObjectMethod::default(),
             });
         }
-        let camera = match imported.cameras.first() {
-            Some(c) => file_camera(c, &objects),
-            None => framed_camera(&objects),
+        let camera = match (camera, imported.cameras.as_slice()) {
+            (None, []) => framed_camera(&objects),
+            (None, [first, ..]) => file_camera(first, &objects),
+            (Some(k), cameras) => match cameras.get(k) {
+                Some(c) => file_camera(c, &objects),
+                None => {
+                    return Err(SceneError::file(
+                        path,
+                        format!(
+                            "camera {k} was asked for, but the file has {} perspective camera{} (numbered from 0)",
+                            cameras.len(),
+                            if cameras.len() == 1 { "" } else { "s" }
+                        ),
+                    ));
+                }
+            },
         };
         Ok(Scene {
             path: path.to_path_buf(),
             environment: Environment {
-                source: EnvironmentSource::Constant(Vec3::ONE),
+                source: EnvironmentSource::Bundled("studio".into()),
                 intensity: 1.0,
                 rotation: glam::Quat::IDENTITY,
                 spin: None,

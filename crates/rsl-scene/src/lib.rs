@@ -64,6 +64,9 @@ pub enum EnvironmentSource {
     },
     /// The same radiance in every direction.
     Constant(Vec3),
+    /// A map compiled into the program, by name (`rsl_env::BUNDLED_NAMES`): what a glTF
+    /// file opened without `--env` is lit by.
+    Bundled(String),
 }
 
 /// The environment light.
@@ -373,6 +376,9 @@ impl Scene {
             }
             EnvironmentSource::Constant(c) => {
                 let _ = writeln!(s, "  environment  constant [{}, {}, {}] × {}", c.x, c.y, c.z, env.intensity);
+            }
+            EnvironmentSource::Bundled(name) => {
+                let _ = writeln!(s, "  environment  bundled map {name} × {}", env.intensity);
             }
         }
         let (axis, angle) = env.rotation.to_axis_angle();

@@ -27,6 +27,7 @@ struct RawScene {
 struct RawEnvironment {
     map: Option<String>,
     constant: Option<[f32; 3]>,
+    bundled: Option<String>,
     #[serde(default = "one")]
     intensity: f32,
     rotation: Option<RawRotation>,
@@ -270,10 +271,13 @@ pub(crate) fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
 }
 
 fn environment(cx: &Ctx, e: RawEnvironment) -> Result<Environment, SceneError> {
-    let source = match (e.map, e.constant) {
-        (Some(_), Some(_)) => return Err(cx.err("environment", "give either `map` or `constant`, not both")),
-        (None, None) => return Err(cx.err("environment", "needs `map = \"file.exr\"` or `constant = [r, g, b]`")),
-        (Some(written), None) => {
+    let source = match (e.map, e.constant, e.bundled) {
+        (None, None, None) => {
+            return Err(
+                cx.err("environment", "needs `map = \"file.exr\"`, `constant = [r, g, b]` or `bundled = \"studio\"`")
+            );
+        }
+        (Some(written), None, None) => {
             let lower = written.to_ascii_lowercase();
             if !(lower.ends_with(".exr") || lower.ends_with(".hdr")) {
                 return Err(cx.err(
@@ -284,13 +288,23 @@ fn environment(cx: &Ctx, e: RawEnvironment) -> Result<Environment, SceneError> {
             let path = cx.existing_file("environment.map", &written)?;
             EnvironmentSource::Map { written, path }
         }
-        (None, Some(c)) => {
+        (None, Some(c), None) => {
             let c = cx.vec3("environment.constant", c)?;
             if c.min_element() < 0.0 {
                 return Err(cx.err("environment.constant", format!("radiance must be ≥ 0, got {c:?}")));
             }
             EnvironmentSource::Constant(c)
         }
+        (None, None, Some(name)) => {
+            if !rsl_env::BUNDLED_NAMES.contains(&name.as_str()) {
+                return Err(cx.err(
+                    "environment.bundled",
+                    format!("no bundled map is called \"{name}\"; there is {}", rsl_env::BUNDLED_NAMES.join(", ")),
+                ));
+            }
+            EnvironmentSource::Bundled(name)
+        }
+        _ => return Err(cx.err("environment", "give one of `map`, `constant` and `bundled`, not several")),
     };
     let intensity = cx.finite("environment.intensity", e.intensity)?;
     if intensity < 0.0 {

@@ -112,6 +112,9 @@ impl Scene {
             EnvironmentSource::Constant(c) => {
                 env.insert("constant".into(), vec3(*c));
             }
+            EnvironmentSource::Bundled(name) => {
+                env.insert("bundled".into(), Value::String(name.clone()));
+            }
         }
         env.insert("intensity".into(), num(e.intensity));
         env.insert("rotation".into(), rotation(e.rotation));

@@ -62,6 +62,14 @@ fn what_the_import_leaves_out_is_said_once_each() {
         assert_eq!(said.matches(expected).count(), 1, "{expected:?} in:\n{said}");
     }
     assert_eq!(imported.cameras.len(), 1);
+    // A primitive of points is skipped, and said.
+    let json = std::fs::read_to_string(dir.join("sample.gltf")).unwrap();
+    let points = json.replace(r#"{"attributes": {"POSITION": 3}}"#, r#"{"attributes": {"POSITION": 3}, "mode": 0}"#);
+    assert_ne!(points, json);
+    std::fs::write(dir.join("points.gltf"), points).unwrap();
+    let imported = import_scene(&dir.join("points.gltf")).unwrap();
+    assert_eq!(imported.objects.len(), 3);
+    assert!(imported.notices.iter().any(|n| n == "1 primitive of points or lines is not drawn (rsl draws triangles)"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -85,9 +93,17 @@ fn a_scene_opened_from_gltf_is_saved_and_read_back_the_same() {
 }
 
 #[test]
-fn an_environment_map_replaces_the_constant_one_and_bad_ones_are_named() {
+fn an_environment_map_replaces_the_bundled_one_and_bad_ones_are_named() {
     let dir = temp_dir("env");
     let mut s = Scene::load(write_sample_gltf(&dir).unwrap()).unwrap();
+    assert_eq!(s.environment.source, rsl_scene::EnvironmentSource::Bundled("studio".into()));
+    // Saved, the bundled map is named, and reads back.
+    let file = dir.join("saved.toml");
+    let text = s.to_toml(&file).unwrap();
+    assert!(text.contains("bundled = \"studio\""), "{text}");
+    assert_eq!(Scene::from_toml_str(&text, &file).unwrap().environment.source, s.environment.source);
+    let e = Scene::from_toml_str(&text.replace("\"studio\"", "\"sunset\""), &file).unwrap_err().to_string();
+    assert!(e.contains("environment.bundled") && e.contains("no bundled map is called \"sunset\""), "{e}");
     let e = s.set_environment_map(&dir.join("missing.exr")).unwrap_err().to_string();
     assert!(e.contains("missing.exr") && e.contains("no such environment map"), "{e}");
     let e = s.set_environment_map(&dir.join("sample.bin")).unwrap_err().to_string();
@@ -95,6 +111,71 @@ fn an_environment_map_replaces_the_constant_one_and_bad_ones_are_named() {
     let map = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../data/hdri/studio.exr");
     s.set_environment_map(&map).unwrap();
     assert!(matches!(&s.environment.source, rsl_scene::EnvironmentSource::Map { path, .. } if *path == map));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Standard base64 with padding (RFC 4648 §4), written out here as the decoder's
+/// independent answer.
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn embedded_data_uri_buffers_import_as_the_file_they_hold() {
+    let dir = temp_dir("data-uri");
+    let path = write_sample_gltf(&dir).unwrap();
+    let json = std::fs::read_to_string(&path).unwrap();
+    let bin = std::fs::read(dir.join("sample.bin")).unwrap();
+    // Every padding length: the sample's buffer and the same buffer one and two bytes longer.
+    for extra in 0..3 {
+        let mut longer = bin.clone();
+        longer.extend(std::iter::repeat_n(7u8, extra));
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&longer));
+        let embedded = dir.join(format!("embedded{extra}.gltf"));
+        std::fs::write(&embedded, json.replace("\"sample.bin\"", &format!("\"{uri}\""))).unwrap();
+        let (a, b) = (Scene::load(&path).unwrap(), Scene::load(&embedded).unwrap());
+        assert_eq!(a.objects.len(), b.objects.len());
+        for (a, b) in a.objects.iter().zip(&b.objects) {
+            assert_eq!((&a.mesh.positions, &a.mesh.indices), (&b.mesh.positions, &b.mesh.indices), "{}", a.name);
+        }
+    }
+    for (uri, problem) in [
+        ("data:application/octet-stream;base64,AAA*", "a character '*' at position 3"),
+        ("data:application/octet-stream;base64,AAAAA", "wrong length or padding"),
+        ("data:application/octet-stream,plain", "not base64-encoded"),
+    ] {
+        let bad = dir.join("bad.gltf");
+        std::fs::write(&bad, json.replace("\"sample.bin\"", &format!("\"{uri}\""))).unwrap();
+        let e = Scene::load(&bad).unwrap_err().to_string();
+        assert!(e.contains("bad.gltf") && e.contains("buffer 0 (a data: URI)") && e.contains(problem), "{e}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_camera_is_chosen_by_number_and_a_missing_one_is_named() {
+    let dir = temp_dir("camera");
+    let path = write_sample_gltf(&dir).unwrap();
+    let first = Scene::from_gltf_camera(&path, Some(0)).unwrap();
+    assert_eq!(first.camera, Scene::load(&path).unwrap().camera);
+    let e = Scene::from_gltf_camera(&path, Some(1)).unwrap_err().to_string();
+    assert!(
+        e.contains("sample.gltf") && e.contains("camera 1 was asked for") && e.contains("1 perspective camera"),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -114,21 +195,8 @@ fn a_gltf_part_out_of_range_is_a_located_error() {
 fn write_the_sample_as_glb_for_the_fuzz_corpus() {
     let dir = temp_dir("glb");
     let path = write_sample_gltf(&dir).unwrap();
-    let mut json = std::fs::read_to_string(&path).unwrap().replace(r#""uri": "sample.bin", "#, "");
-    let bin = std::fs::read(dir.join("sample.bin")).unwrap();
-    while !json.len().is_multiple_of(4) {
-        json.push(' ');
-    }
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut glb = Vec::new();
-    for v in [0x4654_6C67u32, 2, total as u32, json.len() as u32, 0x4E4F_534A] {
-        glb.extend_from_slice(&v.to_le_bytes());
-    }
-    glb.extend_from_slice(json.as_bytes());
-    for v in [bin.len() as u32, 0x004E_4942] {
-        glb.extend_from_slice(&v.to_le_bytes());
-    }
-    glb.extend_from_slice(&bin);
+    let json = std::fs::read_to_string(&path).unwrap().replace(r#""uri": "sample.bin", "#, "");
+    let glb = rsl_scene::build::pack_glb(&json, &std::fs::read(dir.join("sample.bin")).unwrap());
     let imported = rsl_scene::gltf_import::import_scene_bytes(&glb, &dir).unwrap();
     assert_eq!(imported.objects.len(), 4);
     let out = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
