@@ -48,8 +48,14 @@ pub const FIRST_ROUND: u32 = 4;
 /// (`auto`, `aa = 16`) 4 sends 681 of 18,346 edge pixels to the second round, 1 sends
 /// 2,774, each of every edge pixel (taking all 16 at once) 18,346; against the truth
 /// (1,024 samples per pixel, box-filtered) they came to 2.51 %, 2.47 % and 2.48 % per covered
-/// pixel, and 2.58 % with the first round alone.
-pub const SPREAD: f32 = 4.0;
+/// pixel, and 2.58 % with the first round alone. A rough glTF gold sphere's rim, where
+/// Fresnel brightens steeply within a pixel, needs the lower span: on
+/// `data/scenes/accuracy/gltf_spheres.toml` at 200×150 against the truth at 8,192 samples per
+/// pixel, its error per covered pixel is 4.13 % at 4, 3.89 % at 2 and 2.46 % at 1 (1.35 %
+/// in the rim's ring of pixels with 4×4 samples everywhere, 8.74 % at 4); the red dielectric
+/// 3.83 %, 3.79 %, 3.59 %. The cost: the default scene's frame on the CPU (`cargo bench
+/// --bench image_frame`, `auto_aa16`) 505 ms at 4, 588 ms at 1.
+pub const SPREAD: f32 = 1.0;
 
 /// Whether `aa` is a valid number of samples per pixel: a square in `1..=`[`MAX_SAMPLES`]
 /// (1: the centre alone, no antialiasing).
