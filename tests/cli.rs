@@ -719,5 +719,14 @@ fn a_gltf_file_renders_as_a_scene_with_its_camera_and_an_environment_map() {
     assert!(ok && bundled.is_file(), "{err}");
     let (ok, _, err) = run(rsl().args(["render"]).arg(&model).args(["--camera", "3", "--out"]).arg(&png));
     assert!(!ok && err.contains("camera 3 was asked for, but the file has 1 perspective camera"), "{err}");
+    // A bundled model as a user opens it: no scene file, no map, linear radiance out.
+    let exr = dir.join("bunny.exr");
+    let (ok, _, err) =
+        run(rsl().args(["render", "data/models/bunny.glb", "--size", "40x30", "--device", "cpu", "--out"]).arg(&exr));
+    assert!(ok, "{err}");
+    let image = image::open(&exr).expect("an EXR").into_rgb32f();
+    assert_eq!(image.dimensions(), (40, 30));
+    // The framed camera sees the bunny in the middle, lit (not the background's black).
+    assert!(image.get_pixel(20, 15).0.iter().all(|&c| c > 0.0 && c.is_finite()), "{:?}", image.get_pixel(20, 15));
     std::fs::remove_dir_all(&dir).unwrap();
 }
