@@ -397,6 +397,17 @@ impl Composite {
         {
             return Ok(*e);
         }
+        // Measured by an earlier run (the disk cache): the same objects, fields, materials,
+        // environment, quality, camera and time give the same figures (the truth's samples
+        // are seeded).
+        let disk = disk_key(engine, scene, t, i);
+        let file = engine.cache_dir().map(|d| d.join(format!("auto-{disk:016x}.bin")));
+        if let Some(e) =
+            file.as_deref().and_then(|f| std::fs::read(f).ok()).and_then(|b| estimate_from_bytes(&b, disk).ok())
+        {
+            self.estimates.insert(i, (key, e));
+            return Ok(e);
+        }
         let at = match scene_at.take() {
             Some(m) => m,
             None => {
@@ -414,6 +425,11 @@ impl Composite {
         let estimate = self.measure(engine, scene, &at, i);
         *scene_at = Some(at);
         let estimate = estimate?;
+        if let Some(f) = &file
+            && let Err(e) = crate::cache::write(f, &estimate_to_bytes(estimate, disk))
+        {
+            tracing::warn!("auto's choice of object {i} is not cached: {e:#}");
+        }
         self.estimates.insert(i, (key, estimate));
         Ok(estimate)
     }
@@ -551,6 +567,73 @@ pub struct AutoEstimate {
     pub time: f32,
 }
 
+/// Magic number of a cached [`AutoEstimate`].
+const AUTO_MAGIC: [u8; 8] = *b"RSLAUTO1";
+/// Version of its format.
+const AUTO_VERSION: u32 = 1;
+
+/// The disk cache's key of object `i`'s estimate: what [`Composite::auto_estimate`] keeps it
+/// by in memory, and what it measured from besides — the camera, the time, the quality
+/// settings — in a key stable across runs.
+fn disk_key(engine: &Engine, scene: &Scene, t: f32, i: usize) -> u64 {
+    let c = &scene.camera;
+    let mut h = rsl_sphere::key::KeyHasher::default()
+        .str("auto")
+        .str(env!("CARGO_PKG_VERSION"))
+        .u64(engine.environment_key())
+        .f32s(&[engine.intensity(), t])
+        .u64(engine.rsls().len() as u64)
+        .u64(AUTO_SPP as u64)
+        .u64(AUTO_PIXELS as u64)
+        .str(&format!("{:?}", engine.settings()))
+        .f32s(&[c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_y])
+        .u64(u64::from(c.width) << 32 | u64::from(c.height));
+    let k = engine.keys(i);
+    h = h.u64(i as u64).u64(engine.brdf(i).key()).u64(k.mesh).u64(k.frames).u64(k.table).u64(k.svdf).u64(k.ovdf);
+    let state = scene.at(t);
+    for j in 0..engine.object_count() {
+        let tr = state.objects[j];
+        h = h.u64(engine.keys(j).mesh).u64(engine.keys(j).ovdf).u64(u64::from(scene.objects[j].casts_shadows));
+        h = h.f32s(&tr.translation.to_array()).f32s(&tr.rotation.to_array()).f32s(&tr.scale.to_array());
+    }
+    h.finish()
+}
+
+/// A measured estimate (or none: no pixel sees the object) as a cache file's bytes.
+fn estimate_to_bytes(e: Option<AutoEstimate>, key: u64) -> Vec<u8> {
+    let mut p = Vec::with_capacity(40);
+    match e {
+        None => p.push(0u8),
+        Some(e) => {
+            p.push(1);
+            for v in [e.rsl, e.lobes, e.noise] {
+                p.extend_from_slice(&v.to_le_bytes());
+            }
+            p.extend_from_slice(&(e.pixels as u64).to_le_bytes());
+            p.push(u8::from(e.lobes_better));
+            p.extend_from_slice(&e.time.to_le_bytes());
+        }
+    }
+    rsl_sphere::framed::frame(&AUTO_MAGIC, AUTO_VERSION, key, &p)
+}
+
+/// Reads [`estimate_to_bytes`]'s bytes, verifying everything.
+fn estimate_from_bytes(b: &[u8], key: u64) -> Result<Option<AutoEstimate>, String> {
+    let p = rsl_sphere::framed::unframe(&AUTO_MAGIC, AUTO_VERSION, key, b).map_err(|e| e.to_string())?;
+    match p {
+        [0] => Ok(None),
+        [1, rest @ ..] if rest.len() == 3 * 8 + 8 + 1 + 4 => {
+            let f = |k: usize| f64::from_le_bytes(rest[8 * k..8 * k + 8].try_into().expect("8 bytes"));
+            let pixels = u64::from_le_bytes(rest[24..32].try_into().expect("8 bytes")) as usize;
+            let time = f32::from_le_bytes(rest[33..37].try_into().expect("4 bytes"));
+            let e = AutoEstimate { rsl: f(0), lobes: f(1), noise: f(2), pixels, lobes_better: rest[32] == 1, time };
+            let finite = [e.rsl, e.lobes, e.noise].iter().all(|v| v.is_finite()) && time.is_finite();
+            if finite && rest[32] <= 1 { Ok(Some(e)) } else { Err("malformed values".into()) }
+        }
+        _ => Err(format!("a cached choice of {} bytes is malformed", p.len())),
+    }
+}
+
 impl AutoEstimate {
     /// The figures of `(RSL sum, lobes, truth)` at the pixels measured at time `t`.
     fn of(values: &[(Vec3, Vec3, rsl_truth::Estimate)], t: f32) -> Self {
@@ -665,4 +748,27 @@ pub fn typical_square(rsls: &[rsl_env::Rsl]) -> f32 {
         energy += e;
     }
     if energy > 0.0 { (sum / energy) as f32 } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cached_choice_reads_back_and_a_damaged_or_foreign_one_is_refused() {
+        let e = AutoEstimate { rsl: 0.0123, lobes: 0.25, noise: 0.04, pixels: 256, lobes_better: true, time: 1.5 };
+        for estimate in [Some(e), None] {
+            let b = estimate_to_bytes(estimate, 7);
+            assert_eq!(estimate_from_bytes(&b, 7).unwrap(), estimate);
+            // Another key (another scene, camera, quality…): refused, measured again.
+            assert!(estimate_from_bytes(&b, 8).is_err());
+            // Any flipped byte or a truncated file is caught.
+            for k in 0..b.len() {
+                let mut d = b.clone();
+                d[k] ^= 0x10;
+                assert!(estimate_from_bytes(&d, 7).is_err(), "byte {k} flipped went unnoticed");
+            }
+            assert!(estimate_from_bytes(&b[..b.len() - 1], 7).is_err());
+        }
+    }
 }

@@ -247,7 +247,12 @@ impl Engine {
         &self.timings
     }
 
-    /// The quality settings in use.
+    /// The disk cache's folder (`None`: no disk cache).
+    pub fn cache_dir(&self) -> Option<&std::path::Path> {
+        self.options.cache_dir.as_deref()
+    }
+
+    /// The quality preset and settings the engine prepares with.
     pub fn settings(&self) -> (Preset, QualitySettings) {
         (self.preset, self.settings)
     }
