@@ -166,7 +166,10 @@ mod tests {
 
     #[test]
     fn a_pixel_is_sampled_again_where_its_span_outweighs_the_image() {
-        assert!(!sample_again(0.0, 3.9, 1.0) && sample_again(0.0, 4.1, 1.0) && sample_again(100.0, 104.5, 1.0));
+        // A span of SPREAD × the mean is the threshold, wherever the values sit.
+        let (below, above) = (0.97 * SPREAD, 1.03 * SPREAD);
+        assert!(!sample_again(0.0, below, 1.0) && sample_again(0.0, above, 1.0));
+        assert!(!sample_again(100.0, 100.0 + 2.0 * below, 2.0) && sample_again(100.0, 100.0 + 2.0 * above, 2.0));
         let image = [Vec3::ONE, Vec3::ZERO, Vec3::splat(f32::INFINITY), Vec3::splat(-1.0)];
         assert!((mean_luminance(&image) - 1.0 / 3.0).abs() < 1e-6, "infinite pixels left out, negative ones as 0");
     }
