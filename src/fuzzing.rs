@@ -34,14 +34,25 @@ pub fn scene_toml(data: &[u8]) {
 }
 
 /// A glTF or GLB file's bytes, imported into a mesh and validated, and as a scene (its
-/// nodes, materials and cameras).
+/// nodes, materials, cameras and textures: each texture decoded, checked against its mesh,
+/// sampled and averaged about the vertices as a frame draws it).
 pub fn gltf_import(data: &[u8]) {
     if let Ok((mesh, _)) = rsl_scene::gltf_import::import_bytes(data, Path::new(NOWHERE)) {
         let _ = mesh.validate();
     }
     if let Ok(scene) = rsl_scene::gltf_import::import_scene_bytes(data, Path::new(NOWHERE)) {
         for o in &scene.objects {
-            let _ = o.mesh.validate();
+            if o.mesh.validate().is_err() {
+                continue;
+            }
+            if let Some(t) = &o.texture
+                && t.check(&o.mesh).is_ok()
+            {
+                let _ = t.vertex_means(&o.mesh);
+                for uv in [glam::Vec2::ZERO, glam::Vec2::new(-1e30, 7.5), glam::Vec2::new(f32::NAN, 0.5)] {
+                    let _ = t.texture.sample(uv);
+                }
+            }
         }
     }
 }

@@ -48,15 +48,7 @@ impl PrepareArgs {
 /// through its perspective camera `camera` where one is asked for), lit by the map `env`
 /// where one is given.
 pub(crate) fn open_scene(path: &Path, env: Option<&Path>, camera: Option<usize>) -> Result<Scene> {
-    let gltf = matches!(
-        path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
-        Some("glb" | "gltf")
-    );
-    let mut scene = match camera {
-        Some(_) if !gltf => bail!("--camera chooses a glTF file's camera; {} is a scene file", path.display()),
-        Some(k) => Scene::from_gltf_camera(path, Some(k))?,
-        None => Scene::load(path)?,
-    };
+    let mut scene = Scene::load_with_camera(path, camera)?;
     if let Some(env) = env {
         scene.set_environment_map(env)?;
     }
@@ -476,7 +468,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
     for (k, t) in times {
         let start = Instant::now();
         let request = Request { time: t, image: args.out.is_some(), vertices: args.vertex_out.is_some(), exposure };
-        let mut frame = session.render(&engine, &scene, id, &request)?.frame;
+        // Base-colour textures mix a frame drawn with them black into it (rsl_engine::textured).
+        let mut frame = rsl_engine::textured::render(&mut session, &mut engine, &scene, id, &request)?.frame;
         for s in &frame.timings.stages {
             spent.add(s.name, s.wall_ms, s.gpu_ms);
         }

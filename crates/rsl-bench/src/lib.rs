@@ -273,10 +273,12 @@ fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) 
                     others.push((b, tr));
                 }
                 let against = others.iter().find(|o| o.0 == b).map_or(&truth, |o| &o.1);
-                let engine = config_engine(&scene, options, config)?;
+                let mut engine = config_engine(&scene, options, config)?;
                 let method = methods.get(config, &engine, options)?;
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
-                let image = method.render(&engine, &scene, &request)?.image.context("an image was asked for")?;
+                let image = rsl_engine::textured::render_with(method, &mut engine, &scene, &request)?
+                    .image
+                    .context("an image was asked for")?;
                 let err = grid::pixel_error(&image, against, &names)?;
                 if let Some(r) =
                     summary.rows.iter_mut().find(|r| r.scene == name && r.config == config.id() && r.time == t)
@@ -646,7 +648,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             let truth = &truths.iter().find(|k| k.0 == t && k.1 == b).expect("a truth per time and bounces").2;
             scene.quality = config.quality(base)?;
             let start = Instant::now();
-            let engine = config_engine(&scene, options, config).with_context(|| format!("{name}: {}", config.id()))?;
+            let mut engine =
+                config_engine(&scene, options, config).with_context(|| format!("{name}: {}", config.id()))?;
             let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
             let method = methods.get(config, &engine, options).with_context(|| format!("{name}: {}", config.id()))?;
             let request = Request { time: t, image: false, vertices: true, exposure: None };
@@ -654,7 +657,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             let mut frame = None;
             let mut prepare_ms = prepare_ms;
             for k in 0..options.frames {
-                let f = method.render(&engine, &scene, &request)?;
+                let f = rsl_engine::textured::render_with(method, &mut engine, &scene, &request)?;
                 // The vertices' shading, with the interreflections gathered at them.
                 times.push(f.timings.ms("shade") + f.timings.ms("interreflections"));
                 if k == 0 {
@@ -709,7 +712,8 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             method.progress = options.progress.clone();
             let request = Request { time: t, image: false, vertices: true, exposure: None };
             let start = Instant::now();
-            let frame = method.render(engine, &scene, &request).with_context(|| what.clone())?;
+            let frame = rsl_engine::textured::render_with(&mut method, engine, &scene, &request)
+                .with_context(|| what.clone())?;
             let ms = start.elapsed().as_secs_f64() * 1e3;
             let relative_l2 = rsl_truth::compare(&frame.radiance.concat(), &truth.mean.concat(), None)?.relative_l2;
             let objects = object_errors(&scene, &frame.radiance, truth)?.into_iter().map(|(n, e, _)| (n, e)).collect();

@@ -80,15 +80,20 @@ pub enum Brdf {
         /// Lambertian albedo.
         diffuse: Vec3,
     },
-    /// glTF 2.0's metallic-roughness material as the specification's appendix B writes it:
-    /// the GGX distribution with `α = roughness²`, separable Smith-GGX masking, Schlick's
-    /// Fresnel at the half vector with `F0 = mix(0.04, base colour, metallic)`, and a
-    /// diffuse term weighted by what the Fresnel term leaves, with
-    /// `c_diff = base colour·(1 − metallic)`:
-    /// `ρ = F·D·G1(wi)·G1(wo)/(4 cos θi cos θo) + (1 − F)·c_diff/π`,
-    /// `F = F0 + (1 − F0)(1 − wo·h)⁵`. Fresnel makes the diffuse term depend on the view
-    /// too, so the model has no view-independent Lambertian term: [`Brdf::diffuse`] is zero
-    /// and tables hold the whole BRDF per view.
+    /// glTF 2.0's metallic-roughness material as the specification's appendix B writes it,
+    /// `mix(dielectric, metal, metallic)`: the GGX distribution with `α = roughness²`,
+    /// separable Smith-GGX masking, Schlick's Fresnel at the half vector, the metal's with
+    /// `F0 = base colour` and the dielectric's with `F0 = 0.04`, whose diffuse term keeps
+    /// what its Fresnel term leaves. With `c_diff = base colour·(1 − metallic)`:
+    /// `ρ = F·D·G1(wi)·G1(wo)/(4 cos θi cos θo) + (1 − F_d)·c_diff/π`, with
+    /// `F = F0 + (1 − F0)(1 − wo·h)⁵`, `F0 = mix(0.04, base colour, metallic)` and `F_d`
+    /// the same with `F0 = 0.04`. (The specification's sample implementation weights the
+    /// diffuse term by `1 − F` instead; the two agree where `metallic` is 0 or 1.) `ρ` is
+    /// affine in the base colour, channel by channel, at any metalness: a frame drawn with
+    /// base colours 0 and 1 gives every base colour exactly, which is how textures are
+    /// drawn. Fresnel makes the diffuse term depend on the view too, so the model has no
+    /// view-independent Lambertian term: [`Brdf::diffuse`] is zero and tables hold the
+    /// whole BRDF per view.
     Gltf {
         /// Base colour (linear RGB).
         base_color: Vec3,
@@ -229,7 +234,11 @@ impl Brdf {
             Brdf::Ward { alpha_x, alpha_y, specular, diffuse } => {
                 h.f32s(&[*alpha_x, *alpha_y]).f32s(&v(specular)).f32s(&v(diffuse))
             }
-            Brdf::Gltf { base_color, metallic, roughness } => h.f32s(&v(base_color)).f32s(&[*metallic, *roughness]),
+            // "mix": the diffuse term weighted by the dielectric's Fresnel term (tables cached
+            // before it weighted it by the mixed one).
+            Brdf::Gltf { base_color, metallic, roughness } => {
+                h.str("mix").f32s(&v(base_color)).f32s(&[*metallic, *roughness])
+            }
         }
         .finish()
     }
@@ -291,14 +300,14 @@ impl Brdf {
     /// treat its diffuse term apart (the lobe path): [`Brdf::specular_part`] and
     /// [`Brdf::diffuse`], but for a glTF material, whose view-dependent diffuse term is not
     /// Lambertian: its specular term alone (`F·D·G1·G1/(4 cos θi cos θo)`, the same `F0`
-    /// and roughness) and the albedo `c_diff·(1 − F0)` — the diffuse term with the Fresnel
-    /// weight it has head on, exact there and too bright toward grazing half vectors, where
-    /// `(1 − F)` falls.
+    /// and roughness) and the albedo `c_diff·(1 − 0.04)` — the diffuse term with the
+    /// Fresnel weight it has head on, exact there and too bright toward grazing half
+    /// vectors, where `(1 − F_d)` falls.
     pub fn lambert_split(&self) -> (Brdf, Vec3) {
         match *self {
             Brdf::Gltf { base_color, metallic, roughness } => {
                 let (f0, c_diff, _) = gltf_terms(base_color, metallic, roughness);
-                (Brdf::Gltf { base_color: f0, metallic: 1.0, roughness }, c_diff * (Vec3::ONE - f0))
+                (Brdf::Gltf { base_color: f0, metallic: 1.0, roughness }, c_diff * (1.0 - GLTF_DIELECTRIC_F0))
             }
             _ => (self.specular_part(), self.diffuse()),
         }
@@ -384,9 +393,12 @@ impl Brdf {
                 // Both directions are above the horizon, so h = wi + wo is not zero.
                 let h = wi + wo;
                 let oh = (wo.dot(h) / h.length()).clamp(0.0, 1.0);
-                let f = f0 + (Vec3::ONE - f0) * (1.0 - oh).powi(5);
+                let s = (1.0 - oh).powi(5);
+                let f = f0 + (Vec3::ONE - f0) * s;
+                // The diffuse term is the dielectric's: weighted by its own Fresnel term.
+                let f_dielectric = GLTF_DIELECTRIC_F0 + (1.0 - GLTF_DIELECTRIC_F0) * s;
                 let v = ggx_d(h, alpha) * ggx_g1(wi, h, alpha) * ggx_g1(wo, h, alpha) / (4.0 * ci * co);
-                f * v + (Vec3::ONE - f) * c_diff * FRAC_1_PI
+                f * v + c_diff * ((1.0 - f_dielectric) * FRAC_1_PI)
             }
         }
     }

@@ -10,7 +10,7 @@
 //! there, and the pdf still accounts for it. Half vectors facing away from `wo` give no
 //! sample (`None`), so the density integrates to one minus the probability of `None`.
 
-use crate::model::{Brdf, beckmann_d, ggx_d, gltf_terms};
+use crate::model::{Brdf, GLTF_DIELECTRIC_F0, beckmann_d, ggx_d, gltf_terms};
 use glam::{Vec2, Vec3};
 use rsl_sphere::Frame;
 use rsl_sphere::sampling::{cosine_hemisphere, luminance};
@@ -59,7 +59,8 @@ impl Brdf {
                 // F0 + (1 − F0)·∫(1 − μ)⁵ 2μ dμ = F0 + (1 − F0)/21.
                 let (f0, c_diff, _) = gltf_terms(base_color, metallic, roughness);
                 let f = f0 + (Vec3::ONE - f0) / 21.0;
-                (luminance(c_diff * (Vec3::ONE - f)), luminance(f))
+                let f_dielectric = GLTF_DIELECTRIC_F0 + (1.0 - GLTF_DIELECTRIC_F0) / 21.0;
+                (luminance(c_diff * (1.0 - f_dielectric)), luminance(f))
             }
         };
         if kd + ks > 0.0 { kd / (kd + ks) } else { 1.0 }

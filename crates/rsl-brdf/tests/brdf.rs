@@ -358,8 +358,9 @@ fn parameters_out_of_range_are_clear_errors() {
 /// glTF 2.0's metallic-roughness BRDF written as its specification's appendix B writes it,
 /// in f64: `D = α²/(π((n·h)²(α² − 1) + 1)²)`, the separable Smith-GGX visibility
 /// `V = G1(l)·G1(v)/(4|n·l||n·v|)` with `G1(x) = 2(n·x)/((n·x) + √(α² + (1 − α²)(n·x)²))`,
-/// `F = F0 + (1 − F0)(1 − |v·h|)⁵`, `F0 = mix(0.04, base, metallic)`,
-/// `c_diff = mix(base, black, metallic)`, `f = F·D·V + (1 − F)·c_diff/π`.
+/// `metal = D·V·(base + (1 − base)(1 − |v·h|)⁵)`,
+/// `dielectric = mix(base/π, D·V, 0.04 + 0.96(1 − |v·h|)⁵)`,
+/// `f = mix(dielectric, metal, metallic)`.
 fn gltf_spec(base: DVec3, metallic: f64, roughness: f64, l: DVec3, v: DVec3) -> DVec3 {
     let a2 = (roughness * roughness).powi(2);
     let h = (l + v).normalize();
@@ -367,10 +368,10 @@ fn gltf_spec(base: DVec3, metallic: f64, roughness: f64, l: DVec3, v: DVec3) -> 
     let d = a2 / (std::f64::consts::PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2));
     let g1 = |x: f64| 2.0 * x / (x + (a2 + (1.0 - a2) * x * x).sqrt());
     let vis = g1(l.z) * g1(v.z) / (4.0 * l.z * v.z);
-    let f0 = DVec3::splat(0.04).lerp(base, metallic);
-    let f = f0 + (DVec3::ONE - f0) * (1.0 - v.dot(h).abs()).powi(5);
-    let c_diff = base.lerp(DVec3::ZERO, metallic);
-    f * d * vis + (DVec3::ONE - f) * c_diff / std::f64::consts::PI
+    let s = (1.0 - v.dot(h).abs()).powi(5);
+    let metal = (base + (DVec3::ONE - base) * s) * d * vis;
+    let dielectric = (base / std::f64::consts::PI).lerp(DVec3::splat(d * vis), 0.04 + 0.96 * s);
+    dielectric.lerp(metal, metallic)
 }
 
 #[test]
@@ -397,6 +398,37 @@ fn gltf_matches_the_specifications_formulas() {
                     for c in 0..3 {
                         assert_close(&format!("{brdf} at {wi} {wo}"), got[c], want[c], 1e-4, 1e-5);
                     }
+                }
+            }
+        }
+    }
+}
+
+/// The glTF BRDF is affine in the base colour, channel by channel, at any metalness: what
+/// drawing a texture as a mix of frames drawn with base colours 0 and 1 rests on.
+#[test]
+fn gltf_is_affine_in_the_base_colour() {
+    let mut rng = Pcg32::new(31);
+    for metallic in [0.0f32, 0.25, 0.7, 1.0] {
+        for roughness in [0.05f32, 0.5] {
+            let at = |b: Vec3| Brdf::Gltf { base_color: b, metallic, roughness };
+            for _ in 0..500 {
+                let (wi, wo) = (uniform_hemisphere(rng.next_2d()), uniform_hemisphere(rng.next_2d()));
+                if wi.z < 1e-3 || wo.z < 1e-3 {
+                    continue;
+                }
+                let b = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+                let (zero, one) = (at(grey(0.0)).eval(wi, wo), at(grey(1.0)).eval(wi, wo));
+                let mixed = zero + b * (one - zero);
+                let got = at(b).eval(wi, wo);
+                for c in 0..3 {
+                    assert_close(
+                        &format!("metallic {metallic} at {wi} {wo}"),
+                        f64::from(got[c]),
+                        f64::from(mixed[c]),
+                        1e-4,
+                        1e-6,
+                    );
                 }
             }
         }

@@ -435,8 +435,15 @@ pub(crate) fn shade_for_pixels(engine: &Engine, setup: &FrameSetup<'_>, which: &
 /// Per pixel of `scene`'s camera at time `t`, the object its centre sees (by index), as the
 /// drawings per pixel rasterise it: the split of an image's pixels by object.
 pub fn object_pixels(scene: &Scene, t: f32) -> Vec<Option<usize>> {
-    let state = scene.at(t);
-    let positions: Vec<Vec<Vec3>> = scene
+    let positions = world_positions(scene, &scene.at(t));
+    let geometry: Vec<(&[Vec3], &[u32])> =
+        scene.objects.iter().zip(&positions).map(|(o, p)| (p.as_slice(), o.mesh.indices.as_slice())).collect();
+    rsl_shade::fragments(&scene.camera, &geometry).iter().map(|f| f.map(|f| f.mesh as usize)).collect()
+}
+
+/// Per object of `scene` at `state`, its vertices' world positions.
+pub fn world_positions(scene: &Scene, state: &SceneState) -> Vec<Vec<Vec3>> {
+    scene
         .objects
         .iter()
         .zip(&state.objects)
@@ -444,8 +451,5 @@ pub fn object_pixels(scene: &Scene, t: f32) -> Vec<Option<usize>> {
             let m = tr.matrix();
             o.mesh.positions.iter().map(|&p| m.transform_point3(p)).collect()
         })
-        .collect();
-    let geometry: Vec<(&[Vec3], &[u32])> =
-        scene.objects.iter().zip(&positions).map(|(o, p)| (p.as_slice(), o.mesh.indices.as_slice())).collect();
-    rsl_shade::fragments(&scene.camera, &geometry).iter().map(|f| f.map(|f| f.mesh as usize)).collect()
+        .collect()
 }

@@ -307,19 +307,12 @@ impl Engine {
         let start = Instant::now();
         let env = &scene.environment;
         let grid = self.settings.env_grid as usize;
-        let (radiance, key) = match &env.source {
-            EnvironmentSource::Map { written, path } => {
-                // (Negative texels clamped to 0 are reported by the loader, once.)
-                let loaded = rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?;
-                map_radiance(loaded.map)
-            }
-            EnvironmentSource::Constant(c) => {
+        let (radiance, key) = match (load_map(&env.source)?, &env.source) {
+            (Some(map), _) => map_radiance(map),
+            (None, EnvironmentSource::Constant(c)) => {
                 (EnvRadiance::Constant(*c), KeyHasher::default().str("constant").f32s(&c.to_array()).finish())
             }
-            EnvironmentSource::Bundled(name) => {
-                let loaded = rsl_env::load_bundled(name).with_context(|| format!("bundled environment map {name}"))?;
-                map_radiance(loaded.map)
-            }
+            (None, _) => unreachable!("every source but a constant is a map"),
         };
         let brightest = match &radiance {
             EnvRadiance::Map(m) => m.texels().iter().map(|t| t.max_element()).fold(0.0, f32::max),
@@ -666,6 +659,20 @@ impl PreparedObject {
 
 /// A map as the environment's radiance, keyed by its decoded texels (a map file and the
 /// bundled copy of the same map share their caches).
+/// The lat-long map `source` names (a file or a bundled map), read; `None` for a constant.
+/// (Negative texels clamped to 0 are reported by the loader, once.)
+pub(crate) fn load_map(source: &EnvironmentSource) -> Result<Option<LatLongMap>> {
+    Ok(match source {
+        EnvironmentSource::Map { written, path } => {
+            Some(rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?.map)
+        }
+        EnvironmentSource::Constant(_) => None,
+        EnvironmentSource::Bundled(name) => {
+            Some(rsl_env::load_bundled(name).with_context(|| format!("bundled environment map {name}"))?.map)
+        }
+    })
+}
+
 fn map_radiance(m: LatLongMap) -> (EnvRadiance, u64) {
     let key = m
         .texels()

@@ -30,6 +30,7 @@ pub mod progress;
 pub mod registry;
 pub mod session;
 pub mod store;
+pub mod textured;
 pub mod truth;
 pub mod wavelet;
 

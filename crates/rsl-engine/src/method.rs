@@ -210,6 +210,13 @@ pub trait Method {
         let what = self.describe();
         Ok(scene.objects.iter().map(|o| format!("{}: {what}", o.name)).collect())
     }
+
+    /// Whether it evaluates the objects' base-colour textures itself (the truth, at each
+    /// sample); the others draw their materials' factors, and [`crate::textured`] mixes two
+    /// of their frames into the textured one.
+    fn draws_textures(&self) -> bool {
+        false
+    }
 }
 
 /// What changed since a method's last frame in a [`crate::Session`]
@@ -610,6 +617,8 @@ impl Truth {
                 brdf: *engine.brdf(i),
                 transform: state.objects[i],
                 casts_shadows: scene.objects[i].casts_shadows,
+                texture: scene.objects[i].texture.as_ref(),
+                metallic_roughness: scene.objects[i].metallic_roughness.as_ref(),
             })
             .collect();
         Ok(TruthScene::new(&objects, env, state.world_from_env)?.with_bounces(scene.quality.settings.bounces))
@@ -637,6 +646,10 @@ pub fn relative_std_error<'a>(est: impl Iterator<Item = &'a Estimate>) -> f64 {
 impl Method for Truth {
     fn describe(&self) -> String {
         format!("Monte Carlo truth ({} spp, seed {})", self.spp, self.seed)
+    }
+
+    fn draws_textures(&self) -> bool {
+        true
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {

@@ -2,7 +2,7 @@
 //! same vertices, shading frames and views as the RSL path (for tests and scripts; the
 //! [`crate::method::Truth`] method shares the engine's prepared data instead).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use rsl_scene::{EnvironmentSource, Scene};
 use rsl_shade::VertexFrames;
 use rsl_truth::{EnvLight, TruthObject, TruthScene};
@@ -11,16 +11,10 @@ use std::sync::Arc;
 /// Loads the scene's environment as a light.
 pub fn env_light(scene: &Scene) -> Result<EnvLight> {
     let env = &scene.environment;
-    Ok(match &env.source {
-        EnvironmentSource::Map { written, path } => {
-            let loaded = rsl_env::load_latlong(path).with_context(|| format!("environment map {written}"))?;
-            EnvLight::map(Arc::new(loaded.map), env.intensity)
-        }
-        EnvironmentSource::Constant(c) => EnvLight::Constant(*c * env.intensity),
-        EnvironmentSource::Bundled(name) => {
-            let loaded = rsl_env::load_bundled(name).with_context(|| format!("bundled environment map {name}"))?;
-            EnvLight::map(Arc::new(loaded.map), env.intensity)
-        }
+    Ok(match (crate::engine::load_map(&env.source)?, &env.source) {
+        (Some(map), _) => EnvLight::map(Arc::new(map), env.intensity),
+        (None, EnvironmentSource::Constant(c)) => EnvLight::Constant(*c * env.intensity),
+        (None, _) => unreachable!("every source but a constant is a map"),
     })
 }
 
@@ -43,6 +37,8 @@ pub fn truth_scene(scene: &Scene, frames: &[VertexFrames], env: EnvLight, t: f32
             brdf: o.material,
             transform,
             casts_shadows: o.casts_shadows,
+            texture: o.texture.as_ref(),
+            metallic_roughness: o.metallic_roughness.as_ref(),
         })
         .collect();
     Ok(TruthScene::new(&objects, env, state.world_from_env)?.with_bounces(scene.quality.settings.bounces))

@@ -292,7 +292,7 @@ pub fn pack_glb(json: &str, bin: &[u8]) -> Vec<u8> {
 /// `.gltf` path, for tests and examples of opening glTF files as scenes: a tetrahedron mesh
 /// instanced by two nodes named `Tet` (at x = 1, and at x = −1 scaled twice), a mesh of two
 /// triangles (two primitives: a red dielectric of roughness 0.005 with a base-colour
-/// texture, and no material) under a node `Parent` at y = 1 as its child `Quad` at z = 1, a
+/// texture, the file `checker.png` beside it, and no material) under a node `Parent` at y = 1 as its child `Quad` at z = 1, a
 /// perspective camera `Cam` at z = 5 (vertical field 0.7 rad, aspect 1.5), a gold metal of
 /// roughness 0.4 on the tetrahedra, and the extension `KHR_materials_emissive_strength`
 /// listed as used.
@@ -302,9 +302,10 @@ pub fn write_sample_gltf(dir: &Path) -> std::io::Result<PathBuf> {
     let tet_idx: Vec<u8> = [0u16, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3].iter().flat_map(|i| i.to_le_bytes()).collect();
     let tri_a = f(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
     let tri_b = f(&[1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0]);
+    let uv_a = f(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0]);
     let mut bin = Vec::new();
     let mut views = Vec::new();
-    for (bytes, target) in [(&tet, 34962), (&tet_idx, 34963), (&tri_a, 34962), (&tri_b, 34962)] {
+    for (bytes, target) in [(&tet, 34962), (&tet_idx, 34963), (&tri_a, 34962), (&tri_b, 34962), (&uv_a, 34962)] {
         views.push(format!(
             r#"{{"buffer":0,"byteOffset":{},"byteLength":{},"target":{target}}}"#,
             bin.len(),
@@ -331,7 +332,7 @@ pub fn write_sample_gltf(dir: &Path) -> std::io::Result<PathBuf> {
   "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.7, "aspectRatio": 1.5, "znear": 0.01}}}}],
   "meshes": [
     {{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}},
-    {{"primitives": [{{"attributes": {{"POSITION": 2}}, "material": 1}}, {{"attributes": {{"POSITION": 3}}}}]}}
+    {{"primitives": [{{"attributes": {{"POSITION": 2, "TEXCOORD_0": 4}}, "material": 1}}, {{"attributes": {{"POSITION": 3}}}}]}}
   ],
   "materials": [
     {{"name": "gold", "pbrMetallicRoughness": {{"baseColorFactor": [1.0, 0.78, 0.34, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.4}}}},
@@ -343,7 +344,8 @@ pub fn write_sample_gltf(dir: &Path) -> std::io::Result<PathBuf> {
     {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 1]}},
     {{"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}},
     {{"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
-    {{"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}
+    {{"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 4, "componentType": 5126, "count": 3, "type": "VEC2"}}
   ],
   "bufferViews": [{}],
   "buffers": [{{"uri": "sample.bin", "byteLength": {}}}]
@@ -351,9 +353,129 @@ pub fn write_sample_gltf(dir: &Path) -> std::io::Result<PathBuf> {
         views.join(", "),
         bin.len()
     );
+    std::fs::write(dir.join("checker.png"), checker_png(4, 4, CHECKER_COLOURS[0], CHECKER_COLOURS[1]))?;
     std::fs::write(dir.join("sample.bin"), &bin)?;
     let path = dir.join("sample.gltf");
     std::fs::write(&path, json)?;
+    Ok(path)
+}
+
+/// A PNG image of `cells × cells` squares of `texels × texels` texels each, alternating the
+/// 8-bit sRGB colours `a` (the top-left square) and `b`.
+pub fn checker_png(cells: u32, texels: u32, a: [u8; 3], b: [u8; 3]) -> Vec<u8> {
+    let n = cells * texels;
+    let image = image::RgbImage::from_fn(n, n, |x, y| {
+        image::Rgb(if (x / texels + y / texels).is_multiple_of(2) { a } else { b })
+    });
+    let mut out = std::io::Cursor::new(Vec::new());
+    image.write_to(&mut out, image::ImageFormat::Png).expect("a PNG is encoded into memory");
+    out.into_inner()
+}
+
+/// The colours of [`write_textured_sample`]'s checker (sRGB): a light grey and a blue.
+pub const CHECKER_COLOURS: [[u8; 3]; 2] = [[230, 230, 230], [40, 90, 200]];
+
+/// Writes `textured.glb` into `dir` and returns its path: a textured scene for tests and
+/// examples. A 4 × 4 floor (16 × 16 quads, normal +Y) of a white dielectric of roughness
+/// 0.7 whose base colour is an 8 × 8 checker of [`CHECKER_COLOURS`] (64 × 64 texels,
+/// nearest filtering, repeated twice each way by `KHR_texture_transform`: 16 squares across,
+/// each 0.25 wide, the first at the floor's −X −Z corner); on it a 0.8 cube (its bottom at
+/// y = 0) of a gold-tinted metal of roughness 0.35 with the same image (bilinear filtering,
+/// mirrored) across each face; a perspective camera at `(0, 2.2, 3.2)` looking at the
+/// origin. The image is embedded in the binary chunk.
+pub fn write_textured_sample(dir: &Path) -> std::io::Result<PathBuf> {
+    let floor = Primitive::Plane { size: 4.0, resolution: 16 }.mesh();
+    let floor_uv: Vec<f32> = floor.positions.iter().flat_map(|p| [p.x / 4.0 + 0.5, p.z / 4.0 + 0.5]).collect();
+    let cube = Primitive::Box { size: [0.8; 3], resolution: 2 }.mesh();
+    // Each face's own two axes, from 0 to 1 across it.
+    let cube_uv: Vec<f32> = cube
+        .positions
+        .iter()
+        .zip(&cube.normals)
+        .flat_map(|(p, n)| {
+            let q = *p / 0.8 + Vec3::splat(0.5);
+            let a = n.abs();
+            if a.x > 0.5 {
+                [q.z, 1.0 - q.y]
+            } else if a.y > 0.5 {
+                [q.x, q.z]
+            } else {
+                [q.x, 1.0 - q.y]
+            }
+        })
+        .collect();
+    let png = checker_png(8, 8, CHECKER_COLOURS[0], CHECKER_COLOURS[1]);
+    let f = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let u = |v: &[u32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let v3 = |v: &[Vec3]| f(&v.iter().flat_map(|p| p.to_array()).collect::<Vec<f32>>());
+    let mut bin = Vec::new();
+    let mut views = Vec::new();
+    for (bytes, target) in [
+        (v3(&floor.positions), Some(34962)),
+        (v3(&floor.normals), Some(34962)),
+        (f(&floor_uv), Some(34962)),
+        (u(&floor.indices), Some(34963)),
+        (v3(&cube.positions), Some(34962)),
+        (v3(&cube.normals), Some(34962)),
+        (f(&cube_uv), Some(34962)),
+        (u(&cube.indices), Some(34963)),
+        (png, None),
+    ] {
+        let target = target.map_or(String::new(), |t| format!(r#","target":{t}"#));
+        views.push(format!(r#"{{"buffer":0,"byteOffset":{},"byteLength":{}{target}}}"#, bin.len(), bytes.len()));
+        bin.extend_from_slice(&bytes);
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+    }
+    let (nf, nc) = (floor.positions.len(), cube.positions.len());
+    let (fi, ci) = (floor.indices.len(), cube.indices.len());
+    // The camera's node turned down toward the origin: about X by −atan(2.2/3.2).
+    let half = -(2.2f32 / 3.2).atan() / 2.0;
+    let (qx, qw) = (half.sin(), half.cos());
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0", "generator": "rsl_scene::build::write_textured_sample"}},
+  "extensionsUsed": ["KHR_texture_transform"],
+  "scene": 0,
+  "scenes": [{{"nodes": [0, 1, 2]}}],
+  "nodes": [
+    {{"name": "Floor", "mesh": 0}},
+    {{"name": "Cube", "mesh": 1, "translation": [0, 0.4, 0]}},
+    {{"name": "Camera", "camera": 0, "translation": [0, 2.2, 3.2], "rotation": [{qx}, 0, 0, {qw}]}}
+  ],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.75, "aspectRatio": 1.3333, "znear": 0.01}}}}],
+  "meshes": [
+    {{"name": "floor", "primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3, "material": 0}}]}},
+    {{"name": "cube", "primitives": [{{"attributes": {{"POSITION": 4, "NORMAL": 5, "TEXCOORD_0": 6}}, "indices": 7, "material": 1}}]}}
+  ],
+  "materials": [
+    {{"name": "checker", "pbrMetallicRoughness": {{"baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.7,
+      "baseColorTexture": {{"index": 0, "extensions": {{"KHR_texture_transform": {{"scale": [2.0, 2.0]}}}}}}}}}},
+    {{"name": "gilded", "pbrMetallicRoughness": {{"baseColorFactor": [1.0, 0.85, 0.6, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.35,
+      "baseColorTexture": {{"index": 1}}}}}}
+  ],
+  "samplers": [{{"magFilter": 9728, "minFilter": 9728}}, {{"magFilter": 9729, "wrapS": 33648, "wrapT": 33648}}],
+  "textures": [{{"sampler": 0, "source": 0}}, {{"sampler": 1, "source": 0}}],
+  "images": [{{"bufferView": 8, "mimeType": "image/png", "name": "checker"}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": {nf}, "type": "VEC3", "min": [-2, 0, -2], "max": [2, 0, 2]}},
+    {{"bufferView": 1, "componentType": 5126, "count": {nf}, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5126, "count": {nf}, "type": "VEC2"}},
+    {{"bufferView": 3, "componentType": 5125, "count": {fi}, "type": "SCALAR"}},
+    {{"bufferView": 4, "componentType": 5126, "count": {nc}, "type": "VEC3", "min": [-0.4, -0.4, -0.4], "max": [0.4, 0.4, 0.4]}},
+    {{"bufferView": 5, "componentType": 5126, "count": {nc}, "type": "VEC3"}},
+    {{"bufferView": 6, "componentType": 5126, "count": {nc}, "type": "VEC2"}},
+    {{"bufferView": 7, "componentType": 5125, "count": {ci}, "type": "SCALAR"}}
+  ],
+  "bufferViews": [{}],
+  "buffers": [{{"byteLength": {}}}]
+}}"#,
+        views.join(", "),
+        bin.len()
+    );
+    let path = dir.join("textured.glb");
+    std::fs::write(&path, pack_glb(&json, &bin))?;
     Ok(path)
 }
 

@@ -3,11 +3,13 @@
 //! of each node an object with its transform and material, and its cameras
 //! ([`import_scene`], `rsl render model.glb`).
 //!
-//! Buffers may be the GLB binary chunk, files next to the glTF, or embedded base64 `data:`
-//! URIs. Missing normals are computed (area-weighted); vertex normals are
+//! Buffers and images may be the GLB binary chunk, files next to the glTF, or embedded
+//! base64 `data:` URIs; base-colour textures are read with their texture coordinates,
+//! sampler and `KHR_texture_transform`. Missing normals are computed (area-weighted); vertex normals are
 //! renormalised. Non-triangle primitives (points, lines) are skipped and counted.
 
-use glam::{Mat4, Vec3, Vec4};
+use crate::texture::{Filter, MAX_TEXELS, MetallicRoughnessTexture, ObjectTexture, Texture, UvTransform, Wrap};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 use rsl_brdf::Brdf;
 use rsl_brdf::model::MIN_ROUGHNESS;
@@ -118,6 +120,8 @@ fn percent_decode(uri: &str) -> Result<String, String> {
 pub struct GltfFile {
     gltf: gltf::Gltf,
     buffers: Vec<Vec<u8>>,
+    /// The folder external images are read from.
+    base: std::path::PathBuf,
 }
 
 impl GltfFile {
@@ -133,7 +137,7 @@ impl GltfFile {
     pub fn from_bytes(bytes: &[u8], base: &Path) -> Result<Self, String> {
         let gltf = parse(bytes).map_err(|e| format!("not a valid glTF file: {e}"))?;
         let buffers = load_buffers(&gltf, base)?;
-        Ok(Self { gltf, buffers })
+        Ok(Self { gltf, buffers, base: base.to_path_buf() })
     }
 }
 
@@ -186,6 +190,20 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf, String> {
                     check(&at(name), i.value(), &[C::F32], shape)?;
                 }
             }
+            for (semantic, i) in &prim.attributes {
+                if let Checked::Valid(gltf::Semantic::TexCoords(set)) = semantic {
+                    check(&at(&format!("TEXCOORD_{set}")), i.value(), &[C::F32, C::U8, C::U16], Type::Vec2)?;
+                }
+            }
+        }
+    }
+    // The gltf crate's image source panics on an image with neither a buffer view nor a
+    // URI, or a buffer view without a MIME type (found by fuzzing).
+    for (i, image) in json.images.iter().enumerate() {
+        match (&image.buffer_view, &image.uri, &image.mime_type) {
+            (Some(_), _, None) => return Err(format!("image {i} is in a buffer view but has no mimeType")),
+            (None, None, _) => return Err(format!("image {i} has neither a bufferView nor a uri")),
+            _ => {}
         }
     }
     let document = gltf::Document::from_json(json).map_err(|e| e.to_string())?;
@@ -370,6 +388,10 @@ pub struct ImportedObject {
     /// Where it came from: `(mesh, primitive)` indices, `None` where its triangles were
     /// moved into world space.
     pub part: Option<(usize, usize)>,
+    /// Its material's base-colour texture and its texture coordinates.
+    pub texture: Option<ObjectTexture>,
+    /// Its material's metallic-roughness texture (`material` holds its means).
+    pub metallic_roughness: Option<MetallicRoughnessTexture>,
 }
 
 /// A perspective camera of the file, placed by its node.
@@ -402,10 +424,34 @@ pub struct ImportedScene {
     pub report: ImportReport,
 }
 
+/// A texture a material names: the glTF texture, the texture-coordinate set it reads and
+/// the `KHR_texture_transform` applied to them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct TextureRef {
+    texture: usize,
+    set: u32,
+    transform: UvTransform,
+}
+
+impl TextureRef {
+    fn of(info: &gltf::texture::Info) -> Self {
+        let (mut set, mut transform) = (info.tex_coord(), UvTransform::default());
+        if let Some(t) = info.texture_transform() {
+            set = t.tex_coord().unwrap_or(set);
+            transform = UvTransform { offset: t.offset().into(), rotation: t.rotation(), scale: t.scale().into() };
+        }
+        Self { texture: info.texture().index(), set, transform }
+    }
+}
+
 /// rsl's `gltf` material for glTF material `m`: its metallic-roughness factors (the default
-/// material's where the primitive names none). Textures, transparency, emission and a
-/// roughness below [`MIN_ROUGHNESS`] are noted in `notices` (once per material).
-fn material_of(m: &gltf::Material, notices: &mut Vec<String>) -> Result<Brdf, String> {
+/// material's where the primitive names none), and its base-colour and metallic-roughness
+/// textures. Transparency, emission and a roughness below [`MIN_ROUGHNESS`] are noted in
+/// `notices` (once per material).
+fn material_of(
+    m: &gltf::Material,
+    notices: &mut Vec<String>,
+) -> Result<(Brdf, Option<TextureRef>, Option<TextureRef>), String> {
     let pbr = m.pbr_metallic_roughness();
     let name = match (m.index(), m.name()) {
         (Some(i), Some(n)) => format!("material {i} (\"{n}\")"),
@@ -419,8 +465,8 @@ fn material_of(m: &gltf::Material, notices: &mut Vec<String>) -> Result<Brdf, St
             notices.push(line);
         }
     };
-    if pbr.base_color_texture().is_some() || pbr.metallic_roughness_texture().is_some() {
-        note("its textures are not read; its factors alone are used".into());
+    if m.normal_texture().is_some() || m.occlusion_texture().is_some() || m.emissive_texture().is_some() {
+        note("its normal, occlusion and emissive textures are not read".into());
     }
     if a < 1.0 || m.alpha_mode() != gltf::material::AlphaMode::Opaque {
         note("transparency is not drawn; it is opaque".into());
@@ -435,7 +481,104 @@ fn material_of(m: &gltf::Material, notices: &mut Vec<String>) -> Result<Brdf, St
     }
     let brdf = Brdf::Gltf { base_color: Vec3::new(r, g, b), metallic: pbr.metallic_factor(), roughness };
     brdf.validate().map_err(|e| format!("{name}.pbrMetallicRoughness: {}: {}", e.parameter, e.problem))?;
-    Ok(brdf)
+    let base = pbr.base_color_texture().map(|i| TextureRef::of(&i));
+    let metallic_roughness = pbr.metallic_roughness_texture().map(|i| TextureRef::of(&i));
+    Ok((brdf, base, metallic_roughness))
+}
+
+/// The bytes of image `image`: a buffer view, an embedded `data:` URI, or a file in the
+/// folder `base`.
+fn image_bytes<'b>(
+    image: &gltf::Image,
+    buffers: &'b [Vec<u8>],
+    base: &Path,
+) -> Result<std::borrow::Cow<'b, [u8]>, String> {
+    match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            let buffer = &buffers[view.buffer().index()];
+            let end = view.offset().checked_add(view.length()).filter(|&e| e <= buffer.len()).ok_or_else(|| {
+                format!("its buffer view {} reaches beyond buffer {}", view.index(), view.buffer().index())
+            })?;
+            Ok(std::borrow::Cow::Borrowed(&buffer[view.offset()..end]))
+        }
+        gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
+            data_uri(uri).map(std::borrow::Cow::Owned).map_err(|e| format!("its data: URI {e}"))
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            let p = buffer_path(base, uri).map_err(|e| format!("uri \"{uri}\": {e}"))?;
+            rsl_sphere::io::read_bounded(&p, rsl_sphere::io::MAX_DATA_BYTES)
+                .map(std::borrow::Cow::Owned)
+                .map_err(|e| format!("{}: {e}", p.display()))
+        }
+    }
+}
+
+/// glTF texture `index` decoded (PNG or JPEG, as glTF allows), with its sampler's wrap
+/// modes and magnification filter; `srgb` for a colour texture.
+fn load_texture(
+    gltf: &gltf::Gltf,
+    buffers: &[Vec<u8>],
+    base: &Path,
+    index: usize,
+    srgb: bool,
+) -> Result<Texture, String> {
+    let t = gltf.textures().nth(index).ok_or_else(|| format!("texture {index} does not exist"))?;
+    let image = t.source();
+    let name = match image.name() {
+        Some(n) => format!("texture {index} (image {} \"{n}\")", image.index()),
+        None => format!("texture {index} (image {})", image.index()),
+    };
+    let bytes = image_bytes(&image, buffers, base).map_err(|e| format!("{name}: {e}"))?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
+        .with_guessed_format()
+        .map_err(|e| format!("{name}: {e}"))?;
+    if !matches!(reader.format(), Some(image::ImageFormat::Png | image::ImageFormat::Jpeg)) {
+        return Err(format!("{name}: not a PNG or JPEG image (the formats glTF allows)"));
+    }
+    let (w, h) = reader.into_dimensions().map_err(|e| format!("{name}: {e}"))?;
+    if u64::from(w) * u64::from(h) > MAX_TEXELS {
+        return Err(format!("{name}: {w}×{h} texels is more than the {MAX_TEXELS} a texture may have"));
+    }
+    let decoded = image::load_from_memory(&bytes).map_err(|e| format!("{name}: {e}"))?.to_rgb8();
+    let texels = decoded.pixels().map(|p| p.0).collect();
+    let mut texture = Texture::new(name, w, h, texels, srgb)?;
+    let sampler = t.sampler();
+    let wrap = |m: gltf::texture::WrappingMode| match m {
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+    };
+    texture.wrap = [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())];
+    texture.filter = match sampler.mag_filter() {
+        Some(gltf::texture::MagFilter::Nearest) => Filter::Nearest,
+        _ => Filter::Linear,
+    };
+    Ok(texture)
+}
+
+/// Texture-coordinate set `set` of a primitive, transformed by `transform`.
+fn read_uvs(
+    m: &gltf::Mesh,
+    prim: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    set: u32,
+    transform: &UvTransform,
+    vertices: usize,
+) -> Result<Vec<Vec2>, String> {
+    let reader = prim.reader(|b| buffers.get(b.index()).map(Vec::as_slice));
+    let where_ = format!("mesh {} primitive {} TEXCOORD_{set}", m.index(), prim.index());
+    let uvs: Vec<Vec2> = reader
+        .read_tex_coords(set)
+        .ok_or_else(|| {
+            format!("{where_}: its material's texture reads it, but the primitive has none that can be read")
+        })?
+        .into_f32()
+        .map(|uv| transform.apply(Vec2::from(uv)))
+        .collect();
+    if uvs.len() != vertices {
+        return Err(format!("{where_}: {} coordinates for {vertices} vertices", uvs.len()));
+    }
+    Ok(uvs)
 }
 
 /// The world matrix as a translation, rotation and per-axis scale, where it is one (no
@@ -468,9 +611,10 @@ impl GltfFile {
     pub fn scene(&self) -> Result<ImportedScene, String> {
         let (gltf, buffers) = (&self.gltf, &self.buffers);
         let mut out = ImportedScene::default();
-        for ext in gltf.extensions_used() {
+        for ext in gltf.extensions_used().filter(|e| *e != "KHR_texture_transform") {
             out.notices.push(format!("extension {ext} is not read"));
         }
+        let mut textures: std::collections::HashMap<(usize, bool), std::sync::Arc<Texture>> = Default::default();
         let mut shared: std::collections::HashMap<(usize, usize), std::sync::Arc<TriMesh>> = Default::default();
         for (node, m, world) in nodes_with_world(gltf)? {
             let node_name = match &node {
@@ -514,7 +658,49 @@ impl GltfFile {
                 let Some(mesh) = mesh else { continue };
                 shared.insert(key, mesh.clone());
                 let name = if several { format!("{node_name}/{}", prim.index()) } else { node_name.clone() };
-                let material = material_of(&prim.material(), &mut out.notices)?;
+                let (mut material, base_ref, mr_ref) = material_of(&prim.material(), &mut out.notices)?;
+                let material_name =
+                    prim.material().index().map_or("the default material".to_string(), |i| format!("material {i}"));
+                let mut metallic_roughness = None;
+                if let Some(r) = mr_ref {
+                    // Metalness (blue) and roughness (green) vary across the material; it is
+                    // drawn with their means: one BRDF table per material.
+                    let t = match textures.get(&(r.texture, false)) {
+                        Some(t) => t.clone(),
+                        None => std::sync::Arc::new(load_texture(gltf, buffers, &self.base, r.texture, false)?),
+                    };
+                    textures.insert((r.texture, false), t.clone());
+                    let mean = t.mean();
+                    if let Brdf::Gltf { metallic, roughness, .. } = &mut material {
+                        let uvs = read_uvs(&m, &prim, buffers, r.set, &r.transform, mesh.positions.len())?;
+                        metallic_roughness = Some(MetallicRoughnessTexture {
+                            map: ObjectTexture { texture: t.clone(), uvs: std::sync::Arc::new(uvs) },
+                            metallic: *metallic,
+                            roughness: *roughness,
+                        });
+                        *metallic *= mean.z;
+                        *roughness = (*roughness * mean.y).max(MIN_ROUGHNESS);
+                    }
+                    let line = format!(
+                        "{material_name}: its metallic-roughness texture is drawn as its mean (metallic {:.3}, roughness {:.3})",
+                        mean.z, mean.y
+                    );
+                    if !out.notices.contains(&line) {
+                        out.notices.push(line);
+                    }
+                }
+                let texture = match base_ref {
+                    None => None,
+                    Some(r) => {
+                        let t = match textures.get(&(r.texture, true)) {
+                            Some(t) => t.clone(),
+                            None => std::sync::Arc::new(load_texture(gltf, buffers, &self.base, r.texture, true)?),
+                        };
+                        textures.insert((r.texture, true), t.clone());
+                        let uvs = read_uvs(&m, &prim, buffers, r.set, &r.transform, mesh.positions.len())?;
+                        Some(ObjectTexture { texture: t, uvs: std::sync::Arc::new(uvs) })
+                    }
+                };
                 let (mesh, transform, part) = match decompose(&world) {
                     Some(t) => (mesh, t, Some(key)),
                     None => {
@@ -523,7 +709,7 @@ impl GltfFile {
                         (std::sync::Arc::new(moved), crate::Transform::default(), None)
                     }
                 };
-                out.objects.push(ImportedObject { name, mesh, transform, material, part });
+                out.objects.push(ImportedObject { name, mesh, transform, material, part, texture, metallic_roughness });
             }
         }
         match out.report.skipped_non_triangle {

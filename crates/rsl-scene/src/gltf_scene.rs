@@ -74,6 +74,9 @@ impl Scene {
                 // Triangles moved into world space (a sheared or mirrored node).
                 None => MeshSource::GltfMoved { written: written.clone(), path: path.to_path_buf() },
             };
+            if let Some(t) = &o.texture {
+                t.check(&mesh).map_err(|msg| SceneError::file(path, format!("{}: {msg}", o.name)))?;
+            }
             let mut name = o.name.clone();
             let mut k = 2;
             while objects.iter().any(|p| p.name == name) {
@@ -89,6 +92,8 @@ impl Scene {
                 motion: Motion::default(),
                 casts_shadows: true,
                 method: ObjectMethod::default(),
+                texture: o.texture,
+                metallic_roughness: o.metallic_roughness,
             });
         }
         let camera = match (camera, imported.cameras.as_slice()) {

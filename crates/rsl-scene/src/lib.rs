@@ -34,6 +34,7 @@ pub mod motion;
 pub mod primitive;
 pub mod quality;
 mod raw;
+pub mod texture;
 mod write;
 
 pub use error::SceneError;
@@ -171,6 +172,12 @@ pub struct Object {
     pub casts_shadows: bool,
     /// How its radiance reaches the image (`method = "..."`; honoured by `--method auto`).
     pub method: ObjectMethod,
+    /// Its base-colour texture, for a glTF material that has one (its `base_color` is the
+    /// factor the texture multiplies). Scene files do not hold textures.
+    pub texture: Option<texture::ObjectTexture>,
+    /// Its metallic-roughness texture, for a glTF material that has one (`material` holds
+    /// its means; the truth evaluates it per sample).
+    pub metallic_roughness: Option<texture::MetallicRoughnessTexture>,
 }
 
 /// How an object's radiance reaches the image, per object: `method = "auto"` (the default)
@@ -305,10 +312,19 @@ impl SceneState {
 impl Scene {
     /// Reads, parses and validates a scene file, importing or generating every mesh.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        Self::load_with_camera(path, None)
+    }
+
+    /// [`Scene::load`], a glTF file seen through its perspective camera number `camera`
+    /// where it is given ([`Scene::from_gltf_camera`]); a scene file refuses one.
+    pub fn load_with_camera(path: impl AsRef<Path>, camera: Option<usize>) -> Result<Self, SceneError> {
         let path = path.as_ref();
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         if matches!(ext.as_deref(), Some("glb" | "gltf")) {
-            return Self::from_gltf(path);
+            return Self::from_gltf_camera(path, camera);
+        }
+        if camera.is_some() {
+            return Err(SceneError::file(path, "--camera chooses a glTF file's camera; this is a scene file"));
         }
         let text = rsl_sphere::io::read_text_bounded(path, rsl_sphere::io::MAX_SCENE_BYTES)
             .map_err(|e| SceneError::file(path, format!("cannot read scene file: {e}")))?;

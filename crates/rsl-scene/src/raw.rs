@@ -541,7 +541,18 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut Meshes) -> Result<Objec
         Some(m) => motion(cx, &f("motion"), m, &transform)?,
     };
     reach(cx, &f, &mesh, &transform, &motion)?;
-    Ok(Object { name, source, mesh, transform, material, motion, casts_shadows: o.casts_shadows, method: o.method })
+    Ok(Object {
+        name,
+        source,
+        mesh,
+        transform,
+        material,
+        motion,
+        casts_shadows: o.casts_shadows,
+        method: o.method,
+        texture: None,
+        metallic_roughness: None,
+    })
 }
 
 /// Fails when the object, placed at its transform or anywhere its motion takes it, reaches

@@ -56,7 +56,6 @@ fn what_the_import_leaves_out_is_said_once_each() {
     let said = imported.notices.join("\n");
     for expected in [
         "extension KHR_materials_emissive_strength is not read",
-        "material 1 (\"red\"): its textures are not read; its factors alone are used",
         "material 1 (\"red\"): roughness 0.005 is drawn as 0.01",
     ] {
         assert_eq!(said.matches(expected).count(), 1, "{expected:?} in:\n{said}");
@@ -70,6 +69,84 @@ fn what_the_import_leaves_out_is_said_once_each() {
     let imported = import_scene(&dir.join("points.gltf")).unwrap();
     assert_eq!(imported.objects.len(), 3);
     assert!(imported.notices.iter().any(|n| n == "1 primitive of points or lines is not drawn (rsl draws triangles)"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The textured sample: base-colour textures read with their texture coordinates, sampler
+/// (filter, wrap) and `KHR_texture_transform`, decoded from sRGB; the sample's checker
+/// beside its `.gltf` read too.
+#[test]
+fn base_colour_textures_are_read_with_their_sampler_and_transform() {
+    use glam::Vec2;
+    use rsl_scene::build::{CHECKER_COLOURS, write_textured_sample};
+    use rsl_scene::texture::{Filter, Wrap};
+    let dir = temp_dir("textured");
+    let imported = import_scene(&write_textured_sample(&dir).unwrap()).unwrap();
+    // KHR_texture_transform is read: no notice for it.
+    assert!(imported.notices.is_empty(), "{:?}", imported.notices);
+    let (floor, cube) = (&imported.objects[0], &imported.objects[1]);
+    let ft = floor.texture.as_ref().expect("the floor's texture");
+    let ct = cube.texture.as_ref().expect("the cube's texture");
+    // One image, two glTF textures (two samplers).
+    assert_eq!((ft.texture.width, ft.texture.height), (64, 64));
+    assert!(ft.texture.srgb);
+    assert_eq!((ft.texture.filter, ft.texture.wrap), (Filter::Nearest, [Wrap::Repeat; 2]));
+    assert_eq!((ct.texture.filter, ct.texture.wrap), (Filter::Linear, [Wrap::MirroredRepeat; 2]));
+    assert_eq!(ft.uvs.len(), floor.mesh.positions.len());
+    // The floor's corner at (−2, −2) has uv (0, 0); at (2, 2), (1, 1) scaled twice: (2, 2).
+    for (p, uv) in floor.mesh.positions.iter().zip(ft.uvs.iter()) {
+        let want = Vec2::new(p.x / 4.0 + 0.5, p.z / 4.0 + 0.5) * 2.0;
+        assert!(uv.distance(want) < 1e-5, "{p}: {uv} against {want}");
+    }
+    // The first checker square is the light one, decoded from sRGB (230 → 0.7913).
+    let linear = |c: u8| ((c as f64 / 255.0 + 0.055) / 1.055).powf(2.4) as f32;
+    let first = ft.texture.sample(Vec2::splat(0.01));
+    assert!((first.x - linear(CHECKER_COLOURS[0][0])).abs() < 1e-4, "{first}");
+    let second = ft.texture.sample(Vec2::new(0.01 + 1.0 / 8.0, 0.01));
+    assert!((second.z - linear(CHECKER_COLOURS[1][2])).abs() < 1e-4, "{second}");
+    // The sample with an external image: read beside the .gltf.
+    let s = import_scene(&write_sample_gltf(&dir).unwrap()).unwrap();
+    let t = s.objects[2].texture.as_ref().expect("the red quad's texture");
+    assert_eq!((t.texture.width, t.texture.height, t.uvs.len()), (16, 16, 3));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A texture that cannot be read is an error naming the texture (or the primitive) and the
+/// problem: a missing image file, an image outside the file's folder, bytes that are not an
+/// image, an image over the size budget, texture coordinates the primitive lacks.
+#[test]
+fn texture_errors_are_located() {
+    let dir = temp_dir("texture-errors");
+    let path = write_sample_gltf(&dir).unwrap();
+    let json = std::fs::read_to_string(&path).unwrap();
+    let with = |name: &str, from: &str, to: &str| {
+        let text = json.replace(from, to);
+        assert_ne!(text, json, "{from}");
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        import_scene(&p).unwrap_err()
+    };
+    let e = with("missing.gltf", r#""uri": "checker.png""#, r#""uri": "nowhere.png""#);
+    assert!(e.starts_with("texture 0 (image 0): ") && e.contains("nowhere.png"), "{e}");
+    let e = with("outside.gltf", r#""uri": "checker.png""#, r#""uri": "../checker.png""#);
+    assert!(e.contains("texture 0 (image 0): uri \"../checker.png\": points outside"), "{e}");
+    std::fs::write(dir.join("text.png"), "not an image").unwrap();
+    let e = with("text.gltf", r#""uri": "checker.png""#, r#""uri": "text.png""#);
+    assert!(e.contains("not a PNG or JPEG image"), "{e}");
+    // A PNG header claiming 20000 × 20000 texels: refused before any decoding.
+    let mut big = rsl_scene::build::checker_png(1, 1, [0; 3], [0; 3]);
+    big[16..20].copy_from_slice(&20000u32.to_be_bytes());
+    big[20..24].copy_from_slice(&20000u32.to_be_bytes());
+    // The IHDR chunk's CRC-32 (ISO 3309) over its type and data, bytes 12..29.
+    let crc = !big[12..29].iter().fold(!0u32, |c, &b| {
+        (0..8).fold(c ^ u32::from(b), |c, _| if c & 1 == 1 { (c >> 1) ^ 0xEDB8_8320 } else { c >> 1 })
+    });
+    big[29..33].copy_from_slice(&crc.to_be_bytes());
+    std::fs::write(dir.join("big.png"), big).unwrap();
+    let e = with("big.gltf", r#""uri": "checker.png""#, r#""uri": "big.png""#);
+    assert!(e.contains("20000×20000 texels is more than"), "{e}");
+    let e = with("no-uv.gltf", r#""TEXCOORD_0": 4"#, r#""NORMAL": 2"#);
+    assert!(e.contains("mesh 1 primitive 0 TEXCOORD_0: its material's texture reads it"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

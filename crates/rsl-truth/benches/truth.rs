@@ -39,6 +39,8 @@ fn bench(c: &mut Criterion) {
             brdf: ggx,
             transform: at(0.0, 0.7, 0.0),
             casts_shadows: true,
+            texture: None,
+            metallic_roughness: None,
         },
         TruthObject {
             mesh: &meshes[1],
@@ -46,6 +48,8 @@ fn bench(c: &mut Criterion) {
             brdf: lambert,
             transform: at(0.0, 0.0, 0.0),
             casts_shadows: true,
+            texture: None,
+            metallic_roughness: None,
         },
         TruthObject {
             mesh: &meshes[2],
@@ -53,6 +57,8 @@ fn bench(c: &mut Criterion) {
             brdf: ggx,
             transform: at(1.3, 0.4, 0.2),
             casts_shadows: true,
+            texture: None,
+            metallic_roughness: None,
         },
     ];
     let scene = TruthScene::new(&objects, env, Quat::IDENTITY).unwrap();

@@ -26,6 +26,7 @@ use obvhs::{
 use rayon::prelude::*;
 use rsl_brdf::Brdf;
 use rsl_frame::{Pose, VertexFrames};
+use rsl_scene::texture::{MetallicRoughnessTexture, ObjectTexture, textured};
 use rsl_scene::{Camera, Transform};
 use rsl_sphere::Frame;
 use rsl_sphere::faces::IncidentFaces;
@@ -116,6 +117,24 @@ pub struct TruthObject<'a> {
     pub transform: Transform,
     /// Whether it shadows other objects.
     pub casts_shadows: bool,
+    /// Its base-colour texture: the material's base colour times the texture's value at
+    /// each point a pixel's sample meets, and times its mean over a vertex's surroundings at
+    /// a vertex ([`ObjectTexture::vertex_means`]).
+    pub texture: Option<&'a ObjectTexture>,
+    /// Its metallic-roughness texture, evaluated the same way (where the methods draw its
+    /// means).
+    pub metallic_roughness: Option<&'a MetallicRoughnessTexture>,
+}
+
+/// Where on an object a BRDF is evaluated, for its texture.
+#[derive(Clone, Copy, Debug)]
+enum Place {
+    /// A vertex: its texture averaged over its surroundings.
+    Vertex(usize),
+    /// A point between three vertices.
+    Point([u32; 3], Vec3),
+    /// Nowhere in particular: the material's own factors.
+    Untextured,
 }
 
 /// An estimate and its standard error, per channel.
@@ -206,6 +225,10 @@ pub struct TruthScene {
     faces: Vec<IncidentFaces>,
     indices: Vec<Vec<u32>>,
     brdfs: Vec<Brdf>,
+    /// Per object: its texture and, per vertex, the texture's mean over its surroundings.
+    textures: Vec<Option<(ObjectTexture, Vec<Vec3>)>>,
+    /// Per object: its metallic-roughness texture and its means about each vertex.
+    metallic_roughness: Vec<Option<(MetallicRoughnessTexture, Vec<Vec3>)>>,
     casts: Vec<bool>,
     bvh: CwBvh,
     tris: Vec<Triangle>,
@@ -408,6 +431,11 @@ impl TruthScene {
             faces,
             indices: objects.iter().map(|o| o.mesh.indices.clone()).collect(),
             brdfs: objects.iter().map(|o| o.brdf).collect(),
+            textures: objects.iter().map(|o| o.texture.map(|t| (t.clone(), t.vertex_means(o.mesh)))).collect(),
+            metallic_roughness: objects
+                .iter()
+                .map(|o| o.metallic_roughness.map(|t| (t.clone(), t.map.vertex_means(o.mesh))))
+                .collect(),
             casts: objects.iter().map(|o| o.casts_shadows).collect(),
             bvh,
             tris,
@@ -420,6 +448,23 @@ impl TruthScene {
             filter: PixelFilter::Box,
             bounces: 0,
         })
+    }
+
+    /// Object `i`'s BRDF at `place`: its metallic-roughness texture's values there, and its
+    /// base-colour texture's multiplying its base colour.
+    fn brdf_at(&self, i: usize, place: Place) -> Brdf {
+        let brdf = match (&self.metallic_roughness[i], place) {
+            (None, _) | (_, Place::Untextured) => self.brdfs[i],
+            (Some((t, means)), Place::Vertex(v)) => t.apply(&self.brdfs[i], means[v]),
+            (Some((t, _)), Place::Point(corners, weights)) => {
+                t.apply(&self.brdfs[i], t.map.at_corners(corners, weights))
+            }
+        };
+        match (&self.textures[i], place) {
+            (None, _) | (_, Place::Untextured) => brdf,
+            (Some((_, means)), Place::Vertex(v)) => textured(&brdf, means[v]),
+            (Some((t, _)), Place::Point(corners, weights)) => textured(&brdf, t.at_corners(corners, weights)),
+        }
     }
 
     /// World positions of object `i`'s vertices.
@@ -490,13 +535,18 @@ impl TruthScene {
             return (Estimate::default(), 0);
         }
         let origin = x + frame.n * self.offset;
+        let brdf = match mask {
+            Mask::Vertex(v) => self.brdf_at(receiver, Place::Vertex(v)),
+            _ => self.brdf_at(receiver, Place::Untextured),
+        };
         let mut samples = Replicates::new(spp as usize);
         let mut rays = 0u64;
         for _ in 0..samples.count() {
             let (ul, ub) = (latin_hypercube(samples.per, rng), latin_hypercube(samples.per, rng));
             for k in 0..samples.per {
                 let lobe = rng.next_f32();
-                let (y, r) = self.sample(receiver, origin, frame, wo, mask, [ul[k], ub[k]], lobe, self.bounces, rng);
+                let (y, r) =
+                    self.sample(receiver, &brdf, origin, frame, wo, mask, [ul[k], ub[k]], lobe, self.bounces, rng);
                 rays += r;
                 samples.add(y);
             }
@@ -513,6 +563,7 @@ impl TruthScene {
     fn sample(
         &self,
         receiver: usize,
+        brdf: &Brdf,
         origin: Vec3,
         frame: &Frame,
         wo: Vec3,
@@ -522,7 +573,6 @@ impl TruthScene {
         bounces: u32,
         rng: &mut Pcg32,
     ) -> (Vec3, u64) {
-        let brdf = &self.brdfs[receiver];
         let weight_of = |w: Vec3| match mask {
             Mask::None => 1.0,
             Mask::Vertex(v) => self.faces[receiver].mask(v, w),
@@ -577,9 +627,11 @@ impl TruthScene {
                     let h = weight_of(w);
                     if h > 0.0 {
                         rays += 1;
-                        match self.hit_past(origin, w, |owner| owner == receiver || self.casts[owner]) {
+                        match self.hit_surface(origin, w, |owner| owner == receiver || self.casts[owner]) {
                             None => y += escaped(h),
-                            Some((j, p, hit_frame, face)) => {
+                            Some(hit) => {
+                                let (j, p, hit_frame, face) = (hit.object, hit.point, hit.frame, hit.face);
+                                let hit_brdf = self.brdf_at(j, Place::Point(hit.corners, hit.weights));
                                 // The surface met sends its own light back along −w: the
                                 // environment's sample there has its own MIS weight; this
                                 // direction is the only strategy that finds the surface.
@@ -592,6 +644,7 @@ impl TruthScene {
                                     let lobe_hit = rng.next_f32();
                                     let (l, r) = self.sample(
                                         j,
+                                        &hit_brdf,
                                         from,
                                         &hit_frame,
                                         wo_hit,
@@ -660,18 +713,6 @@ impl TruthScene {
         Ok((out, stats))
     }
 
-    /// The closest surface along a ray: object, world position, interpolated shading frame
-    /// and the hit face's unit normal (on the shading normal's side).
-    fn hit(&self, origin: Vec3, dir: Vec3) -> Option<(usize, Vec3, Frame, Vec3)> {
-        self.hit_past(origin, dir, |_| true)
-    }
-
-    /// [`TruthScene::hit`] among the triangles of the objects `blocks` accepts.
-    fn hit_past(&self, origin: Vec3, dir: Vec3, blocks: impl Fn(usize) -> bool) -> Option<(usize, Vec3, Frame, Vec3)> {
-        let hit = self.hit_surface(origin, dir, blocks)?;
-        Some((hit.object, hit.point, hit.frame, hit.face))
-    }
-
     /// The closest surface along a ray among the triangles of the objects `blocks` accepts.
     fn hit_surface(&self, origin: Vec3, dir: Vec3, blocks: impl Fn(usize) -> bool) -> Option<SurfaceHit> {
         let ray = Ray::new(Vec3A::from(origin * self.scale), Vec3A::from(dir), 0.0, f32::INFINITY);
@@ -736,7 +777,7 @@ impl TruthScene {
             return Vec3::ZERO;
         }
         let origin = x + frame.n * self.offset;
-        let brdf = &self.brdfs[receiver];
+        let brdf = &self.brdf_at(receiver, Place::Vertex(vertex));
         // The same directions at every vertex of the object, in each vertex's own frame: the
         // gathered light then varies smoothly over a surface (its error a smooth bias, not
         // noise from vertex to vertex).
@@ -825,9 +866,11 @@ impl TruthScene {
                     PixelFilter::Centre => Vec2::splat(0.5),
                 };
                 let dir = rsl_frame::image_ray(camera, x as f32 + at.x, y as f32 + at.y);
-                let value = match self.hit(camera.eye, dir) {
+                let value = match self.hit_surface(camera.eye, dir, |_| true) {
                     None => self.background(dir),
-                    Some((i, p, frame, face)) => {
+                    Some(hit) => {
+                        let (i, p, frame, face) = (hit.object, hit.point, hit.frame, hit.face);
+                        let brdf = self.brdf_at(i, Place::Point(hit.corners, hit.weights));
                         // A silhouette's normal turned toward the eye (docs/conventions.md).
                         let frame = frame.toward_view(-dir, face);
                         let wo = frame.to_local(-dir);
@@ -838,6 +881,7 @@ impl TruthScene {
                             let lobe = rng.next_f32();
                             let (v, r) = self.sample(
                                 i,
+                                &brdf,
                                 origin,
                                 &frame,
                                 wo,
@@ -856,7 +900,7 @@ impl TruthScene {
             }
             samples.end_replicate();
         }
-        let covered = self.hit(camera.eye, rsl_frame::pixel_ray(camera, x, y)).is_some();
+        let covered = self.hit_surface(camera.eye, rsl_frame::pixel_ray(camera, x, y), |_| true).is_some();
         (samples.estimate(), covered, rays)
     }
 

@@ -29,6 +29,8 @@ fn object<'a>(mesh: &'a TriMesh, frames: &'a VertexFrames, brdf: Brdf, at: Vec3)
         brdf,
         transform: Transform { translation: at, ..Default::default() },
         casts_shadows: true,
+        texture: None,
+        metallic_roughness: None,
     }
 }
 

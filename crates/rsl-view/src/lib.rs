@@ -187,6 +187,8 @@ pub struct Viewer {
     truth_rgba: Option<ColorImage>,
     /// Whether the texture must be uploaded again.
     texture_stale: bool,
+    /// Whether the image shown is the clay preview drawn before the first engine was ready.
+    clay: bool,
     /// The environment thumbnail with its RSLs, for (environment key, RSL count).
     thumbnail: Option<((u64, usize), TextureHandle)>,
     readout: Option<ErrorReadout>,

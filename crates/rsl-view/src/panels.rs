@@ -308,6 +308,10 @@ impl Viewer {
         }
         let r = self.refresh().map(|_| ());
         self.report(r);
+        // Nothing drawn yet and the engine still being prepared: the scene as clay first.
+        if self.engine.is_none() && self.worker.is_some() && self.rgba.is_none() {
+            self.show_clay();
+        }
         self.poll_truth(ui.ctx());
         let truth_shown = self.show_truth && self.truth_rgba.is_some();
         let shown = if truth_shown { &self.truth_rgba } else { &self.rgba };

@@ -119,10 +119,11 @@ impl Viewer {
     /// [`Viewer::refresh`] once the view rests: the frame of the drawing's method, as `rsl
     /// render --method` draws it, with what changed since its last frame drawn again.
     pub(crate) fn refresh_drawing(&mut self, start: Instant) -> Result<bool> {
-        let Some(engine) = &self.engine else { return Ok(false) };
+        let Some(engine) = self.engine.as_mut() else { return Ok(false) };
         let began = Instant::now();
         let request = rsl_engine::Request { time: self.time, image: true, vertices: true, exposure: None };
-        let rendered = self.session.render(engine, &self.scene, self.drawing, &request)?;
+        // Base-colour textures mixed in (the interpolated preview draws the factors alone).
+        let rendered = rsl_engine::textured::render(&mut self.session, engine, &self.scene, self.drawing, &request)?;
         // A method that draws whole frames draws every object again.
         let whole = self.drawing.capabilities().incremental == Incremental::Frames;
         let frame = rendered.frame;
@@ -265,6 +266,7 @@ impl Viewer {
                     self.counters.rasterised += 1;
                     self.linear = drawn.linear;
                     self.rgba = None;
+                    self.clay = false;
                     self.on_gpu = true;
                     self.record(start, shade_ms, drawn.draw_ms, drawn.tonemap_ms, true);
                     if !self.vertices_only() {
@@ -345,6 +347,7 @@ impl Viewer {
         shade_ms: f64,
         raster_ms: f64,
     ) {
+        self.clay = false;
         self.rgba = Some(ColorImage::new([image.width as usize, image.height as usize], pixels));
         self.linear = Some(image);
         self.texture_stale = true;

@@ -56,6 +56,7 @@ impl Viewer {
             linear: None,
             truth_rgba: None,
             texture_stale: false,
+            clay: false,
             thumbnail: None,
             readout: None,
             drawing: MethodId::default_on(rsl_engine::Device::Cpu),
@@ -170,6 +171,54 @@ impl Viewer {
     /// drawn with wgpu, `None` until [`Viewer::read_back`]).
     pub fn image(&self) -> Option<&ColorImage> {
         self.rgba.as_ref()
+    }
+
+    /// Whether the image shown is the clay preview ([`Viewer::show_clay`]): the scene's
+    /// objects, unlit by the environment, while the first engine is prepared.
+    pub fn showing_clay(&self) -> bool {
+        self.clay
+    }
+
+    /// What is ready first, while the first engine is prepared (the fields of a large mesh
+    /// take minutes): the objects as clay — grey, brighter where they face the eye, no
+    /// environment, no shadows — through the scene's camera, so that the user sees the scene
+    /// and its framing at once. The first shaded frame replaces it.
+    pub fn show_clay(&mut self) {
+        let state = self.scene.at(self.time);
+        let positions = rsl_engine::compose::world_positions(&self.scene, &state);
+        let eye = self.scene.camera.eye;
+        let radiance: Vec<Vec<Vec3>> = self
+            .scene
+            .objects
+            .iter()
+            .zip(&state.objects)
+            .zip(&positions)
+            .map(|((o, t), p)| {
+                let normal_matrix = t.matrix().inverse().transpose();
+                o.mesh
+                    .normals
+                    .iter()
+                    .zip(p)
+                    .map(|(n, x)| {
+                        let n = normal_matrix.transform_vector3(*n).normalize_or_zero();
+                        Vec3::splat(0.1 + 0.7 * n.dot((eye - *x).normalize_or_zero()).max(0.0))
+                    })
+                    .collect()
+            })
+            .collect();
+        let meshes: Vec<rsl_shade::RasterMesh<'_>> = self
+            .scene
+            .objects
+            .iter()
+            .zip(&positions)
+            .zip(&radiance)
+            .map(|((o, p), r)| rsl_shade::RasterMesh { positions: p, indices: &o.mesh.indices, radiance: r })
+            .collect();
+        let image = rsl_shade::rasterise(&self.scene.camera, &meshes, |_| Vec3::splat(0.02));
+        let pixels: Vec<Color32> = image.pixels.iter().map(|&c| colour(c, 1.0)).collect();
+        self.rgba = Some(ColorImage::new([image.width as usize, image.height as usize], pixels));
+        self.texture_stale = true;
+        self.clay = true;
     }
 
     /// Draws the view with wgpu on `state`'s device (a window's, or the headless
