@@ -738,9 +738,20 @@ fn a_gltf_file_renders_as_a_scene_with_its_camera_and_an_environment_map() {
         }
     }
     assert!(grey > 150 && blue > 150, "grey {grey}, blue {blue} of 768 floor pixels");
-    let shot = dir.join("textured-view.png");
-    let (ok, _, err) = run(rsl().arg("view").arg(&textured).arg("--screenshot").arg(&shot));
-    assert!(ok && shot.is_file(), "{err}");
+    // The viewer's headless screenshot of each generated asset (the one with instancing, an
+    // external texture and a gold metal; the textured one) and of a bundled model.
+    for (model, name) in
+        [(&textured, "textured"), (&model, "sample"), (&PathBuf::from("data/models/bunny.glb"), "bunny")]
+    {
+        let shot = dir.join(format!("{name}-view.png"));
+        let (ok, _, err) = run(rsl().arg("view").arg(model).arg("--screenshot").arg(&shot));
+        assert!(ok && shot.is_file(), "{name}: {err}");
+    }
+    // The sample with instancing as linear radiance too.
+    let exr = dir.join("sample.exr");
+    let (ok, _, err) =
+        run(rsl().arg("render").arg(&model).args(["--size", "48x32", "--device", "cpu", "--out"]).arg(&exr));
+    assert!(ok && image::open(&exr).is_ok(), "{err}");
     // A bundled model as a user opens it: no scene file, no map, linear radiance out.
     let exr = dir.join("bunny.exr");
     let (ok, _, err) =

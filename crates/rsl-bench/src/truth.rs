@@ -74,6 +74,13 @@ pub fn key(engine: &Engine, scene: &Scene, time: f32, spp: u32, seed: u64) -> u6
             .f32s(&t.rotation.to_array())
             .f32s(&t.scale.to_array())
             .u64(u64::from(o.casts_shadows));
+        // Keyed only where there are textures, so that the other truths keep their keys.
+        if let Some(texture) = &o.texture {
+            h = h.str("base colour texture").u64(texture.key());
+        }
+        if let Some(mr) = &o.metallic_roughness {
+            h = h.str("metallic-roughness texture").u64(mr.map.key()).f32s(&[mr.metallic, mr.roughness]);
+        }
     }
     h.finish()
 }
@@ -205,5 +212,26 @@ mod tests {
         assert!(from_bytes(&b[..b.len() - 1], 7, 64).is_err());
         assert!(from_bytes(&b, 8, 64).unwrap_err().to_string().contains("built for key"));
         assert!((t.noise(Some(0)) - (0.03f64 / 14.0).sqrt()).abs() < 1e-6);
+    }
+
+    /// A truth is keyed by the scene's textures: the same meshes and materials with and
+    /// without a texture, or with another texel, are other truths.
+    #[test]
+    fn textures_are_part_of_a_truths_key() {
+        let dir = std::env::temp_dir().join(format!("rsl-bench-texture-key-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = rsl_scene::build::write_textured_sample(&dir).unwrap();
+        let textured = Scene::load(&path).unwrap();
+        let engine = Engine::new(&textured, rsl_engine::EngineOptions::default()).unwrap();
+        let mut plain = textured.clone();
+        plain.objects[0].texture = None;
+        let mut other = textured.clone();
+        let t = other.objects[0].texture.as_mut().unwrap();
+        let mut image = (*t.texture).clone();
+        image.texels[5][1] ^= 1;
+        t.texture = std::sync::Arc::new(image);
+        let keys = [&textured, &plain, &other].map(|s| key(&engine, s, 0.0, 64, 1));
+        assert!(keys[0] != keys[1] && keys[0] != keys[2] && keys[1] != keys[2], "{keys:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

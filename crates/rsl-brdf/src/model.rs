@@ -205,7 +205,7 @@ impl Brdf {
                 if !(metallic.is_finite() && (0.0..=1.0).contains(&metallic)) {
                     return err("metallic", format!("must be in [0, 1], got {metallic}"));
                 }
-                if !(roughness.is_finite() && (MIN_ROUGHNESS..=1.0).contains(&roughness)) {
+                if roughness.is_finite() && roughness < MIN_ROUGHNESS {
                     return err(
                         "roughness",
                         format!(
@@ -213,6 +213,9 @@ impl Brdf {
                              cannot be tabulated), got {roughness}"
                         ),
                     );
+                }
+                if !(roughness.is_finite() && roughness <= 1.0) {
+                    return err("roughness", format!("must be in [{MIN_ROUGHNESS}, 1], got {roughness}"));
                 }
                 Ok(())
             }

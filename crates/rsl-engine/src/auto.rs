@@ -381,17 +381,9 @@ impl Composite {
         scene_at: &mut Option<Measuring<'e>>,
     ) -> Result<Option<AutoEstimate>> {
         let env_key = (engine.environment_key(), engine.intensity().to_bits());
-        let key = {
-            use std::hash::{Hash, Hasher};
-            let mut h = std::collections::hash_map::DefaultHasher::new();
-            (env_key, engine.rsls().len(), AUTO_SPP, AUTO_PIXELS).hash(&mut h);
-            // The object itself, and what of the others shadows it (not their materials).
-            (engine.keys(i), engine.brdf(i).key()).hash(&mut h);
-            for j in 0..engine.object_count() {
-                (engine.keys(j).mesh, engine.keys(j).ovdf, scene.objects[j].casts_shadows).hash(&mut h);
-            }
-            h.finish()
-        };
+        // Kept in memory across views and times (a front end's camera moves): the figure
+        // is for the object, not one view of it.
+        let key = object_key(engine, scene, i).finish();
         if let Some((k, e)) = self.estimates.get(&i)
             && *k == key
         {
@@ -575,25 +567,44 @@ const AUTO_VERSION: u32 = 1;
 /// The disk cache's key of object `i`'s estimate: what [`Composite::auto_estimate`] keeps it
 /// by in memory, and what it measured from besides — the camera, the time, the quality
 /// settings — in a key stable across runs.
-fn disk_key(engine: &Engine, scene: &Scene, t: f32, i: usize) -> u64 {
-    let c = &scene.camera;
+/// What `auto`'s figure for object `i` depends on wherever it is seen from: the
+/// environment and its light count, the measurement's size, the object's prepared data and
+/// material, and what of the others can shadow it (their meshes and fields, not their
+/// materials).
+fn object_key(engine: &Engine, scene: &Scene, i: usize) -> rsl_sphere::key::KeyHasher {
+    let k = engine.keys(i);
     let mut h = rsl_sphere::key::KeyHasher::default()
         .str("auto")
-        .str(env!("CARGO_PKG_VERSION"))
         .u64(engine.environment_key())
-        .f32s(&[engine.intensity(), t])
+        .f32s(&[engine.intensity()])
         .u64(engine.rsls().len() as u64)
         .u64(AUTO_SPP as u64)
         .u64(AUTO_PIXELS as u64)
+        .u64(i as u64)
+        .u64(engine.brdf(i).key())
+        .u64(k.mesh)
+        .u64(k.frames)
+        .u64(k.table)
+        .u64(k.svdf)
+        .u64(k.ovdf);
+    for j in 0..engine.object_count() {
+        h = h.u64(engine.keys(j).mesh).u64(engine.keys(j).ovdf).u64(u64::from(scene.objects[j].casts_shadows));
+    }
+    h
+}
+
+/// The disk cache's key of `auto`'s figure for object `i`: [`object_key`], and what one run's
+/// measurement was taken at (the program's version, the quality, the camera, the time and
+/// every object's pose).
+fn disk_key(engine: &Engine, scene: &Scene, t: f32, i: usize) -> u64 {
+    let c = &scene.camera;
+    let mut h = object_key(engine, scene, i)
+        .str(env!("CARGO_PKG_VERSION"))
         .str(&format!("{:?}", engine.settings()))
+        .f32s(&[t])
         .f32s(&[c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z, c.fov_y])
         .u64(u64::from(c.width) << 32 | u64::from(c.height));
-    let k = engine.keys(i);
-    h = h.u64(i as u64).u64(engine.brdf(i).key()).u64(k.mesh).u64(k.frames).u64(k.table).u64(k.svdf).u64(k.ovdf);
-    let state = scene.at(t);
-    for j in 0..engine.object_count() {
-        let tr = state.objects[j];
-        h = h.u64(engine.keys(j).mesh).u64(engine.keys(j).ovdf).u64(u64::from(scene.objects[j].casts_shadows));
+    for tr in &scene.at(t).objects {
         h = h.f32s(&tr.translation.to_array()).f32s(&tr.rotation.to_array()).f32s(&tr.scale.to_array());
     }
     h.finish()

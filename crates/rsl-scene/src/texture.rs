@@ -255,6 +255,24 @@ fn quadrature() -> Vec<Vec3> {
 }
 
 impl ObjectTexture {
+    /// The content key: the image's texels, its sampler and the texture coordinates, bit for
+    /// bit (what a cached truth of a textured scene is keyed by).
+    pub fn key(&self) -> u64 {
+        let t = &self.texture;
+        let wrap = |w: Wrap| w as u64;
+        let texels: Vec<u8> = t.texels.iter().flatten().copied().collect();
+        let uvs: Vec<f32> = self.uvs.iter().flat_map(|uv| uv.to_array()).collect();
+        rsl_sphere::key::KeyHasher::default()
+            .str("texture")
+            .u64(u64::from(t.width) << 32 | u64::from(t.height))
+            .u64(u64::from(t.srgb))
+            .u64(wrap(t.wrap[0]) << 8 | wrap(t.wrap[1]))
+            .u64(t.filter as u64)
+            .bytes(&texels)
+            .f32s(&uvs)
+            .finish()
+    }
+
     /// Checks it against the mesh it textures.
     pub fn check(&self, mesh: &TriMesh) -> Result<(), String> {
         if self.uvs.len() != mesh.positions.len() {

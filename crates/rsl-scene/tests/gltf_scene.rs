@@ -6,7 +6,7 @@ use glam::Vec3;
 use rsl_scene::build::write_sample_gltf;
 use rsl_scene::gltf_import::import_scene;
 use rsl_scene::{Brdf, MeshSource, Scene};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -104,6 +104,11 @@ fn base_colour_textures_are_read_with_their_sampler_and_transform() {
     assert!((first.x - linear(CHECKER_COLOURS[0][0])).abs() < 1e-4, "{first}");
     let second = ft.texture.sample(Vec2::new(0.01 + 1.0 / 8.0, 0.01));
     assert!((second.z - linear(CHECKER_COLOURS[1][2])).abs() < 1e-4, "{second}");
+    // The bundled copy (data/models/textured_sample.glb, docs/bench/textured's scene) is the
+    // file the builder writes: regenerate it with `cargo run --example textured_gltf` when
+    // the builder changes.
+    let bundled = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/models/textured_sample.glb"));
+    assert!(bundled.unwrap() == std::fs::read(dir.join("textured.glb")).unwrap(), "the bundled sample is stale");
     // The sample with an external image: read beside the .gltf.
     let s = import_scene(&write_sample_gltf(&dir).unwrap()).unwrap();
     let t = s.objects[2].texture.as_ref().expect("the red quad's texture");
