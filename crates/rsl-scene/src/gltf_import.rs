@@ -725,6 +725,25 @@ impl GltfFile {
 }
 
 impl GltfFile {
+    /// The base-colour texture of primitive `primitive` of mesh `mesh`'s material, with the
+    /// primitive's texture coordinates (what a scene file's `gltf_texture = true` reads);
+    /// `None` where its material has none.
+    pub fn part_texture(&self, mesh: usize, primitive: usize) -> Result<Option<ObjectTexture>, String> {
+        let (gltf, buffers) = (&self.gltf, &self.buffers);
+        let m = gltf
+            .meshes()
+            .nth(mesh)
+            .ok_or_else(|| format!("mesh {mesh}: the file has {} meshes", gltf.meshes().len()))?;
+        let prim = m.primitives().nth(primitive).ok_or_else(|| format!("mesh {mesh} has no primitive {primitive}"))?;
+        let Some(r) = prim.material().pbr_metallic_roughness().base_color_texture().map(|i| TextureRef::of(&i)) else {
+            return Ok(None);
+        };
+        let vertices = prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.count());
+        let texture = std::sync::Arc::new(load_texture(gltf, buffers, &self.base, r.texture, true)?);
+        let uvs = read_uvs(&m, &prim, buffers, r.set, &r.transform, vertices)?;
+        Ok(Some(ObjectTexture { texture, uvs: std::sync::Arc::new(uvs) }))
+    }
+
     /// The triangles of primitive `primitive` of mesh `mesh`, in the mesh's own space (what a
     /// scene file's `gltf_mesh` and `gltf_primitive` name).
     pub fn part(&self, mesh: usize, primitive: usize) -> Result<(TriMesh, ImportReport), String> {

@@ -449,6 +449,18 @@ impl Scene {
                 fmt_vec(o.transform.scale)
             );
             let _ = writeln!(s, "                 material {}", o.material);
+            if let Some(t) = &o.texture {
+                let t = &t.texture;
+                let _ = writeln!(s, "                 base-colour texture {}: {}×{} texels", t.name, t.width, t.height);
+            }
+            if let Some(t) = &o.metallic_roughness {
+                let t = &t.map.texture;
+                let _ = writeln!(
+                    s,
+                    "                 metallic-roughness texture {}: {}×{} texels (drawn as its means)",
+                    t.name, t.width, t.height
+                );
+            }
             let mut moves = Vec::new();
             if let Some(sp) = &o.motion.spin {
                 moves.push(format!("spin {:.1}°/s about {}", sp.radians_per_second.to_degrees(), fmt_vec(sp.axis)));

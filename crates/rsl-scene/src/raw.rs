@@ -125,6 +125,10 @@ struct RawObject {
     gltf_mesh: Option<usize>,
     /// With `gltf_mesh`: the primitive (default 0).
     gltf_primitive: Option<usize>,
+    /// With `gltf_mesh`: the primitive's base-colour texture multiplies the material's base
+    /// colour (a `gltf` material).
+    #[serde(default)]
+    gltf_texture: bool,
     primitive: Option<Primitive>,
     #[serde(default)]
     translation: [f32; 3],
@@ -466,6 +470,7 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut Meshes) -> Result<Objec
         None => default_material(),
     };
 
+    let mut texture = None;
     let (source, mut mesh) = match (o.mesh, o.primitive) {
         (Some(_), Some(_)) => return Err(cx.err(&f("mesh"), "give either `mesh` or `primitive`, not both")),
         (None, None) => return Err(cx.err(&f("mesh"), "needs `mesh = \"file.glb\"` or `primitive = { kind = ... }`")),
@@ -502,6 +507,32 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut Meshes) -> Result<Objec
                     m
                 }
             };
+            if o.gltf_texture {
+                let Some((m, p)) = part else {
+                    return Err(
+                        cx.err(&f("gltf_texture"), "needs `gltf_mesh`, the mesh whose primitive's texture it is")
+                    );
+                };
+                if !matches!(material, crate::Brdf::Gltf { .. }) {
+                    return Err(cx.err(
+                        &f("gltf_texture"),
+                        "a base-colour texture multiplies a `gltf` material's base colour; this material is another model",
+                    ));
+                }
+                if !meshes.files.contains_key(&path) {
+                    let file = crate::gltf_import::GltfFile::open(&path).map_err(|msg| SceneError::file(&path, msg))?;
+                    meshes.files.insert(path.clone(), file);
+                }
+                texture = match meshes.files[&path].part_texture(m, p).map_err(|msg| SceneError::file(&path, msg))? {
+                    Some(t) => Some(t),
+                    None => {
+                        return Err(cx.err(
+                            &f("gltf_texture"),
+                            format!("mesh {m} primitive {p}'s material has no base-colour texture"),
+                        ));
+                    }
+                };
+            }
             match part {
                 None => (MeshSource::File { written, path }, mesh),
                 Some((mesh_index, primitive)) => {
@@ -510,7 +541,7 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut Meshes) -> Result<Objec
             }
         }
         (None, Some(p)) => {
-            if o.gltf_mesh.is_some() || o.gltf_primitive.is_some() {
+            if o.gltf_mesh.is_some() || o.gltf_primitive.is_some() || o.gltf_texture {
                 return Err(cx.err(&f("gltf_mesh"), "goes with `mesh = \"file.glb\"`, not with `primitive`"));
             }
             p.validate().map_err(|(field, msg)| cx.err(&f(&format!("primitive.{field}")), msg))?;
@@ -550,7 +581,7 @@ fn object(cx: &Ctx, i: usize, o: RawObject, meshes: &mut Meshes) -> Result<Objec
         motion,
         casts_shadows: o.casts_shadows,
         method: o.method,
-        texture: None,
+        texture,
         metallic_roughness: None,
     })
 }

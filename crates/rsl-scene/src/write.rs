@@ -149,6 +149,9 @@ impl Scene {
                     t.insert("mesh".into(), Value::String(path_for(written, path, &self.path, to)));
                     t.insert("gltf_mesh".into(), Value::Integer(*mesh as i64));
                     t.insert("gltf_primitive".into(), Value::Integer(*primitive as i64));
+                    if o.texture.is_some() {
+                        t.insert("gltf_texture".into(), Value::Boolean(true));
+                    }
                 }
                 MeshSource::GltfMoved { written, .. } => {
                     return Err(serde::ser::Error::custom(format!(

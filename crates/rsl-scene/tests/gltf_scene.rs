@@ -169,8 +169,18 @@ fn a_scene_opened_from_gltf_is_saved_and_read_back_the_same() {
         assert_eq!(a.transform, b.transform);
         assert_eq!(a.mesh.positions, b.mesh.positions, "{}", a.name);
         assert_eq!(a.mesh.indices, b.mesh.indices, "{}", a.name);
+        // The textured quad keeps its texture (`gltf_texture = true`).
+        assert_eq!(a.texture, b.texture, "{}", a.name);
     }
+    assert!(back.objects[2].texture.is_some());
     assert_eq!(back.camera, s.camera);
+    // `gltf_texture` on a primitive without one, or with a material of another model, is
+    // a located error.
+    let text = std::fs::read_to_string(&file).unwrap();
+    let quad1 = text.find("gltf_primitive = 1").expect("the second primitive");
+    let no_texture = format!("{}gltf_texture = true\n{}", &text[..quad1], &text[quad1..]);
+    let e = Scene::from_toml_str(&no_texture, &file).unwrap_err().to_string();
+    assert!(e.contains("\"Quad/1\".gltf_texture") && e.contains("has no base-colour texture"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
