@@ -97,13 +97,7 @@ pub fn render(
     if !has_textures(scene) {
         return session.render(engine, &untextured(scene), id, request);
     }
-    let (plain, black) = variants(scene);
-    engine.sync(&black)?;
-    let dark = session.render(engine, &black, id, request);
-    // Back to the scene whatever happened, so that the front end's engine matches it.
-    engine.sync(scene)?;
-    let dark = dark?;
-    let lit = session.render(engine, &plain, id, request)?;
+    let (lit, dark) = both(engine, scene, |engine, s| session.render(engine, s, id, request))?;
     let changes = Changes {
         objects: lit.changes.objects.iter().zip(&dark.changes.objects).map(|(a, b)| *a || *b).collect(),
         moved: lit.changes.moved || dark.changes.moved,
@@ -119,13 +113,20 @@ pub fn render_with(method: &mut dyn Method, engine: &mut Engine, scene: &Scene, 
     if !has_textures(scene) {
         return method.render(engine, &untextured(scene), request);
     }
+    let (lit, dark) = both(engine, scene, |engine, s| method.render(engine, s, request))?;
+    Ok(mix(scene, request, lit, dark))
+}
+
+/// `draw` of the two [`variants`] of `scene`: the factors' frame, then the black one's.
+/// `engine` is synced to the black variant and back to `scene` whatever happens, so that
+/// the front end's engine matches its scene.
+fn both<T>(engine: &mut Engine, scene: &Scene, mut draw: impl FnMut(&Engine, &Scene) -> Result<T>) -> Result<(T, T)> {
     let (plain, black) = variants(scene);
     engine.sync(&black)?;
-    let dark = method.render(engine, &black, request);
+    let dark = draw(engine, &black);
     engine.sync(scene)?;
     let dark = dark?;
-    let lit = method.render(engine, &plain, request)?;
-    Ok(mix(scene, request, lit, dark))
+    Ok((draw(engine, &plain)?, dark))
 }
 
 /// The textured frame of `scene` from its frame `lit` (the materials' factors) and `dark`
@@ -139,7 +140,7 @@ fn mix(scene: &Scene, request: &Request, mut frame: Frame, dark: Frame) -> Frame
             continue;
         }
         let means = t.vertex_means(&o.mesh);
-        for ((l, d), b) in frame.radiance[i].iter_mut().zip(&dark.radiance[i]).zip(&means) {
+        for ((l, d), b) in frame.radiance[i].iter_mut().zip(&dark.radiance[i]).zip(means.iter()) {
             *l = *d + *b * (*l - *d);
         }
     }

@@ -185,11 +185,8 @@ fn a_roughness_texture_is_the_truths_per_sample_and_the_methods_mean() {
     let floor_at = |roughness: f32| Brdf::Gltf { base_color: Vec3::splat(0.8), metallic: 0.0, roughness };
     let mut textured_scene = s.clone();
     textured_scene.objects[0].material = floor_at(map.mean().y);
-    textured_scene.objects[0].metallic_roughness = Some(MetallicRoughnessTexture {
-        map: ObjectTexture { texture: map.clone(), uvs },
-        metallic: 0.0,
-        roughness: 1.0,
-    });
+    textured_scene.objects[0].metallic_roughness =
+        Some(MetallicRoughnessTexture { map: ObjectTexture::new(map.clone(), uvs), metallic: 0.0, roughness: 1.0 });
     let truth_of = |scene: &Scene| {
         let engine = Engine::new(scene, EngineOptions::default()).expect("engine");
         let request = Request { vertices: false, ..IMAGE };

@@ -424,6 +424,9 @@ pub struct ImportedScene {
     pub report: ImportReport,
 }
 
+/// Decoded images by glTF texture and colour space (sRGB or linear).
+type TextureCache = std::collections::HashMap<(usize, bool), std::sync::Arc<Texture>>;
+
 /// A texture a material names: the glTF texture, the texture-coordinate set it reads and
 /// the `KHR_texture_transform` applied to them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -614,7 +617,7 @@ impl GltfFile {
         for ext in gltf.extensions_used().filter(|e| *e != "KHR_texture_transform") {
             out.notices.push(format!("extension {ext} is not read"));
         }
-        let mut textures: std::collections::HashMap<(usize, bool), std::sync::Arc<Texture>> = Default::default();
+        let mut textures = TextureCache::default();
         let mut shared: std::collections::HashMap<(usize, usize), std::sync::Arc<TriMesh>> = Default::default();
         for (node, m, world) in nodes_with_world(gltf)? {
             let node_name = match &node {
@@ -665,19 +668,11 @@ impl GltfFile {
                 if let Some(r) = mr_ref {
                     // Metalness (blue) and roughness (green) vary across the material; it is
                     // drawn with their means: one BRDF table per material.
-                    let t = match textures.get(&(r.texture, false)) {
-                        Some(t) => t.clone(),
-                        None => std::sync::Arc::new(load_texture(gltf, buffers, &self.base, r.texture, false)?),
-                    };
-                    textures.insert((r.texture, false), t.clone());
-                    let mean = t.mean();
+                    let map = self.object_texture(&m, &prim, &r, false, mesh.positions.len(), &mut textures)?;
+                    let mean = map.texture.mean();
                     if let Brdf::Gltf { metallic, roughness, .. } = &mut material {
-                        let uvs = read_uvs(&m, &prim, buffers, r.set, &r.transform, mesh.positions.len())?;
-                        metallic_roughness = Some(MetallicRoughnessTexture {
-                            map: ObjectTexture { texture: t.clone(), uvs: std::sync::Arc::new(uvs) },
-                            metallic: *metallic,
-                            roughness: *roughness,
-                        });
+                        metallic_roughness =
+                            Some(MetallicRoughnessTexture { map, metallic: *metallic, roughness: *roughness });
                         *metallic *= mean.z;
                         *roughness = (*roughness * mean.y).max(MIN_ROUGHNESS);
                     }
@@ -691,15 +686,7 @@ impl GltfFile {
                 }
                 let texture = match base_ref {
                     None => None,
-                    Some(r) => {
-                        let t = match textures.get(&(r.texture, true)) {
-                            Some(t) => t.clone(),
-                            None => std::sync::Arc::new(load_texture(gltf, buffers, &self.base, r.texture, true)?),
-                        };
-                        textures.insert((r.texture, true), t.clone());
-                        let uvs = read_uvs(&m, &prim, buffers, r.set, &r.transform, mesh.positions.len())?;
-                        Some(ObjectTexture { texture: t, uvs: std::sync::Arc::new(uvs) })
-                    }
+                    Some(r) => Some(self.object_texture(&m, &prim, &r, true, mesh.positions.len(), &mut textures)?),
                 };
                 let (mesh, transform, part) = match decompose(&world) {
                     Some(t) => (mesh, t, Some(key)),
@@ -729,7 +716,7 @@ impl GltfFile {
     /// primitive's texture coordinates (what a scene file's `gltf_texture = true` reads);
     /// `None` where its material has none.
     pub fn part_texture(&self, mesh: usize, primitive: usize) -> Result<Option<ObjectTexture>, String> {
-        let (gltf, buffers) = (&self.gltf, &self.buffers);
+        let gltf = &self.gltf;
         let m = gltf
             .meshes()
             .nth(mesh)
@@ -739,9 +726,30 @@ impl GltfFile {
             return Ok(None);
         };
         let vertices = prim.get(&gltf::Semantic::Positions).map_or(0, |a| a.count());
-        let texture = std::sync::Arc::new(load_texture(gltf, buffers, &self.base, r.texture, true)?);
-        let uvs = read_uvs(&m, &prim, buffers, r.set, &r.transform, vertices)?;
-        Ok(Some(ObjectTexture { texture, uvs: std::sync::Arc::new(uvs) }))
+        self.object_texture(&m, &prim, &r, true, vertices, &mut Default::default()).map(Some)
+    }
+
+    /// The texture `r` names as primitive `prim` of mesh `m` maps it (its coordinates read
+    /// for its `vertices`); the image decoded once per texture and colour space in `cache`.
+    fn object_texture(
+        &self,
+        m: &gltf::Mesh,
+        prim: &gltf::Primitive,
+        r: &TextureRef,
+        srgb: bool,
+        vertices: usize,
+        cache: &mut TextureCache,
+    ) -> Result<ObjectTexture, String> {
+        let texture = match cache.get(&(r.texture, srgb)) {
+            Some(t) => t.clone(),
+            None => {
+                let t = std::sync::Arc::new(load_texture(&self.gltf, &self.buffers, &self.base, r.texture, srgb)?);
+                cache.insert((r.texture, srgb), t.clone());
+                t
+            }
+        };
+        let uvs = read_uvs(m, prim, &self.buffers, r.set, &r.transform, vertices)?;
+        Ok(ObjectTexture::new(texture, std::sync::Arc::new(uvs)))
     }
 
     /// The triangles of primitive `primitive` of mesh `mesh`, in the mesh's own space (what a

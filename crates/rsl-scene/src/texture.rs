@@ -183,12 +183,29 @@ impl UvTransform {
 /// An object's base-colour texture: the image and the texture coordinates of each of its
 /// mesh's vertices (any `KHR_texture_transform` already applied). The material's base
 /// colour is multiplied by the texture's value at each point.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct ObjectTexture {
     /// The image (shared between the objects that use it).
     pub texture: Arc<Texture>,
     /// Per vertex of the object's mesh.
     pub uvs: Arc<Vec<Vec2>>,
+    /// [`ObjectTexture::vertex_means`] as last computed, for the image, coordinates and
+    /// mesh it was computed from (what a frame would otherwise compute again each time).
+    means: Arc<std::sync::Mutex<Option<CachedMeans>>>,
+}
+
+/// What vertex means were computed from: the image, the coordinates and the mesh's
+/// positions (their allocations' addresses) and the mesh's vertex and index counts.
+type MeansKey = [usize; 5];
+
+/// Vertex means and what they were computed from.
+type CachedMeans = (MeansKey, Arc<Vec<Vec3>>);
+
+impl PartialEq for ObjectTexture {
+    /// The same image and coordinates (the cache of means aside).
+    fn eq(&self, other: &Self) -> bool {
+        self.texture == other.texture && self.uvs == other.uvs
+    }
 }
 
 /// `brdf` with its base colour multiplied by a texture's value `texel` (a glTF material;
@@ -255,6 +272,11 @@ fn quadrature() -> Vec<Vec3> {
 }
 
 impl ObjectTexture {
+    /// `texture` mapped by the per-vertex coordinates `uvs`.
+    pub fn new(texture: Arc<Texture>, uvs: Arc<Vec<Vec2>>) -> Self {
+        Self { texture, uvs, means: Arc::default() }
+    }
+
     /// The content key: the image's texels, its sampler and the texture coordinates, bit for
     /// bit (what a cached truth of a textured scene is keyed by).
     pub fn key(&self) -> u64 {
@@ -305,7 +327,28 @@ impl ObjectTexture {
     /// triangle that has it) and the triangles' areas — what a vertex's shading stands for
     /// when its radiance is interpolated across those triangles. By a quadrature of 16
     /// points per triangle.
-    pub fn vertex_means(&self, mesh: &TriMesh) -> Vec<Vec3> {
+    /// Kept after the first call for the same image, coordinates and mesh: a frame asks for
+    /// them every time.
+    pub fn vertex_means(&self, mesh: &TriMesh) -> Arc<Vec<Vec3>> {
+        let key = [
+            Arc::as_ptr(&self.texture) as usize,
+            Arc::as_ptr(&self.uvs) as usize,
+            mesh.positions.as_ptr() as usize,
+            mesh.positions.len(),
+            mesh.indices.len(),
+        ];
+        let mut cached = self.means.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((k, means)) = cached.as_ref()
+            && *k == key
+        {
+            return means.clone();
+        }
+        let means = Arc::new(self.compute_vertex_means(mesh));
+        *cached = Some((key, means.clone()));
+        means
+    }
+
+    fn compute_vertex_means(&self, mesh: &TriMesh) -> Vec<Vec3> {
         let points = quadrature();
         let mut sum = vec![glam::DVec3::ZERO; mesh.positions.len()];
         let mut weight = vec![0.0f64; mesh.positions.len()];
@@ -415,14 +458,14 @@ mod tests {
         };
         let mut texture = Texture::new("r", 2, 1, vec![[0; 3], [255; 3]], false).unwrap();
         texture.wrap = [Wrap::ClampToEdge; 2];
-        let flat = ObjectTexture {
-            texture: Arc::new(Texture::new("c", 1, 1, vec![[51; 3]], false).unwrap()),
-            uvs: Arc::new(vec![Vec2::ZERO, Vec2::X, Vec2::Y]),
-        };
-        for m in flat.vertex_means(&mesh) {
+        let flat = ObjectTexture::new(
+            Arc::new(Texture::new("c", 1, 1, vec![[51; 3]], false).unwrap()),
+            Arc::new(vec![Vec2::ZERO, Vec2::X, Vec2::Y]),
+        );
+        for m in flat.vertex_means(&mesh).iter() {
             assert!((m.x - 0.2).abs() < 1e-6);
         }
-        let ramp = ObjectTexture { texture: Arc::new(texture), uvs: flat.uvs.clone() };
+        let ramp = ObjectTexture::new(Arc::new(texture), flat.uvs.clone());
         // By brute force: the hat-weighted mean of clamp(2u − ½, 0, 1) over the triangle.
         let n = 2000;
         let mut want = [0.0f64; 3];

@@ -226,9 +226,9 @@ pub struct TruthScene {
     indices: Vec<Vec<u32>>,
     brdfs: Vec<Brdf>,
     /// Per object: its texture and, per vertex, the texture's mean over its surroundings.
-    textures: Vec<Option<(ObjectTexture, Vec<Vec3>)>>,
+    textures: Vec<Option<(ObjectTexture, Arc<Vec<Vec3>>)>>,
     /// Per object: its metallic-roughness texture and its means about each vertex.
-    metallic_roughness: Vec<Option<(MetallicRoughnessTexture, Vec<Vec3>)>>,
+    metallic_roughness: Vec<Option<(MetallicRoughnessTexture, Arc<Vec<Vec3>>)>>,
     casts: Vec<bool>,
     bvh: CwBvh,
     tris: Vec<Triangle>,
