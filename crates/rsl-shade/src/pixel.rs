@@ -50,6 +50,13 @@ pub struct Covers {
     pub own: Vec<f32>,
     /// Per vertex, the radiance of the lights that are not traced.
     pub untraced: Vec<Vec3>,
+    /// Per triangle, the lights whose covers spread over its corners
+    /// ([`Covers::find_spreads`]): triangle `t`'s are `spread[spread_start[t]..spread_start[t
+    /// + 1]]`, each `(light, spread)`. Empty where they were not found: each point then finds
+    /// its triangle's.
+    pub spread_start: Vec<u32>,
+    /// The lights of [`Covers::spread_start`].
+    pub spread: Vec<(u32, f32)>,
 }
 
 impl Covers {
@@ -59,6 +66,52 @@ impl Covers {
     pub fn at(&self, indices: &[u32], fragment: &Fragment, out: &mut [f32]) {
         let t = 3 * fragment.triangle as usize;
         self.at_corners([0, 1, 2].map(|k| indices[t + k]), fragment.weights, out);
+    }
+
+    /// The lights that are not traced (`traced(l)` false) whose other objects' part of the
+    /// cover (the cover over the object's own part, [`Covers::own`]) spreads over the
+    /// corners `corners` by more than [`COVER_SPREAD`], each with that spread, into `out`: a
+    /// corner that cannot see the light, or that the object hides it from itself, says
+    /// nothing of it.
+    pub fn spread_over(&self, corners: [u32; 3], traced: impl Fn(usize) -> bool, out: &mut Vec<(u32, f32)>) {
+        let base = corners.map(|c| c as usize * self.lights);
+        for l in (0..self.lights).filter(|&l| !traced(l)) {
+            let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+            for b in base {
+                let (c, o) = (self.values[b + l], self.own[b + l]);
+                if c != UNDEFINED && o > 0.0 {
+                    lo = lo.min(c / o);
+                    hi = hi.max(c / o);
+                }
+            }
+            if hi - lo > COVER_SPREAD {
+                out.push((l as u32, hi - lo));
+            }
+        }
+    }
+
+    /// Finds every triangle's spread lights ([`Covers::spread_over`]) once, for the points
+    /// of the triangles to read ([`occluders_at_point`]) rather than each find them again.
+    pub fn find_spreads(&mut self, indices: &[u32], traced: impl Fn(usize) -> bool + Sync) {
+        self.spread_start.clear();
+        self.spread.clear();
+        if self.own.len() != self.values.len() {
+            return;
+        }
+        let per: Vec<Vec<(u32, f32)>> = indices
+            .par_chunks_exact(3)
+            .map(|t| {
+                let mut out = Vec::new();
+                self.spread_over([t[0], t[1], t[2]], &traced, &mut out);
+                out
+            })
+            .collect();
+        self.spread_start.reserve(per.len() + 1);
+        self.spread_start.push(0);
+        for lights in per {
+            self.spread.extend(lights);
+            self.spread_start.push(self.spread.len() as u32);
+        }
     }
 
     /// [`Covers::at`] the point of weights `weights` of the triangle of vertices `corners`.
@@ -100,6 +153,8 @@ pub fn shade_covers(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, 
                 values: Vec::new(),
                 own: Vec::new(),
                 untraced: Vec::new(),
+                spread_start: Vec::new(),
+                spread: Vec::new(),
             })
         })
         .collect();
@@ -110,6 +165,13 @@ pub fn shade_covers(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, 
             c.values.extend(values);
             c.own.extend(own);
             c.untraced.extend(sums.iter().map(|s| s.untraced));
+        }
+    }
+    if setup.terms.occluders && setup.placed.len() > 1 {
+        for (i, c) in covers.iter_mut().enumerate() {
+            if let Some(c) = c {
+                c.find_spreads(&setup.placed[i].object.mesh.indices, |l| setup.is_traced(l));
+            }
         }
     }
     (radiance, covers, stats)
@@ -420,7 +482,7 @@ pub fn occluders_at_point(
     }
     let t = point.fragment.triangle as usize;
     let w = point.fragment.weights.to_array();
-    // Each corner's first cover and own part.
+    // Each corner's cover and own part.
     let base = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize * covers.lights);
     let corners = |l: usize| {
         base.map(|b| {
@@ -428,20 +490,17 @@ pub fn occluders_at_point(
             (c != UNDEFINED).then_some((c, covers.own[b + l]))
         })
     };
-    // First the lights whose other objects' part spreads over the corners (a corner the
-    // object hides the light from itself says nothing of it): most points have none.
-    let mut spread = Vec::new();
-    for l in (0..covers.lights).filter(|&l| !setup.is_traced(l)) {
-        let (lo, hi) = corners(l)
-            .iter()
-            .flatten()
-            .filter(|(_, o)| *o > 0.0)
-            .map(|(c, o)| c / o)
-            .fold((f32::INFINITY, 0.0f32), |(lo, hi), c| (lo.min(c), hi.max(c)));
-        if hi - lo > COVER_SPREAD {
-            spread.push((l, hi - lo));
+    // First the lights whose other objects' part spreads over the corners, found once per
+    // triangle where the covers kept them: most points have none.
+    let mut found = Vec::new();
+    let spread: &[(u32, f32)] = match covers.spread_start.get(t..t + 2) {
+        Some(&[a, b]) => &covers.spread[a as usize..b as usize],
+        _ => {
+            let corners = [0, 1, 2].map(|k| mesh.indices[3 * t + k]);
+            covers.spread_over(corners, |l| setup.is_traced(l), &mut found);
+            &found
         }
-    }
+    };
     if spread.is_empty() {
         return refined;
     }
@@ -466,7 +525,8 @@ pub fn occluders_at_point(
     }
     let least = total * REFINE_SHARE;
     let mut nears = None;
-    for (l, width) in spread {
+    for &(l, width) in spread {
+        let l = l as usize;
         if width * share(l) <= least {
             continue;
         }
@@ -549,6 +609,45 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_triangles_spread_lights_are_found_once_as_each_point_finds_them() {
+        // Three lights over two triangles (0-1-2, 1-3-2); light 2 is traced.
+        // Light 0: the other objects' part (cover / own) is 1, 0.5, 1, 1 at the vertices.
+        // Light 1: the cover changes with the object's own part alone (ratio 1 everywhere),
+        // except at vertex 3, which cannot see it.
+        // Light 2: spreads, but is traced (its rays find its shadows).
+        let values = vec![
+            1.0, 0.8, 1.0, //
+            0.25, 0.4, 0.2, //
+            0.9, 0.2, 1.0, //
+            0.6, UNDEFINED, 0.7,
+        ];
+        let own = vec![
+            1.0, 0.8, 1.0, //
+            0.5, 0.4, 1.0, //
+            0.9, 0.2, 1.0, //
+            0.6, 1.0, 1.0,
+        ];
+        let mut covers =
+            Covers { lights: 3, values, own, untraced: Vec::new(), spread_start: Vec::new(), spread: Vec::new() };
+        let indices = [0, 1, 2, 1, 3, 2];
+        let traced = |l: usize| l == 2;
+        covers.find_spreads(&indices, traced);
+        assert_eq!(covers.spread_start, [0, 1, 2]);
+        // Triangle 0: light 0's ratio spans 0.5..1; triangle 1 likewise (vertex 1's 0.5).
+        assert_eq!(covers.spread, [(0, 0.5), (0, 0.5)]);
+        for (t, corners) in indices.chunks(3).enumerate() {
+            let mut each = Vec::new();
+            covers.spread_over([corners[0], corners[1], corners[2]], traced, &mut each);
+            let (a, b) = (covers.spread_start[t] as usize, covers.spread_start[t + 1] as usize);
+            assert_eq!(each, covers.spread[a..b]);
+        }
+        // Without the object's own part kept, nothing is found.
+        covers.own.clear();
+        covers.find_spreads(&indices, traced);
+        assert!(covers.spread_start.is_empty() && covers.spread.is_empty());
+    }
+
+    #[test]
     fn covers_interpolate_over_the_corners_that_see_a_light() {
         // Two lights, a triangle 0-1-2; light 1 is below vertex 2's horizon.
         let covers = Covers {
@@ -556,6 +655,8 @@ mod tests {
             values: vec![1.0, 0.2, 0.5, 0.6, 0.0, UNDEFINED],
             own: Vec::new(),
             untraced: Vec::new(),
+            spread_start: Vec::new(),
+            spread: Vec::new(),
         };
         let f = Fragment { mesh: 0, triangle: 0, weights: Vec3::new(0.5, 0.25, 0.25) };
         let mut out = [0.0; 2];
@@ -564,7 +665,14 @@ mod tests {
         // Renormalised over vertices 0 and 1: (0.5·0.2 + 0.25·0.6) / 0.75.
         assert!((out[1] - (0.1 + 0.15) / 0.75).abs() < 1e-6, "{out:?}");
         // No corner sees it: nothing.
-        let covers = Covers { lights: 1, values: vec![UNDEFINED; 3], own: Vec::new(), untraced: Vec::new() };
+        let covers = Covers {
+            lights: 1,
+            values: vec![UNDEFINED; 3],
+            own: Vec::new(),
+            untraced: Vec::new(),
+            spread_start: Vec::new(),
+            spread: Vec::new(),
+        };
         let mut one = [0.5];
         covers.at(&[0, 1, 2], &f, &mut one);
         assert_eq!(one, [0.0]);
