@@ -1,11 +1,20 @@
 //! Interreflections for every method that draws the environment's direct light: the quality
 //! knob `bounces` (0: none, each direction another surface blocks stays black).
 //!
-//! At each vertex, `bounce_rays` directions drawn from its BRDF (stratified; the same set at
-//! every vertex of an object, in the vertex's own frame, so that the gathered light varies
-//! smoothly over a surface and does not flicker from frame to frame) are traced through every object that casts shadows and the
-//! object itself ([`rsl_truth::TruthScene::gather`]); a direction that meets a surface brings
-//! what that surface sends back, weighted by the BRDF over its sampling density. What a
+//! At each vertex, `bounce_rays` directions drawn from its BRDF (stratified, in the vertex's
+//! own frame, fixed from frame to frame so that nothing flickers) are traced through every
+//! object that casts shadows and the object itself ([`rsl_truth::TruthScene::gather`]). On a
+//! glossy surface every vertex draws the same set, so that the gathered light toward the eye
+//! varies smoothly over it (its error a smooth bias). On a Lambertian surface, whose gathered
+//! light is the same toward every direction and varies slowly across it, each vertex shifts
+//! the set by its own offset and keeps what its directions bring as moments, from which the
+//! light about any nearby normal follows ([`rsl_truth::TruthScene::gather_moments`]); a
+//! vertex's light is the mean over its ring ([`Rings`]) of what each ring vertex's moments
+//! give its own normal: the vertices' errors, now independent, average down (about `1/√7`
+//! on a regular mesh) while the normal's turn across the ring is followed exactly.
+//!
+//! A direction that meets a surface brings what that surface sends back, weighted by the
+//! BRDF over its sampling density. What a
 //! surface sends is its own RSL shading at the point met, as the per-pixel drawing shades a
 //! point: the traced lights (a sun) with their shadows traced from there
 //! ([`rsl_shade::FrameSetup::traced_cover_at`], one ray each), every other light's cover
@@ -27,6 +36,7 @@ use crate::engine::Engine;
 use crate::method::{Changes, Frame, Kept, Method, Preparation, Prepared, Request, Truth, rasterise_over};
 use anyhow::{Result, bail};
 use glam::Vec3;
+use rayon::prelude::*;
 use rsl_scene::{Scene, SceneState};
 use rsl_shade::Terms;
 use rsl_truth::{EnvLight, GatherView, SurfaceHit};
@@ -102,16 +112,109 @@ pub fn interreflections(
     };
     // Only the geometry is traced: the environment is the direct part's.
     let truth = Truth::scene(engine, scene, state, EnvLight::Constant(Vec3::ZERO))?;
+    // A Lambertian receiver's gathered light is the same toward every direction and varies
+    // slowly over its surface: each vertex draws its own shift of the directions, and the
+    // light is the mean over its ring of what each vertex's directions give its normal. A
+    // glossy one's, toward the eye, can vary as fast as the reflections it shows: every
+    // vertex draws the same directions.
+    let rings: Vec<Option<Rings>> =
+        (0..n).map(|i| lambertian[i].then(|| Rings::of(&engine.mesh(i).indices, &engine.mesh(i).normals))).collect();
+    let gather = |view: GatherView, seed: u64, source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync)| -> Vec<Vec<Vec3>> {
+        (0..n)
+            .map(|i| {
+                let vertices = truth.positions(i).len();
+                let Some(rings) = &rings[i] else {
+                    return (0..vertices)
+                        .into_par_iter()
+                        .map(|v| truth.gather(i, v, view, rays, seed, source))
+                        .collect();
+                };
+                let moments: Vec<Option<[Vec3; 3]>> = (0..vertices)
+                    .into_par_iter()
+                    .map(|v| truth.gather_moments(i, v, view, rays, seed, source))
+                    .collect();
+                (0..vertices)
+                    .into_par_iter()
+                    .map(|v| rings.mean_at(v, &moments, |m| truth.reflect_moments(i, v, m)))
+                    .collect()
+            })
+            .collect()
+    };
     // The bounces before the last, gathered along each vertex's normal.
     let mut before: Option<Vec<Vec<Vec3>>> = None;
     for k in 1..bounces {
         let source = |hit: &SurfaceHit| direct_at(hit) + before.as_deref().map_or(Vec3::ZERO, |b| at(b, hit));
-        before = Some(truth.gather_all(GatherView::Normals, rays, SEED ^ u64::from(k), &source));
+        before = Some(gather(GatherView::Normals, SEED ^ u64::from(k), &source));
     }
     let source = |hit: &SurfaceHit| direct_at(hit) + before.as_deref().map_or(Vec3::ZERO, |b| at(b, hit));
-    let toward_eye = truth.gather_all(GatherView::Eye(scene.camera.eye), rays, SEED, &source);
+    let toward_eye = gather(GatherView::Eye(scene.camera.eye), SEED, &source);
     let positions = (0..n).map(|i| truth.positions(i).to_vec()).collect();
     Ok(Gathered { light: toward_eye, positions })
+}
+
+/// The power of the cosine between two normals that weighs a neighbour in a vertex's ring
+/// ([`Rings::of`]).
+const RING_SHARPNESS: i32 = 16;
+
+/// Each vertex's ring: the vertices it shares a triangle with, and how much each counts
+/// toward its mean ([`Rings::mean`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rings {
+    /// Vertex `v`'s neighbours are `neighbours[start[v]..start[v + 1]]`, each with its weight.
+    start: Vec<u32>,
+    neighbours: Vec<(u32, f32)>,
+}
+
+impl Rings {
+    /// The rings of the mesh of triangles `indices` with vertex normals `normals`: each
+    /// neighbour weighted by the square of the cosine between its normal and the vertex's
+    /// (none where they are a right angle or more apart), so that a crease does not mix its
+    /// sides.
+    pub fn of(indices: &[u32], normals: &[Vec3]) -> Self {
+        let n = normals.len();
+        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(indices.len() * 2);
+        for t in indices.chunks_exact(3) {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                if a != b && (a as usize) < n && (b as usize) < n {
+                    pairs.push((a, b));
+                    pairs.push((b, a));
+                }
+            }
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut start = vec![0u32; n + 1];
+        for &(a, _) in &pairs {
+            start[a as usize + 1] += 1;
+        }
+        for v in 0..n {
+            start[v + 1] += start[v];
+        }
+        let neighbours = pairs
+            .iter()
+            .map(|&(a, b)| {
+                let c = normals[a as usize].normalize_or_zero().dot(normals[b as usize].normalize_or_zero());
+                (b, c.max(0.0).powi(RING_SHARPNESS))
+            })
+            .collect();
+        Self { start, neighbours }
+    }
+
+    /// Vertex `v`'s value as the mean over its ring of `value(m)` for each vertex's `items`
+    /// (`v` weighing one, each neighbour its weight; those without an item left out, and
+    /// nothing where `v` has none). Where each vertex's item errs independently of its
+    /// neighbours' (shifted directions), the mean over a ring of `k` vertices errs about
+    /// `1/√k` as much; what it blurs is what changes across one ring.
+    pub fn mean_at<T>(&self, v: usize, items: &[Option<T>], value: impl Fn(&T) -> Vec3) -> Vec3 {
+        let Some(Some(own)) = items.get(v) else { return Vec3::ZERO };
+        let ring = self.start.get(v..v + 2).map_or(&[][..], |r| &self.neighbours[r[0] as usize..r[1] as usize]);
+        let (sum, weight) = ring
+            .iter()
+            .filter(|(_, w)| *w > 0.0)
+            .filter_map(|&(j, w)| items.get(j as usize)?.as_ref().map(|m| (value(m) * w, w)))
+            .fold((value(own), 1.0), |(s, t), (x, w)| (s + x, t + w));
+        sum / weight
+    }
 }
 
 /// What `radiance` (per object, per vertex) holds at the point `hit` met, interpolated.
@@ -223,5 +326,49 @@ impl Method for Bounced {
             }
         }
         Ok(lines)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_vertex_is_averaged_with_its_ring_weighted_by_its_normals_agreement() {
+        // A square of two triangles (0-1-2, 0-2-3), then a fifth vertex on a triangle 1-4-2
+        // whose normal is at 60° (weight cos² = 1/4 between it and its neighbours).
+        let indices = [0, 1, 2, 0, 2, 3, 1, 4, 2];
+        let up = Vec3::Z;
+        let tilted = Vec3::new(3f32.sqrt() / 2.0, 0.0, 0.5);
+        let normals = [up, up, up, up, tilted];
+        let rings = Rings::of(&indices, &normals);
+        let values = [1.0, 2.0, 3.0, 4.0, 10.0].map(Vec3::splat);
+        let items: Vec<Option<Vec3>> = values.iter().copied().map(Some).collect();
+        let mean: Vec<Vec3> = (0..5).map(|v| rings.mean_at(v, &items, |x| *x)).collect();
+        let expect = [
+            // 0: itself, 1, 2, 3.
+            (1.0 + 2.0 + 3.0 + 4.0) / 4.0,
+            // 1: itself, 0, 2, and 4 at a quarter.
+            (2.0 + 1.0 + 3.0 + 0.25 * 10.0) / 3.25,
+            // 2: itself, 0, 1, 3, and 4 at a quarter.
+            (3.0 + 1.0 + 2.0 + 4.0 + 0.25 * 10.0) / 4.25,
+            // 3: itself, 0, 2.
+            (4.0 + 1.0 + 3.0) / 3.0,
+            // 4: itself, and 1 and 2 at a quarter.
+            (10.0 + 0.25 * 2.0 + 0.25 * 3.0) / 1.5,
+        ];
+        for (v, (m, e)) in mean.iter().zip(expect).enumerate() {
+            assert!((m.x - e).abs() < 1e-5 && m.x == m.z, "vertex {v}: {m} against {e}");
+        }
+        // A crease of a right angle or more does not mix; a lone vertex keeps its value.
+        let rings = Rings::of(&[0, 1, 2], &[up, Vec3::X, -up, up]);
+        let items = [1.0, 2.0, 3.0, 7.0].map(|x| Some(Vec3::splat(x)));
+        let mean: Vec<Vec3> = (0..4).map(|v| rings.mean_at(v, &items, |x| *x)).collect();
+        assert_eq!(mean, [1.0, 2.0, 3.0, 7.0].map(Vec3::splat));
+        // A vertex without an item has nothing; a neighbour without one is left out.
+        let rings = Rings::of(&[0, 1, 2], &[up, up, up]);
+        let items = [Some(Vec3::ONE), None, Some(Vec3::splat(3.0))];
+        assert_eq!(rings.mean_at(1, &items, |x| *x), Vec3::ZERO);
+        assert_eq!(rings.mean_at(0, &items, |x| *x), Vec3::splat(2.0));
     }
 }

@@ -50,12 +50,11 @@ pub struct Covers {
     pub own: Vec<f32>,
     /// Per vertex, the radiance of the lights that are not traced.
     pub untraced: Vec<Vec3>,
-    /// Per triangle, the lights whose covers spread over its corners
-    /// ([`Covers::find_spreads`]): triangle `t`'s are `spread[spread_start[t]..spread_start[t
-    /// + 1]]`, each `(light, spread)`. Empty where they were not found: each point then finds
-    /// its triangle's.
+    /// Per triangle, where its lights whose covers spread over its corners
+    /// ([`Covers::find_spreads`]) start in [`Covers::spread`] (and, one on, end). Empty where
+    /// they were not found: each point then finds its triangle's.
     pub spread_start: Vec<u32>,
-    /// The lights of [`Covers::spread_start`].
+    /// The lights of [`Covers::spread_start`], each `(light, spread)`.
     pub spread: Vec<(u32, f32)>,
 }
 

@@ -767,6 +767,65 @@ impl TruthScene {
         seed: u64,
         source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync),
     ) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        self.gather_with(receiver, vertex, (view, rays), (seed, [0.0; 3]), source, |_, f, pdf, (light, h)| {
+            sum += light * f * (h / pdf);
+        });
+        sum / rays.max(1) as f32
+    }
+
+    /// [`TruthScene::gather`]'s directions at a vertex of a Lambertian receiver, kept as
+    /// moments from which any nearby normal's light follows: `M = (1/N) Σ L·h·ω / (π·pdf)`
+    /// (three vectors, one per world axis of `ω`), so that the light reflected about a unit
+    /// normal `n` is `ρ ⊙ (M · n)` ([`TruthScene::reflect_moments`]), the vertex's own
+    /// estimate where `n` is its normal. Each vertex shifts the object's stratified set by
+    /// its own fixed offset (a Cranley–Patterson rotation, the same from frame to frame), so
+    /// that neighbouring vertices' errors are independent and a mean of their moments brings
+    /// them down. `None` where the vertex faces away from `view` or no ray is asked for.
+    pub fn gather_moments(
+        &self,
+        receiver: usize,
+        vertex: usize,
+        view: GatherView,
+        rays: u32,
+        seed: u64,
+        source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync),
+    ) -> Option<[Vec3; 3]> {
+        let mut at = Pcg32::new(seed ^ ((receiver as u64) << 40) ^ (vertex as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let shift = [at.next_f32(), at.next_f32(), at.next_f32()];
+        let mut m = [Vec3::ZERO; 3];
+        let gathered =
+            self.gather_with(receiver, vertex, (view, rays), (seed, shift), source, |w, _, pdf, (light, h)| {
+                let k = light * (h / (std::f32::consts::PI * pdf));
+                m[0] += k * w.x;
+                m[1] += k * w.y;
+                m[2] += k * w.z;
+            });
+        gathered.then(|| m.map(|c| c / rays as f32))
+    }
+
+    /// The light vertex `vertex` of a Lambertian `receiver` reflects from gathered moments
+    /// `m` (its own or a neighbour's, [`TruthScene::gather_moments`]): its albedo times `m`
+    /// applied to its normal.
+    pub fn reflect_moments(&self, receiver: usize, vertex: usize, m: &[Vec3; 3]) -> Vec3 {
+        let n = self.frames[receiver][vertex].n;
+        let albedo = self.brdf_at(receiver, Place::Vertex(vertex)).diffuse();
+        albedo * (m[0] * n.x + m[1] * n.y + m[2] * n.z).max(Vec3::ZERO)
+    }
+
+    /// The gather's loop: `each(world direction, BRDF × cosine, pdf, (light met, mask))` for
+    /// every direction that brings light; the stratified set moved by `shift` (the BRDF's
+    /// two sample coordinates and its lobe choice, wrapped into [0, 1)). `false` where the
+    /// vertex faces away from `view` or no ray is asked for.
+    fn gather_with(
+        &self,
+        receiver: usize,
+        vertex: usize,
+        (view, rays): (GatherView, u32),
+        (seed, shift): (u64, [f32; 3]),
+        source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync),
+        mut each: impl FnMut(Vec3, Vec3, f32, (Vec3, f32)),
+    ) -> bool {
         let frame = &self.frames[receiver][vertex];
         let x = self.positions[receiver][vertex];
         let wo = match view {
@@ -774,17 +833,21 @@ impl TruthScene {
             GatherView::Normals => Vec3::Z,
         };
         if wo.z <= 0.0 || rays == 0 {
-            return Vec3::ZERO;
+            return false;
         }
         let origin = x + frame.n * self.offset;
         let brdf = &self.brdf_at(receiver, Place::Vertex(vertex));
-        // The same directions at every vertex of the object, in each vertex's own frame: the
-        // gathered light then varies smoothly over a surface (its error a smooth bias, not
-        // noise from vertex to vertex).
+        // The same directions at every vertex of the object, in each vertex's own frame (moved
+        // by the vertex's own shift where there is one): without, the gathered light varies
+        // smoothly over a surface (its error a smooth bias, not noise from vertex to vertex).
         let mut rng = Pcg32::new(seed ^ ((receiver as u64) << 40));
-        let mut sum = Vec3::ZERO;
+        let wrap = |x: f32| {
+            let y = x - x.floor();
+            if y < 1.0 { y } else { 0.0 }
+        };
         for u in stratified(rays as usize, &mut rng) {
-            let lobe = rng.next_f32();
+            let u = Vec2::new(wrap(u.x + shift[0]), wrap(u.y + shift[1]));
+            let lobe = wrap(rng.next_f32() + shift[2]);
             let Some(wi) = brdf.sample(wo, u, lobe) else { continue };
             let pdf = brdf.pdf(wo, wi);
             let f = brdf.eval_cos(wi, wo);
@@ -805,9 +868,9 @@ impl TruthScene {
                 continue;
             }
             hit.frame = hit.frame.toward_view(-w, hit.face);
-            sum += source(&hit) * f * (h / pdf);
+            each(w, f, pdf, (source(&hit), h));
         }
-        sum / rays as f32
+        true
     }
 
     /// [`TruthScene::gather`] at every vertex of every object, in parallel: per object, per
