@@ -157,7 +157,7 @@ pub fn interreflections(
 const RING_SHARPNESS: i32 = 16;
 
 /// Each vertex's ring: the vertices it shares a triangle with, and how much each counts
-/// toward its mean ([`Rings::mean`]).
+/// toward its mean ([`Rings::mean_at`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Rings {
     /// Vertex `v`'s neighbours are `neighbours[start[v]..start[v + 1]]`, each with its weight.
@@ -167,9 +167,12 @@ pub struct Rings {
 
 impl Rings {
     /// The rings of the mesh of triangles `indices` with vertex normals `normals`: each
-    /// neighbour weighted by the square of the cosine between its normal and the vertex's
-    /// (none where they are a right angle or more apart), so that a crease does not mix its
-    /// sides.
+    /// neighbour weighted by the cosine between its normal and the vertex's to the power
+    /// [`RING_SHARPNESS`] (none where they are a right angle or more apart), so that a crease,
+    /// or a curve sharper than its triangles, mixes little. On the interreflection scenes
+    /// (`docs/bench/interreflections`, 64 directions) the square let the Lambert bunny's
+    /// vertices err 3.64 % where the 16th power gives 2.92 % (2.76 % with one set of
+    /// directions for all); flat walls are averaged either way.
     pub fn of(indices: &[u32], normals: &[Vec3]) -> Self {
         let n = normals.len();
         let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(indices.len() * 2);
@@ -336,10 +339,11 @@ mod tests {
     #[test]
     fn a_vertex_is_averaged_with_its_ring_weighted_by_its_normals_agreement() {
         // A square of two triangles (0-1-2, 0-2-3), then a fifth vertex on a triangle 1-4-2
-        // whose normal is at 60° (weight cos² = 1/4 between it and its neighbours).
+        // whose normal is tilted so that it and its neighbours weigh a quarter to each other.
         let indices = [0, 1, 2, 0, 2, 3, 1, 4, 2];
         let up = Vec3::Z;
-        let tilted = Vec3::new(3f32.sqrt() / 2.0, 0.0, 0.5);
+        let c = 0.25f32.powf(1.0 / RING_SHARPNESS as f32);
+        let tilted = Vec3::new((1.0 - c * c).sqrt(), 0.0, c);
         let normals = [up, up, up, up, tilted];
         let rings = Rings::of(&indices, &normals);
         let values = [1.0, 2.0, 3.0, 4.0, 10.0].map(Vec3::splat);
