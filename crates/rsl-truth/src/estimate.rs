@@ -286,6 +286,11 @@ pub enum GatherView {
     Normals,
 }
 
+/// The seed of object `receiver`'s gathered directions ([`TruthScene::gather`]).
+fn object_seed(seed: u64, receiver: usize) -> u64 {
+    seed ^ ((receiver as u64) << 40)
+}
+
 /// `n` points of the unit square, stratified: one in each cell of a √n × √n grid where n is
 /// a square, else a Latin hypercube.
 fn stratified(n: usize, rng: &mut Pcg32) -> Vec<Vec2> {
@@ -791,7 +796,7 @@ impl TruthScene {
         seed: u64,
         source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync),
     ) -> Option<[Vec3; 3]> {
-        let mut at = Pcg32::new(seed ^ ((receiver as u64) << 40) ^ (vertex as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let mut at = Pcg32::new(object_seed(seed, receiver) ^ (vertex as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         let shift = [at.next_f32(), at.next_f32(), at.next_f32()];
         let mut m = [Vec3::ZERO; 3];
         let gathered =
@@ -840,7 +845,7 @@ impl TruthScene {
         // The same directions at every vertex of the object, in each vertex's own frame (moved
         // by the vertex's own shift where there is one): without, the gathered light varies
         // smoothly over a surface (its error a smooth bias, not noise from vertex to vertex).
-        let mut rng = Pcg32::new(seed ^ ((receiver as u64) << 40));
+        let mut rng = Pcg32::new(object_seed(seed, receiver));
         let wrap = |x: f32| {
             let y = x - x.floor();
             if y < 1.0 { y } else { 0.0 }
@@ -871,25 +876,6 @@ impl TruthScene {
             each(w, f, pdf, (source(&hit), h));
         }
         true
-    }
-
-    /// [`TruthScene::gather`] at every vertex of every object, in parallel: per object, per
-    /// vertex.
-    pub fn gather_all(
-        &self,
-        view: GatherView,
-        rays: u32,
-        seed: u64,
-        source: &(dyn Fn(&SurfaceHit) -> Vec3 + Sync),
-    ) -> Vec<Vec<Vec3>> {
-        (0..self.positions.len())
-            .map(|i| {
-                (0..self.positions[i].len())
-                    .into_par_iter()
-                    .map(|v| self.gather(i, v, view, rays, seed, source))
-                    .collect()
-            })
-            .collect()
     }
 
     /// The same scene, its light followed through `bounces` bounces between surfaces (paths
