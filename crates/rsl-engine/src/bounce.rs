@@ -21,7 +21,11 @@
 //! interpolated from the surface's vertices (shaded along their normals,
 //! [`rsl_shade::FrameSetup::along_normals`], so that none faces away); a Lambertian surface
 //! sends the same toward every direction, a glossy one its RSL sum toward the receiver
-//! ([`rsl_shade::FrameSetup::point_toward`]). For `bounces` above 1 the surfaces gather
+//! ([`rsl_shade::FrameSetup::point_toward`]), in which a light whose square lies beyond
+//! [`rsl_shade::TAIL_WIDTHS`] lobe widths of the mirror direction takes the BRDF at the
+//! square's centre times its solid angle ([`rsl_shade::FrameSetup::midpoint_tails`]): the
+//! lobe's tail is smooth over such a square, and each direction's light is one of many that
+//! a vertex averages. For `bounces` above 1 the surfaces gather
 //! their own bounces first, each along its normal (a glossy surface's earlier bounces taken
 //! as sending toward every direction what they send along its normal), so the light of N
 //! bounces costs N gathers.
@@ -70,7 +74,7 @@ pub fn interreflections(
              prepared without: use a method of the RSL path (rsl, pixel, hybrid, lobe, auto) or bounces = 0"
         );
     }
-    let setup = engine.setup(scene, state, scene.camera.eye, Terms::default())?.along_normals();
+    let setup = engine.setup(scene, state, scene.camera.eye, Terms::default())?.along_normals().midpoint_tails();
     // What each surface sends from the point met, as the per-pixel drawing shades a point:
     // the traced lights (a sun) with their shadows traced from there where one's shadow
     // edge crosses the triangle met (its corners' covers differ), every other light's
@@ -78,8 +82,10 @@ pub fn interreflections(
     // toward every direction (where no traced shadow edge crosses, its vertices' radiance
     // along their normals, interpolated), a glossy one its RSL sum toward the receiver.
     let n = scene.objects.len();
-    let (along, covers, _) = rsl_shade::shade_covers(&setup, &vec![true; n]);
+    // A glossy surface's radiance along its normal is never read (it sends its RSL sum
+    // toward each receiver): its covers alone are found.
     let lambertian: Vec<bool> = (0..n).map(|i| setup.view_independent(i)).collect();
+    let (along, covers, _) = rsl_shade::shade_covers_for(&setup, &vec![true; n], &lambertian);
     let traced = setup.traced_lights();
     let lights = setup.light_count();
     let direct_at = |hit: &SurfaceHit| {

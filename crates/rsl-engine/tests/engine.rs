@@ -346,3 +346,115 @@ fn the_rsl_path_converges_to_the_truth_as_lights_shrink() {
     assert!(last < 0.01, "{errors:?}");
     assert!(last < 0.5 * errors[0].1, "{errors:?}");
 }
+
+/// What a glossy surface sends in the interreflections' gathering
+/// ([`rsl_shade::FrameSetup::midpoint_tails`]): a light near the point's mirror direction is
+/// read from the table as the eye's sum reads it; one whose square lies wholly beyond
+/// `TAIL_WIDTHS` lobe widths takes the BRDF at its centre times its solid angle. Per point
+/// and view, against the table's sum over the same lights (each light alone, cover 1): the
+/// near lights equal, and the sums' relative L2 over the ball's points and two views within
+/// 0.5 %, for lobes from near-mirror to rough under the studio map's 30 squares (measured:
+/// GGX α = 0.05 0.026 %, α = 0.3 0.081 %, Beckmann α = 0.1 0.0003 %, Blinn–Phong 60 0.16 %).
+/// A single point whose mirror direction falls between squares, where the sum is all
+/// tails and small, can be off by much more (up to the whole of it): what the
+/// interreflections' gathering averages over its directions, not what the eye sees.
+#[test]
+fn tails_by_the_midpoint_rule_leave_a_glossy_surfaces_sums_within_half_a_percent() {
+    let materials = [
+        Brdf::Ggx { alpha: 0.05, specular: Vec3::splat(0.9), diffuse: Vec3::ZERO },
+        Brdf::Ggx { alpha: 0.3, specular: Vec3::splat(0.9), diffuse: Vec3::splat(0.1) },
+        Brdf::Beckmann { alpha: 0.1, specular: Vec3::splat(0.9), diffuse: Vec3::ZERO },
+        Brdf::BlinnPhong { exponent: 60.0, specular: Vec3::splat(0.5), diffuse: Vec3::new(0.55, 0.15, 0.1) },
+    ];
+    for material in materials {
+        let s = scene(
+            SceneBuilder::new()
+                .map(root().join("data/hdri/studio.exr"))
+                .rsl_count(30)
+                .camera(Vec3::new(0.0, 0.5, 4.0), Vec3::ZERO)
+                .object(ObjectBuilder::sphere("ball", 1.0, 16).material(material)),
+        );
+        let engine = Engine::new(&s, memory_only()).unwrap();
+        let state = s.at(0.0);
+        let table = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap();
+        let tails = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap().midpoint_tails();
+        let lights = table.light_count();
+        let (mut worst, mut midpoints, mut near) = (0.0f32, 0, 0);
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for v in 0..engine.mesh(0).vertex_count() {
+            let frame = table.shading_frame(0, v);
+            // Views toward the eye and toward a receiver off to one side.
+            for view in [(s.camera.eye - table.position(0, v)).normalize(), Vec3::new(0.6, 0.0, 0.8)] {
+                if view.dot(frame.n) <= 0.05 {
+                    continue;
+                }
+                let (mut sum, mut diff) = (Vec3::ZERO, Vec3::ZERO);
+                for l in 0..lights {
+                    let mut covers = vec![0.0; lights];
+                    covers[l] = 1.0;
+                    let a = table.point_toward(0, view, &frame, &covers, &mut rsl_shade::FrameStats::default());
+                    let mut stats = rsl_shade::FrameStats::default();
+                    let b = tails.point_toward(0, view, &frame, &covers, &mut stats);
+                    if stats.brdf_lookups > 0 {
+                        near += 1;
+                        assert_eq!(a, b, "vertex {v}, light {l}: read from the table by both");
+                    } else if a != Vec3::ZERO {
+                        midpoints += 1;
+                    }
+                    sum += a;
+                    diff += (a - b).abs();
+                }
+                if sum.max_element() > 0.0 {
+                    worst = worst.max(diff.max_element() / sum.max_element());
+                }
+                num += f64::from(diff.length_squared());
+                den += f64::from(sum.length_squared());
+            }
+        }
+        let l2 = (num / den).sqrt();
+        eprintln!(
+            "{}: {near} near, {midpoints} by the midpoint rule, relative L2 {l2:.2e}, worst Σ|difference| / Σ {worst:.2e}",
+            material.name()
+        );
+        assert!(near > 0 && midpoints > 0, "both kinds of lights are met");
+        assert!(l2 <= 0.005, "{}: {l2}", material.name());
+    }
+}
+
+/// [`rsl_shade::shade_covers_for`]: the covers of every object asked for, the radiance only
+/// where asked (zero elsewhere, with no BRDF integral read), each as `shade_covers` gives it.
+#[test]
+fn covers_without_radiance_are_the_covers_with() {
+    let s = scene(
+        SceneBuilder::new()
+            .map(root().join("data/hdri/studio.exr"))
+            .camera(Vec3::new(0.0, 1.5, 4.0), Vec3::ZERO)
+            .object(ObjectBuilder::plane("floor", 4.0, 12).material(Brdf::Lambert { albedo: Vec3::splat(0.6) }))
+            .object(ObjectBuilder::sphere("ball", 0.5, 16).translation(Vec3::new(0.0, 0.6, 0.0)).material(Brdf::Ggx {
+                alpha: 0.2,
+                specular: Vec3::splat(0.9),
+                diffuse: Vec3::splat(0.1),
+            })),
+    );
+    let engine = Engine::new(&s, memory_only()).unwrap();
+    let state = s.at(0.0);
+    let setup = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap();
+    let all = [true, true];
+    let (radiance, covers, stats) = rsl_shade::shade_covers(&setup, &all);
+    for wanted in [[true, false], [false, true]] {
+        let (r2, c2, s2) = rsl_shade::shade_covers_for(&setup, &all, &wanted);
+        for i in 0..2 {
+            let (a, b) = (covers[i].as_ref().unwrap(), c2[i].as_ref().unwrap());
+            assert_eq!(
+                (&a.values, &a.own, &a.spread_start, &a.spread),
+                (&b.values, &b.own, &b.spread_start, &b.spread)
+            );
+            if wanted[i] {
+                assert_eq!((&radiance[i], &a.untraced), (&r2[i], &b.untraced));
+            } else {
+                assert!(r2[i].iter().chain(&b.untraced).all(|r| *r == Vec3::ZERO));
+            }
+        }
+        assert!(s2.brdf_lookups < stats.brdf_lookups, "{} < {}", s2.brdf_lookups, stats.brdf_lookups);
+    }
+}

@@ -17,13 +17,13 @@ mod traced;
 pub use oracle::{Blockers, OracleParams, OracleStats, Oracles, Rays, shade_oracle};
 pub use pixel::{
     Covers, PIXEL_RAYS, PixelMesh, PixelPoint, draw_pixels, drawn_per_pixel, pixel_point, point_radiance,
-    rasterise_antialiased, shade_covers, shade_image, traced_at_point,
+    rasterise_antialiased, shade_covers, shade_covers_for, shade_image, traced_at_point,
 };
 pub use raster::{
     Fragment, Image, RasterMesh, background_image, fragments, rasterise, rasterise_changed, rasterise_over,
     sample_fragments,
 };
 pub use shade::{
-    FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, Terms, Traced, TracedCovers, VertexFrames, shade,
-    shade_objects, shade_objects_untraced, shade_reference,
+    FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, TAIL_WIDTHS, Terms, Traced, TracedCovers,
+    VertexFrames, shade, shade_objects, shade_objects_untraced, shade_reference,
 };

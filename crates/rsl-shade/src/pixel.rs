@@ -135,13 +135,25 @@ impl Covers {
 /// per object, the vertices' radiance (as [`crate::shade`] gives it, to float rounding) and
 /// the covers (`None` for the objects not selected, whose radiance comes back empty).
 pub fn shade_covers(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Vec<Vec3>>, Vec<Option<Covers>>, FrameStats) {
+    shade_covers_for(setup, which, which)
+}
+
+/// [`shade_covers`], with the vertices' radiance (and [`Covers::untraced`]) summed only for
+/// the objects `radiance` selects: the others' covers alone are found, and their radiance
+/// comes back zero (no BRDF integral is read for them).
+pub fn shade_covers_for(
+    setup: &FrameSetup<'_>,
+    which: &[bool],
+    radiance: &[bool],
+) -> (Vec<Vec<Vec3>>, Vec<Option<Covers>>, FrameStats) {
     let lights = setup.lights.len();
     let (blocks, stats) = setup.par_blocks(Some(which), BLOCK, FrameStats::plus, |nears, stats, i, vertices| {
+        let wanted = radiance.get(i).copied().unwrap_or(false);
         let mut covers = vec![0.0; vertices.len() * lights];
         let mut own = vec![1.0; vertices.len() * lights];
         let sums: Vec<Sum> = vertices
             .zip(covers.chunks_exact_mut(lights.max(1)).zip(own.chunks_exact_mut(lights.max(1))))
-            .map(|(v, out)| setup.vertex_covers(i, v, nears, stats, out))
+            .map(|(v, out)| setup.vertex_covers(i, v, nears, stats, out, wanted))
             .collect();
         (sums, (covers, own))
     });

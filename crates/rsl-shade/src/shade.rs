@@ -57,6 +57,10 @@ pub struct FrameSetup<'a> {
     /// Each vertex seen along its own shading normal rather than from the eye
     /// ([`FrameSetup::along_normals`]).
     pub(crate) along_normals: bool,
+    /// Per object, per light: the cosine between the light and a point's mirror direction
+    /// below which the light's BRDF integral is taken at its centre
+    /// ([`FrameSetup::midpoint_tails`]); empty where every integral is read from the table.
+    pub(crate) tails: Vec<Vec<f32>>,
     pub(crate) terms: Terms,
     pub(crate) traced: TracedSetup,
 }
@@ -81,6 +85,7 @@ impl<'a> FrameSetup<'a> {
             reaches: lights.iter().map(|l| rsl_vis::mask::reach(l.half_diagonal)).collect(),
             eye,
             along_normals: false,
+            tails: Vec::new(),
             terms,
             traced: TracedSetup { flags: vec![false; lights.len()], ..TracedSetup::default() },
         }
@@ -92,6 +97,29 @@ impl<'a> FrameSetup<'a> {
     /// to the others ([`shade`] of this setup is the first bounce's source).
     pub fn along_normals(mut self) -> Self {
         self.along_normals = true;
+        self
+    }
+
+    /// The same frame with the BRDF integral of a light far from a glossy point's lobe
+    /// taken by the midpoint rule in [`FrameSetup::point_toward`]: the BRDF times the
+    /// cosine at the square's centre, times its solid angle `4r²`, for a light whose square
+    /// lies wholly beyond [`TAIL_WIDTHS`] lobe widths ([`rsl_brdf::Brdf::lobe_width`]) of
+    /// the point's mirror direction, where the lobe's tail is smooth over the square. For
+    /// sums averaged with many others (what a glossy surface sends in the interreflections'
+    /// gathering), not for what the eye sees.
+    pub fn midpoint_tails(mut self) -> Self {
+        self.tails = self
+            .placed
+            .iter()
+            .map(|p| match p.object.table.brdf().lobe_width() {
+                None => Vec::new(),
+                Some(w) => self
+                    .lights
+                    .iter()
+                    .map(|l| (TAIL_WIDTHS * w + l.cone_half_angle()).min(std::f32::consts::PI).cos())
+                    .collect(),
+            })
+            .collect();
         self
     }
 
@@ -198,6 +226,11 @@ impl<'a> FrameSetup<'a> {
         self.placed[i].object.table.view_lookup(Vec3::Z) == ViewLookup::Single
     }
 }
+
+/// Lobe widths ([`rsl_brdf::Brdf::lobe_width`], about one standard deviation) beyond which
+/// a square's BRDF integral is its centre's value times its solid angle, in a frame set up
+/// with [`FrameSetup::midpoint_tails`].
+pub const TAIL_WIDTHS: f32 = 3.0;
 
 /// Vertices per parallel work item of the fast path.
 pub(crate) const BLOCK: usize = 256;

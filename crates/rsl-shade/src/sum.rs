@@ -174,7 +174,8 @@ impl<'a> FrameSetup<'a> {
     /// (the self-visibility field and face mask; the rest is the occluder fields' product;
     /// 1 for a traced light, whose rays give its whole cover): every light above the horizon
     /// gets its cover, whatever the vertex's BRDF and view do with it, since points near the
-    /// vertex (a pixel's) have other normals and views.
+    /// vertex (a pixel's) have other normals and views. Without `radiance` no BRDF integral
+    /// is read: the covers alone, and a zero sum.
     pub(crate) fn vertex_covers(
         &self,
         i: usize,
@@ -182,6 +183,7 @@ impl<'a> FrameSetup<'a> {
         nears: &mut Nears<'a>,
         stats: &mut FrameStats,
         (out, own): (&mut [f32], &mut [f32]),
+        radiance: bool,
     ) -> Sum {
         stats.vertices += 1;
         let at = self.at_vertex(i, v);
@@ -190,7 +192,7 @@ impl<'a> FrameSetup<'a> {
         let table = &at.placed.object.table;
         type Ctx<'c, 'a> = (&'c mut Nears<'a>, &'c mut FrameStats, &'c mut [f32]);
         let brdf = |(_, stats, _): &mut Ctx<'_, 'a>, l: usize| {
-            if at.lookup == ViewLookup::Below {
+            if !radiance || at.lookup == ViewLookup::Below {
                 return Vec3::ZERO;
             }
             let light = &self.lights[l];
@@ -226,14 +228,22 @@ impl<'a> FrameSetup<'a> {
     /// point of object `i` sends toward another surface.
     pub fn point_toward(&self, i: usize, view: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
         let table = &self.placed[i].object.table;
-        let lookup = table.view_lookup(frame.to_local(view));
+        let local_view = frame.to_local(view);
+        let lookup = table.view_lookup(local_view);
         if lookup == ViewLookup::Below {
             return Vec3::ZERO;
         }
+        let tails = self.tails.get(i).map_or(&[][..], Vec::as_slice);
+        let mirror = Vec3::new(-local_view.x, -local_view.y, local_view.z);
         let brdf = |stats: &mut &mut FrameStats, l: usize| {
             let light = &self.lights[l];
+            let dir = frame.to_local(light.dir);
+            if tails.get(l).is_some_and(|&c| dir.dot(mirror) < c) {
+                let r = light.half_diagonal;
+                return table.brdf().eval_cos(dir, local_view) * (4.0 * r * r);
+            }
             stats.brdf_lookups += 1;
-            table.integral_for(&lookup, frame.to_local(light.dir), light.half_diagonal)
+            table.integral_for(&lookup, dir, light.half_diagonal)
         };
         let cover = |_: &mut &mut FrameStats, l: usize| covers.get(l).copied().unwrap_or(0.0);
         self.rsl_sum(&mut &mut *stats, Order::CoverFirst, brdf, cover, None).radiance
