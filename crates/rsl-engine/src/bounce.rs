@@ -25,10 +25,9 @@
 //! [`rsl_shade::TAIL_WIDTHS`] lobe widths of the mirror direction takes the BRDF at the
 //! square's centre times its solid angle ([`rsl_shade::FrameSetup::midpoint_tails`]): the
 //! lobe's tail is smooth over such a square, and each direction's light is one of many that
-//! a vertex averages. For `bounces` above 1 the surfaces gather
-//! their own bounces first, each along its normal (a glossy surface's earlier bounces taken
-//! as sending toward every direction what they send along its normal), so the light of N
-//! bounces costs N gathers.
+//! a vertex averages. For `bounces` above 1 the surfaces gather their own bounces first,
+//! each along its normal (a glossy surface's earlier bounces taken as sending toward every
+//! direction what they send along its normal), so the light of N bounces costs N gathers.
 //!
 //! The method draws the direct light as it always does; the gathered light is added to each
 //! vertex's radiance and, in the image, interpolated across triangles (the CPU rasteriser,
