@@ -225,7 +225,8 @@ impl<'a> FrameSetup<'a> {
     }
 
     /// [`FrameSetup::point`] toward world direction `view` (unit) instead of the eye: what a
-    /// point of object `i` sends toward another surface.
+    /// point of object `i` sends toward another surface (in a frame set up with
+    /// [`FrameSetup::midpoint_tails`], the lights far from the lobe by the midpoint rule).
     pub fn point_toward(&self, i: usize, view: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
         let table = &self.placed[i].object.table;
         let local_view = frame.to_local(view);
