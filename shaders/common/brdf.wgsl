@@ -49,6 +49,8 @@ struct ViewLookup {
     // Isotropic: (cos β, sin β) of the turn about y that reads each of the two slices where
     // its lobe is (β = θ_v − θ_k), lower slice in xy, upper in zw.
     turn: vec4<f32>,
+    // The view's mirror direction (local frame), which decides a light's tail (square_for).
+    mirror: vec3<f32>,
 }
 
 // Polar angle of isotropic slice k of v: θ_max(1 − (1 − k/(v−1))²).
@@ -58,7 +60,7 @@ fn slice_theta(k: u32, v: u32, theta_max: f32) -> f32 {
 }
 
 fn view_lookup(table: TableRef, view: vec3<f32>, theta_max: f32) -> ViewLookup {
-    var out = ViewLookup(VIEW_BELOW, 0u, vec2<u32>(0u), vec2<f32>(1.0, 0.0), vec2<f32>(0.0), vec4<f32>(1.0, 0.0, 1.0, 0.0));
+    var out = ViewLookup(VIEW_BELOW, 0u, vec2<u32>(0u), vec2<f32>(1.0, 0.0), vec2<f32>(0.0), vec4<f32>(1.0, 0.0, 1.0, 0.0), vec3<f32>(-view.x, -view.y, view.z));
     if !(view.z > 0.0) {
         return out;
     }
@@ -270,12 +272,51 @@ fn lambertian(table: TableRef, p: vec2<f32>, s: f32) -> vec3<f32> {
     return table.diffuse * (box_cosine(p, s) / PI_BRDF);
 }
 
+// Cell (x, y) of the slice whose cells start at `cells`; none beyond the grid (zero: nothing
+// there is above the horizon).
+fn cell_or_zero(cells: u32, n: u32, x: i32, y: i32) -> vec3<f32> {
+    if x < 0 || y < 0 || x >= i32(n) || y >= i32(n) {
+        return vec3<f32>(0.0);
+    }
+    return tables[cells + u32(y) * n + u32(x)].xyz;
+}
+
+// w · slice k's density at p times the area of the box [p − s, p + s]²: the cells'
+// integrals interpolated bilinearly between the centres of the 2×2 cells around p (zero
+// beyond the grid), over a cell's area (BrdfTable::tail_for's density_box).
+fn density_box(table: TableRef, k: u32, w: f32, p: vec2<f32>, s: f32) -> vec3<f32> {
+    let n = table.n;
+    let cells = table.offset + k * ((n + 1u) * (n + 1u) + n * n) + (n + 1u) * (n + 1u);
+    // Cell-centre coordinates (cell i's centre at i).
+    let g = clamp((p + 1.0) * 0.5 * f32(n) - 0.5, vec2<f32>(-1.0), vec2<f32>(f32(n)));
+    let i = floor(g);
+    let f = g - i;
+    let x = i32(i.x);
+    let y = i32(i.y);
+    let lo = cell_or_zero(cells, n, x, y) * (1.0 - f.x) + cell_or_zero(cells, n, x + 1, y) * f.x;
+    let hi = cell_or_zero(cells, n, x, y + 1) * (1.0 - f.x) + cell_or_zero(cells, n, x + 1, y + 1) * f.x;
+    let scale = s * f32(n);
+    return w * (lo * (1.0 - f.y) + hi * f.y) * (scale * scale);
+}
+
+// The read of slice k, weight w, over the box [p − s, p + s]²: its box by the spline, or in
+// a lobe's tail its density at the centre times the area.
+fn slice_read(table: TableRef, k: u32, w: f32, p: vec2<f32>, s: f32, tail: bool) -> vec3<f32> {
+    if tail {
+        return density_box(table, k, w, p, s);
+    }
+    return box_blend(table, k, w, 0u, 0.0, p, s);
+}
+
 // ∫ ρ cos θ dω over the square of half-diagonal r around `light` (unit, local frame) for a
-// view located by view_lookup.
-fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) -> vec3<f32> {
+// view located by view_lookup. A light whose cosine with the view's mirror direction is below
+// `tail_cos` (rsl_shade::tail_cosines: its square wholly in the lobe's tail) takes each
+// slice's density at its centre times its area (BrdfTable::tail_for).
+fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32, tail_cos: f32) -> vec3<f32> {
     let r = max(r_in, 0.0);
     let solid_angle = 4.0 * r * r;
     let s = r / SQRT_2;
+    let tail = dot(light, view.mirror) < tail_cos;
     var integral = vec3<f32>(0.0);
     switch view.kind {
         case VIEW_SINGLE: {
@@ -290,11 +331,11 @@ fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) ->
             // direction turns from the view's to the slice's.
             if view.weight.x > 0.0 {
                 let l0 = vec3<f32>(view.turn.x * l.x + view.turn.y * l.z, l.y, view.turn.x * l.z - view.turn.y * l.x);
-                integral += box_blend(table, view.slice, view.weight.x, 0u, 0.0, hemi_from_dir(l0), s);
+                integral += slice_read(table, view.slice, view.weight.x, hemi_from_dir(l0), s, tail);
             }
             if view.weight.y > 0.0 {
                 let l1 = vec3<f32>(view.turn.z * l.x + view.turn.w * l.z, l.y, view.turn.z * l.z - view.turn.w * l.x);
-                integral += box_blend(table, view.slice + 1u, view.weight.y, 0u, 0.0, hemi_from_dir(l1), s);
+                integral += slice_read(table, view.slice + 1u, view.weight.y, hemi_from_dir(l1), s, tail);
             }
             integral += lambertian(table, hemi_from_dir(l), s);
         }
@@ -310,7 +351,7 @@ fn square_for(table: TableRef, view: ViewLookup, light: vec3<f32>, r_in: f32) ->
                 let qa = min(a, v - 1u - a);
                 let qb = min(b, v - 1u - b);
                 let pq = vec2<f32>(select(p.x, -p.x, qa != a), select(p.y, -p.y, qb != b));
-                corner[q] = box_blend(table, qb * half + qa, 1.0, 0u, 0.0, pq, s);
+                corner[q] = slice_read(table, qb * half + qa, 1.0, pq, s, tail);
             }
             let fx = view.weight.x;
             let fy = view.weight.y;

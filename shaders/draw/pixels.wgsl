@@ -468,7 +468,7 @@ fn pixel_radiance(t: u32, w: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let light = frame[3u * l];
-        radiance += frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), light.w) * cover;
+        radiance += frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), light.w, frame[o.light_dirs + l].w) * cover;
     }
     return radiance;
 }

@@ -104,7 +104,7 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var l = 0u; l < params.light_count; l++) {
         let light = frame[3u * l];
         let r = light.w;
-        let brdf = square_for(table, lookup, to_local(sf, light.xyz), r);
+        let brdf = square_for(table, lookup, to_local(sf, light.xyz), r, frame[o.light_dirs + l].w);
         if all(brdf == vec3<f32>(0.0)) {
             continue;
         }
@@ -170,7 +170,7 @@ fn shade_vertex_covers(@builtin(global_invocation_id) id: vec3<u32>) {
         if cover <= 0.0 || lookup.kind == VIEW_BELOW {
             continue;
         }
-        let term = frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), r) * cover;
+        let term = frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), r, frame[o.light_dirs + l].w) * cover;
         sum += term;
         if slot == 0u {
             untraced += term;

@@ -747,7 +747,15 @@ impl GpuShading {
         for (i, o) in objects.iter().enumerate() {
             let pose = Pose::new(&o.transform);
             let light_dirs = frame.len() as u32;
-            frame.extend(lights.iter().map(|l| vec4(pose.direction_to_object(l.dir), 0.0)));
+            // w: the cosine below which a light is in the lobe's tail (never for a Lambertian
+            // object), as the CPU's sums take it.
+            let tails = rsl_shade::tail_cosines(o.table.brdf(), lights);
+            frame.extend(
+                lights
+                    .iter()
+                    .enumerate()
+                    .map(|(l, light)| vec4(pose.direction_to_object(light.dir), tails.get(l).copied().unwrap_or(-2.0))),
+            );
             let p = &self.placements[i];
             let t = &self.table_placements[i];
             let mut g = GpuObject {

@@ -25,5 +25,5 @@ pub use raster::{
 };
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, TAIL_WIDTHS, Terms, Traced, TracedCovers,
-    VertexFrames, shade, shade_objects, shade_objects_untraced, shade_reference,
+    VertexFrames, shade, shade_objects, shade_objects_untraced, shade_reference, tail_cosines,
 };

@@ -252,7 +252,7 @@ fn vertex<'a>(
             square_exact(brdf, local, r, view, &|_| 1.0)
         } else {
             stats.lookups.brdf_lookups += 1;
-            o.table.integral_for(&at.lookup, local, r)
+            setup.light_integral(i, (&at.lookup, view), local, l)
         }
     };
     let cover = |(nears, stats): &mut (&mut Nears<'a>, &mut OracleStats), l: usize| {

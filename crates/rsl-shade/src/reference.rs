@@ -25,7 +25,14 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
             let mut sum = Vec3::ZERO;
             for (l, light) in setup.lights.iter().enumerate() {
                 let r = light.half_diagonal;
-                let brdf = o.table.square(frame.to_local(light.dir), r, view).integral;
+                // A light in the lobe's tail: the table's density at the square's centre.
+                let local = frame.to_local(light.dir);
+                let tail = setup.tails[i].get(l).is_some_and(|&c| local.dot(Vec3::new(-view.x, -view.y, view.z)) < c);
+                let brdf = if tail {
+                    o.table.tail_for(&o.table.view_lookup(view), local, r)
+                } else {
+                    o.table.square(local, r, view).integral
+                };
                 if setup.is_traced(l) {
                     sum += light.radiance * brdf * setup.traced_cover(i, v, l, &mut 0);
                     continue;

@@ -58,9 +58,12 @@ pub struct FrameSetup<'a> {
     /// ([`FrameSetup::along_normals`]).
     pub(crate) along_normals: bool,
     /// Per object, per light: the cosine between the light and a point's mirror direction
-    /// below which the light's BRDF integral is taken at its centre
-    /// ([`FrameSetup::midpoint_tails`]); empty where every integral is read from the table.
+    /// below which the light is in the lobe's tail ([`tail_cosines`]); empty for a
+    /// Lambertian object.
     pub(crate) tails: Vec<Vec<f32>>,
+    /// Whether a tail's integral is the BRDF at the square's centre
+    /// ([`FrameSetup::midpoint_tails`]) rather than the table's density there.
+    pub(crate) exact_tails: bool,
     pub(crate) terms: Terms,
     pub(crate) traced: TracedSetup,
 }
@@ -85,7 +88,8 @@ impl<'a> FrameSetup<'a> {
             reaches: lights.iter().map(|l| rsl_vis::mask::reach(l.half_diagonal)).collect(),
             eye,
             along_normals: false,
-            tails: Vec::new(),
+            tails: objects.iter().map(|o| tail_cosines(o.table.brdf(), lights)).collect(),
+            exact_tails: false,
             terms,
             traced: TracedSetup { flags: vec![false; lights.len()], ..TracedSetup::default() },
         }
@@ -100,27 +104,46 @@ impl<'a> FrameSetup<'a> {
         self
     }
 
-    /// The same frame with the BRDF integral of a light far from a glossy point's lobe
-    /// taken by the midpoint rule in [`FrameSetup::point_toward`]: the BRDF times the
-    /// cosine at the square's centre, times its solid angle `4r²`, for a light whose square
-    /// lies wholly beyond [`TAIL_WIDTHS`] lobe widths ([`rsl_brdf::Brdf::lobe_width`]) of
-    /// the point's mirror direction, where the lobe's tail is smooth over the square. For
-    /// sums averaged with many others (what a glossy surface sends in the interreflections'
-    /// gathering), not for what the eye sees.
+    /// The same frame with the BRDF integral of a light in a glossy point's lobe tail
+    /// ([`tail_cosines`]) taken at the square's centre from the BRDF itself, times its solid
+    /// angle `4r²`, instead of from the table's density there. For sums averaged with many
+    /// others (what a glossy surface sends in the interreflections' gathering), which need
+    /// not match the GPU's image.
     pub fn midpoint_tails(mut self) -> Self {
-        self.tails = self
-            .placed
-            .iter()
-            .map(|p| match p.object.table.brdf().lobe_width() {
-                None => Vec::new(),
-                Some(w) => self
-                    .lights
-                    .iter()
-                    .map(|l| (TAIL_WIDTHS * w + l.cone_half_angle()).min(std::f32::consts::PI).cos())
-                    .collect(),
-            })
-            .collect();
+        self.exact_tails = true;
         self
+    }
+
+    /// The same frame with every square's BRDF integral read from its box in the table, the
+    /// lobes' tails included ([`tail_cosines`]): what the midpoint rule stands in for, to
+    /// measure what it costs.
+    pub fn without_tails(mut self) -> Self {
+        self.tails = Vec::new();
+        self
+    }
+
+    /// Whether light `l`, in direction `dir`, lies in the lobe's tail at a point of object `i`
+    /// seen from `view` (both in the point's shading frame): its cosine with the view's
+    /// mirror direction below the one [`tail_cosines`] gives it.
+    #[inline]
+    pub fn in_tail(&self, i: usize, view: Vec3, dir: Vec3, l: usize) -> bool {
+        let mirror = Vec3::new(-view.x, -view.y, view.z);
+        self.tails.get(i).and_then(|t| t.get(l)).is_some_and(|&c| dir.dot(mirror) < c)
+    }
+
+    /// Light `l`'s BRDF integral at a point of object `i` whose view (local frame) the
+    /// table's `lookup` located: a light in the lobe's tail by the midpoint rule
+    /// ([`tail_cosines`]; the table's density, or with [`FrameSetup::midpoint_tails`] the
+    /// BRDF, at the square's centre), any other by its box in the table.
+    #[inline]
+    pub(crate) fn light_integral(&self, i: usize, (lookup, view): (&ViewLookup, Vec3), dir: Vec3, l: usize) -> Vec3 {
+        let table = &self.placed[i].object.table;
+        let r = self.lights[l].half_diagonal;
+        match (self.in_tail(i, view, dir, l), self.exact_tails) {
+            (false, _) => table.integral_for(lookup, dir, r),
+            (true, false) => table.tail_for(lookup, dir, r),
+            (true, true) => table.brdf().eval_cos(dir, view) * (4.0 * r * r),
+        }
     }
 
     /// The parallel work items of a frame: `(object, block)` for every block of `size`
@@ -228,9 +251,24 @@ impl<'a> FrameSetup<'a> {
 }
 
 /// Lobe widths ([`rsl_brdf::Brdf::lobe_width`], about one standard deviation) beyond which
-/// a square's BRDF integral is its centre's value times its solid angle, in a frame set up
-/// with [`FrameSetup::midpoint_tails`].
+/// a square's BRDF integral is its centre's density times its solid angle
+/// ([`tail_cosines`]).
 pub const TAIL_WIDTHS: f32 = 3.0;
+
+/// Per light, the cosine between the light and a point's mirror direction (local frame)
+/// below which its square lies wholly beyond [`TAIL_WIDTHS`] lobe widths of it: there the
+/// lobe's tail is smooth over the square, and the square's integral is its centre's density
+/// times its area (the table's, [`rsl_brdf::BrdfTable::tail_for`]: nine summed-area entries a
+/// slice instead of a box's 64 spline taps). None for a Lambertian BRDF, whose every integral is in closed form. The
+/// GPU takes these same cosines (`rsl-gpu`), so that its images match.
+pub fn tail_cosines(brdf: &rsl_brdf::Brdf, lights: &[Light]) -> Vec<f32> {
+    match brdf.lobe_width() {
+        None => Vec::new(),
+        Some(w) => {
+            lights.iter().map(|l| (TAIL_WIDTHS * w + l.cone_half_angle()).min(std::f32::consts::PI).cos()).collect()
+        }
+    }
+}
 
 /// Vertices per parallel work item of the fast path.
 pub(crate) const BLOCK: usize = 256;

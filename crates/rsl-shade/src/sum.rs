@@ -158,11 +158,9 @@ impl<'a> FrameSetup<'a> {
         }
         self.nears(i, at.x, nears);
         let fields = self.vertex_fields(i, v);
-        let table = &at.placed.object.table;
         let brdf = |(_, stats): &mut (&mut Nears<'a>, &mut FrameStats), l: usize| {
-            let light = &self.lights[l];
             stats.brdf_lookups += 1;
-            table.integral_for(&at.lookup, at.frame.to_local(light.dir), light.half_diagonal)
+            self.light_integral(i, (&at.lookup, at.view), at.frame.to_local(self.lights[l].dir), l)
         };
         let cover = |ctx: &mut (&mut Nears<'a>, &mut FrameStats), l: usize| self.vertex_cover(ctx, (i, v, l), &fields);
         self.rsl_sum(&mut (nears, stats), Order::BrdfFirst, brdf, cover, None)
@@ -189,15 +187,13 @@ impl<'a> FrameSetup<'a> {
         let at = self.at_vertex(i, v);
         self.nears(i, at.x, nears);
         let fields = self.vertex_fields(i, v);
-        let table = &at.placed.object.table;
         type Ctx<'c, 'a> = (&'c mut Nears<'a>, &'c mut FrameStats, &'c mut [f32]);
         let brdf = |(_, stats, _): &mut Ctx<'_, 'a>, l: usize| {
             if !radiance || at.lookup == ViewLookup::Below {
                 return Vec3::ZERO;
             }
-            let light = &self.lights[l];
             stats.brdf_lookups += 1;
-            table.integral_for(&at.lookup, at.frame.to_local(light.dir), light.half_diagonal)
+            self.light_integral(i, (&at.lookup, at.view), at.frame.to_local(self.lights[l].dir), l)
         };
         let cover = |(nears, stats, own): &mut Ctx<'_, 'a>, l: usize| {
             own[l] = 1.0;
@@ -228,23 +224,14 @@ impl<'a> FrameSetup<'a> {
     /// point of object `i` sends toward another surface (in a frame set up with
     /// [`FrameSetup::midpoint_tails`], the lights far from the lobe by the midpoint rule).
     pub fn point_toward(&self, i: usize, view: Vec3, frame: &Frame, covers: &[f32], stats: &mut FrameStats) -> Vec3 {
-        let table = &self.placed[i].object.table;
         let local_view = frame.to_local(view);
-        let lookup = table.view_lookup(local_view);
+        let lookup = self.placed[i].object.table.view_lookup(local_view);
         if lookup == ViewLookup::Below {
             return Vec3::ZERO;
         }
-        let tails = self.tails.get(i).map_or(&[][..], Vec::as_slice);
-        let mirror = Vec3::new(-local_view.x, -local_view.y, local_view.z);
         let brdf = |stats: &mut &mut FrameStats, l: usize| {
-            let light = &self.lights[l];
-            let dir = frame.to_local(light.dir);
-            if tails.get(l).is_some_and(|&c| dir.dot(mirror) < c) {
-                let r = light.half_diagonal;
-                return table.brdf().eval_cos(dir, local_view) * (4.0 * r * r);
-            }
             stats.brdf_lookups += 1;
-            table.integral_for(&lookup, dir, light.half_diagonal)
+            self.light_integral(i, (&lookup, local_view), frame.to_local(self.lights[l].dir), l)
         };
         let cover = |_: &mut &mut FrameStats, l: usize| covers.get(l).copied().unwrap_or(0.0);
         self.rsl_sum(&mut &mut *stats, Order::CoverFirst, brdf, cover, None).radiance
