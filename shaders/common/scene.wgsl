@@ -73,6 +73,25 @@ const MAX_NEAR: u32 = 16u;
 // rsl_shade::pixel::UNDEFINED: the cover of a light wholly below a vertex's horizon.
 const UNDEFINED_COVER: f32 = -1.0;
 
+// rsl_shade::FrameSetup::tails_at: whether some light is near the lobe (its cosine with the
+// view's mirror direction at least the one frame[o.light_dirs + l].w holds), so that the
+// lights in the lobe's tail take the midpoint rule (square_for); where every light is in
+// the tail, every box is read.
+fn tails_at(o: GpuObject, sf: Frame, mirror: vec3<f32>, light_count: u32) -> bool {
+    for (var l = 0u; l < light_count; l++) {
+        if dot(to_local(sf, frame[3u * l].xyz), mirror) >= frame[o.light_dirs + l].w {
+            return true;
+        }
+    }
+    return false;
+}
+
+// The cosine below which light l is in object o's lobe tail at a point (square_for's
+// `tail_cos`): none where `tails` is false.
+fn tail_cos(o: GpuObject, l: u32, tails: bool) -> f32 {
+    return select(-2.0, frame[o.light_dirs + l].w, tails);
+}
+
 fn table_of(o: GpuObject) -> TableRef {
     return TableRef(o.table_kind, o.table_n, o.table_views, o.table_offset, o.max_density.xyz, o.diffuse.xyz, o.max_density.w);
 }

@@ -402,6 +402,7 @@ fn pixel_radiance(t: u32, w: vec3<f32>) -> vec3<f32> {
     let sf = frame_from_normal_tangent(normal_toward_view(shading.n, view, seen), shading.t);
     let table = table_of(o);
     let lookup = view_lookup(table, to_local(sf, view), pixel.eye.w);
+    let tails = tails_at(o, sf, lookup.mirror, pixel.light_count);
     let lambertian = table.kind == TABLE_SINGLE;
     var radiance = vec3<f32>(0.0);
     if lambertian {
@@ -468,7 +469,7 @@ fn pixel_radiance(t: u32, w: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let light = frame[3u * l];
-        radiance += frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), light.w, frame[o.light_dirs + l].w) * cover;
+        radiance += frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), light.w, tail_cos(o, l, tails)) * cover;
     }
     return radiance;
 }

@@ -100,11 +100,12 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var nears = find_nears(i, x, params.terms, params.object_count);
+    let tails = tails_at(o, sf, lookup.mirror, params.light_count);
     var sum = vec3<f32>(0.0);
     for (var l = 0u; l < params.light_count; l++) {
         let light = frame[3u * l];
         let r = light.w;
-        let brdf = square_for(table, lookup, to_local(sf, light.xyz), r, frame[o.light_dirs + l].w);
+        let brdf = square_for(table, lookup, to_local(sf, light.xyz), r, tail_cos(o, l, tails));
         if all(brdf == vec3<f32>(0.0)) {
             continue;
         }
@@ -142,6 +143,7 @@ fn shade_vertex_covers(@builtin(global_invocation_id) id: vec3<u32>) {
     let table = table_of(o);
     let lookup = at.lookup;
     var nears = find_nears(i, x, params.terms, params.object_count);
+    let tails = tails_at(o, sf, lookup.mirror, params.light_count);
     let vis = Frame(vert.vis_t, vert.vis_b, vert.vis_n.xyz);
     var sum = vec3<f32>(0.0);
     var untraced = vec3<f32>(0.0);
@@ -170,7 +172,7 @@ fn shade_vertex_covers(@builtin(global_invocation_id) id: vec3<u32>) {
         if cover <= 0.0 || lookup.kind == VIEW_BELOW {
             continue;
         }
-        let term = frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), r, frame[o.light_dirs + l].w) * cover;
+        let term = frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), r, tail_cos(o, l, tails)) * cover;
         sum += term;
         if slot == 0u {
             untraced += term;

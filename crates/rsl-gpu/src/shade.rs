@@ -749,7 +749,7 @@ impl GpuShading {
             let light_dirs = frame.len() as u32;
             // w: the cosine below which a light is in the lobe's tail (never for a Lambertian
             // object), as the CPU's sums take it.
-            let tails = rsl_shade::tail_cosines(o.table.brdf(), lights);
+            let tails = rsl_shade::drawn_tail_cosines(o.table.brdf(), lights);
             frame.extend(
                 lights
                     .iter()

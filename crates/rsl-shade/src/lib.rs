@@ -25,5 +25,6 @@ pub use raster::{
 };
 pub use shade::{
     FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, TAIL_WIDTHS, Terms, Traced, TracedCovers,
-    VertexFrames, shade, shade_objects, shade_objects_untraced, shade_reference, tail_cosines,
+    VertexFrames, density_tails, drawn_tail_cosines, shade, shade_objects, shade_objects_untraced, shade_reference,
+    tail_cosines,
 };

@@ -237,6 +237,7 @@ fn vertex<'a>(
     // The BRDF's integral over light `l`'s square: the product oracle's whole term (the
     // BRDF times the rays' visibility, covered by nothing else), the BRDF oracle's
     // quadrature, or the table.
+    let tails = setup.tails_at(i, view, &frame);
     let integral = |(_, stats): &mut (&mut Nears<'a>, &mut OracleStats), l: usize| {
         let light = &setup.lights[l];
         let (local, r) = (frame.to_local(light.dir), light.half_diagonal);
@@ -252,7 +253,7 @@ fn vertex<'a>(
             square_exact(brdf, local, r, view, &|_| 1.0)
         } else {
             stats.lookups.brdf_lookups += 1;
-            setup.light_integral(i, (&at.lookup, view), local, l)
+            setup.light_integral(i, (&at.lookup, view, tails), local, l)
         }
     };
     let cover = |(nears, stats): &mut (&mut Nears<'a>, &mut OracleStats), l: usize| {

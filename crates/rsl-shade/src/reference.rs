@@ -23,11 +23,16 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
             let view = frame.to_local((setup.eye - x).normalize_or_zero());
             let vis_frame = Frame::from_normal(o.mesh.normals[v]);
             let mut sum = Vec3::ZERO;
+            // A light in the lobe's tail, where some light is near it: the table's density
+            // at the square's centre.
+            let mirror = Vec3::new(-view.x, -view.y, view.z);
+            let in_tail =
+                |l: usize| setup.tails[i].get(l).is_some_and(|&c| frame.to_local(setup.lights[l].dir).dot(mirror) < c);
+            let tails = crate::shade::density_tails(o.table.brdf()) && (0..setup.lights.len()).any(|l| !in_tail(l));
             for (l, light) in setup.lights.iter().enumerate() {
                 let r = light.half_diagonal;
-                // A light in the lobe's tail: the table's density at the square's centre.
                 let local = frame.to_local(light.dir);
-                let tail = setup.tails[i].get(l).is_some_and(|&c| local.dot(Vec3::new(-view.x, -view.y, view.z)) < c);
+                let tail = tails && in_tail(l);
                 let brdf = if tail {
                     o.table.tail_for(&o.table.view_lookup(view), local, r)
                 } else {

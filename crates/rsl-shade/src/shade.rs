@@ -131,18 +131,41 @@ impl<'a> FrameSetup<'a> {
         self.tails.get(i).and_then(|t| t.get(l)).is_some_and(|&c| dir.dot(mirror) < c)
     }
 
+    /// Whether the lobe's tails take the midpoint rule at a point of object `i` seen from
+    /// `view` with shading frame `frame`: where some light is near the lobe (not in its tail,
+    /// [`FrameSetup::in_tail`]), whose box is read. Where every light is in the tail — the
+    /// mirror direction in a gap between squares — the sum is all tails, and the midpoint
+    /// rule, which misses a steep tail's near edge (a Beckmann lobe's falls off like a
+    /// Gaussian), would make it vanish: every box is read there.
+    pub fn tails_at(&self, i: usize, view: Vec3, frame: &Frame) -> bool {
+        !self.tails.get(i).is_none_or(Vec::is_empty)
+            && (0..self.lights.len()).any(|l| !self.in_tail(i, view, frame.to_local(self.lights[l].dir), l))
+    }
+
     /// Light `l`'s BRDF integral at a point of object `i` whose view (local frame) the
-    /// table's `lookup` located: a light in the lobe's tail by the midpoint rule
-    /// ([`tail_cosines`]; the table's density, or with [`FrameSetup::midpoint_tails`] the
-    /// BRDF, at the square's centre), any other by its box in the table.
+    /// table's `lookup` located: with `tails` ([`FrameSetup::tails_at`]), a light in the
+    /// lobe's tail by the midpoint rule ([`tail_cosines`]; the table's density, or with
+    /// [`FrameSetup::midpoint_tails`] the BRDF, at the square's centre); any other by its
+    /// box in the table.
     #[inline]
-    pub(crate) fn light_integral(&self, i: usize, (lookup, view): (&ViewLookup, Vec3), dir: Vec3, l: usize) -> Vec3 {
+    pub(crate) fn light_integral(
+        &self,
+        i: usize,
+        (lookup, view, tails): (&ViewLookup, Vec3, bool),
+        dir: Vec3,
+        l: usize,
+    ) -> Vec3 {
         let table = &self.placed[i].object.table;
         let r = self.lights[l].half_diagonal;
-        match (self.in_tail(i, view, dir, l), self.exact_tails) {
-            (false, _) => table.integral_for(lookup, dir, r),
-            (true, false) => table.tail_for(lookup, dir, r),
-            (true, true) => table.brdf().eval_cos(dir, view) * (4.0 * r * r),
+        if !(tails && self.in_tail(i, view, dir, l)) {
+            return table.integral_for(lookup, dir, r);
+        }
+        if self.exact_tails {
+            table.brdf().eval_cos(dir, view) * (4.0 * r * r)
+        } else if density_tails(table.brdf()) {
+            table.tail_for(lookup, dir, r)
+        } else {
+            table.integral_for(lookup, dir, r)
         }
     }
 
@@ -256,11 +279,11 @@ impl<'a> FrameSetup<'a> {
 pub const TAIL_WIDTHS: f32 = 3.0;
 
 /// Per light, the cosine between the light and a point's mirror direction (local frame)
-/// below which its square lies wholly beyond [`TAIL_WIDTHS`] lobe widths of it: there the
-/// lobe's tail is smooth over the square, and the square's integral is its centre's density
-/// times its area (the table's, [`rsl_brdf::BrdfTable::tail_for`]: nine summed-area entries a
-/// slice instead of a box's 64 spline taps). None for a Lambertian BRDF, whose every integral is in closed form. The
-/// GPU takes these same cosines (`rsl-gpu`), so that its images match.
+/// below which its square lies wholly beyond [`TAIL_WIDTHS`] lobe widths of it, in the
+/// lobe's tail; none for a Lambertian BRDF. There the square's integral may be taken by the
+/// midpoint rule: the BRDF at its centre in the interreflections' gathering
+/// ([`FrameSetup::midpoint_tails`]), the table's density there in what the eye sees where
+/// the tail follows a power law ([`drawn_tail_cosines`]).
 pub fn tail_cosines(brdf: &rsl_brdf::Brdf, lights: &[Light]) -> Vec<f32> {
     match brdf.lobe_width() {
         None => Vec::new(),
@@ -268,6 +291,24 @@ pub fn tail_cosines(brdf: &rsl_brdf::Brdf, lights: &[Light]) -> Vec<f32> {
             lights.iter().map(|l| (TAIL_WIDTHS * w + l.cone_half_angle()).min(std::f32::consts::PI).cos()).collect()
         }
     }
+}
+
+/// Whether the sums the eye sees take a tail's integral as the table's density at the
+/// square's centre times its area ([`rsl_brdf::BrdfTable::tail_for`]: nine summed-area
+/// entries a slice instead of a box's 64 spline taps): for a power-law tail (GGX, glTF;
+/// GGX's density falls like θ⁻⁴), which varies slowly across a square beyond three lobe
+/// widths. A Gaussian-like tail (Beckmann, Cook–Torrance, Ward, the cosine powers) falls by
+/// orders of magnitude across it, its integral is its near edge's, which the centre
+/// misses: with the rule, a Beckmann α = 0.05 ball's vertices whose every light was in the
+/// tail went black in the white furnace (3.5 → 11.5 % per vertex). Those read every box.
+pub fn density_tails(brdf: &rsl_brdf::Brdf) -> bool {
+    matches!(brdf, rsl_brdf::Brdf::Ggx { .. } | rsl_brdf::Brdf::Gltf { .. })
+}
+
+/// [`tail_cosines`] as the eye's sums use them ([`density_tails`]; none where every box is
+/// read): what the GPU takes, so that its images match the CPU's.
+pub fn drawn_tail_cosines(brdf: &rsl_brdf::Brdf, lights: &[Light]) -> Vec<f32> {
+    if density_tails(brdf) { tail_cosines(brdf, lights) } else { Vec::new() }
 }
 
 /// Vertices per parallel work item of the fast path.

@@ -158,9 +158,10 @@ impl<'a> FrameSetup<'a> {
         }
         self.nears(i, at.x, nears);
         let fields = self.vertex_fields(i, v);
+        let tails = self.tails_at(i, at.view, &at.frame);
         let brdf = |(_, stats): &mut (&mut Nears<'a>, &mut FrameStats), l: usize| {
             stats.brdf_lookups += 1;
-            self.light_integral(i, (&at.lookup, at.view), at.frame.to_local(self.lights[l].dir), l)
+            self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
         };
         let cover = |ctx: &mut (&mut Nears<'a>, &mut FrameStats), l: usize| self.vertex_cover(ctx, (i, v, l), &fields);
         self.rsl_sum(&mut (nears, stats), Order::BrdfFirst, brdf, cover, None)
@@ -187,13 +188,14 @@ impl<'a> FrameSetup<'a> {
         let at = self.at_vertex(i, v);
         self.nears(i, at.x, nears);
         let fields = self.vertex_fields(i, v);
+        let tails = radiance && self.tails_at(i, at.view, &at.frame);
         type Ctx<'c, 'a> = (&'c mut Nears<'a>, &'c mut FrameStats, &'c mut [f32]);
         let brdf = |(_, stats, _): &mut Ctx<'_, 'a>, l: usize| {
             if !radiance || at.lookup == ViewLookup::Below {
                 return Vec3::ZERO;
             }
             stats.brdf_lookups += 1;
-            self.light_integral(i, (&at.lookup, at.view), at.frame.to_local(self.lights[l].dir), l)
+            self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
         };
         let cover = |(nears, stats, own): &mut Ctx<'_, 'a>, l: usize| {
             own[l] = 1.0;
@@ -229,9 +231,10 @@ impl<'a> FrameSetup<'a> {
         if lookup == ViewLookup::Below {
             return Vec3::ZERO;
         }
+        let tails = self.tails_at(i, local_view, frame);
         let brdf = |stats: &mut &mut FrameStats, l: usize| {
             stats.brdf_lookups += 1;
-            self.light_integral(i, (&lookup, local_view), frame.to_local(self.lights[l].dir), l)
+            self.light_integral(i, (&lookup, local_view, tails), frame.to_local(self.lights[l].dir), l)
         };
         let cover = |_: &mut &mut FrameStats, l: usize| covers.get(l).copied().unwrap_or(0.0);
         self.rsl_sum(&mut &mut *stats, Order::CoverFirst, brdf, cover, None).radiance
