@@ -395,7 +395,7 @@ fn tails_by_the_midpoint_rule_leave_a_glossy_surfaces_sums_within_half_a_percent
                 }
                 let mut sum = Vec3::ZERO;
                 let mut diffs = [Vec3::ZERO; 2];
-                let tails_here = table.tails_at(0, frame.to_local(view), &frame);
+                let tails_here = exact.tails_at(0, frame.to_local(view), &frame);
                 for l in 0..lights {
                     let mut covers = vec![0.0; lights];
                     covers[l] = 1.0;

@@ -138,7 +138,9 @@ impl<'a> FrameSetup<'a> {
     /// rule, which misses a steep tail's near edge (a Beckmann lobe's falls off like a
     /// Gaussian), would make it vanish: every box is read there.
     pub fn tails_at(&self, i: usize, view: Vec3, frame: &Frame) -> bool {
-        !self.tails.get(i).is_none_or(Vec::is_empty)
+        // Without a rule to take them by, the tails read their boxes anyway.
+        let rule = self.exact_tails || density_tails(self.placed[i].object.table.brdf());
+        rule && !self.tails.get(i).is_none_or(Vec::is_empty)
             && (0..self.lights.len()).any(|l| !self.in_tail(i, view, frame.to_local(self.lights[l].dir), l))
     }
 
