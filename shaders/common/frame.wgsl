@@ -80,3 +80,7 @@ fn normal_toward_view(n: vec3<f32>, view: vec3<f32>, face: vec3<f32>) -> vec3<f3
 fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(v, f.t), dot(v, f.b), dot(v, f.n));
 }
+
+fn to_world(f: Frame, l: vec3<f32>) -> vec3<f32> {
+    return f.t * l.x + f.b * l.y + f.n * l.z;
+}

@@ -247,9 +247,12 @@ fn find_nears(i: u32, x: vec3<f32>, terms: u32, object_count: u32) -> Nears {
 
 // rsl_shade's occluder_cover: `cover` times the occluder fields' coverages of light l
 // (half-diagonal r) at world point x of object i whose near occluders are `nears`; nothing
-// is looked up once it is zero.
-fn others_cover(nears: ptr<function, Nears>, i: u32, x: vec3<f32>, l: u32, r: f32, cover_in: f32, object_count: u32) -> f32 {
-    var cover = cover_in;
+// is looked up once it is zero. A cut square at a Lambertian point (`receiver`, its shading
+// frame sf) takes the occluders' cosine-weighted mean over sub-squares (cut_share).
+fn others_cover(nears: ptr<function, Nears>, i: u32, x: vec3<f32>, l: u32, r: f32, own: f32, object_count: u32, receiver: bool, sf: Frame) -> f32 {
+    var cover = own;
+    // Bit k: near occluder k leaves part of the square.
+    var cut_near = 0u;
     for (var k = 0u; k < (*nears).count; k++) {
         if cover <= 0.0 {
             break;
@@ -257,16 +260,29 @@ fn others_cover(nears: ptr<function, Nears>, i: u32, x: vec3<f32>, l: u32, r: f3
         if culled((*nears).items[k], l) {
             continue;
         }
-        cover *= occluder_coverage((*nears).items[k], l, r);
+        let c = occluder_coverage((*nears).items[k], l, r);
+        if c < 1.0 {
+            cut_near |= 1u << k;
+        }
+        cover *= c;
     }
-    return occluders_from((*nears).overflow, i, x, l, r, cover, object_count);
+    let rest = occluders_from((*nears).overflow, i, x, l, r, cover, object_count);
+    cover = rest.x;
+    let cut_objects = bitcast<u32>(rest.y);
+    if !receiver || (cut_near == 0u && cut_objects == 0u) || cover <= 0.0 {
+        return cover;
+    }
+    let share = cut_share(nears, cut_near, (*nears).overflow, cut_objects, i, x, l, sf, object_count);
+    return select(cover, own * share, share >= 0.0);
 }
 
 // `cover` times the occluder fields of objects `first..` (all but i) for light l at world
 // point x, each located there (culled by the light's cone; nothing looked up once it is
-// zero).
-fn occluders_from(first: u32, i: u32, x: vec3<f32>, l: u32, r: f32, cover_in: f32, object_count: u32) -> f32 {
+// zero); and in y, as bits, those that leave part of the square (bit j for object j, bit 31
+// for any from the 31st on).
+fn occluders_from(first: u32, i: u32, x: vec3<f32>, l: u32, r: f32, cover_in: f32, object_count: u32) -> vec2<f32> {
     var cover = cover_in;
+    var cut = 0u;
     for (var j = first; j < object_count; j++) {
         if cover <= 0.0 {
             break;
@@ -278,7 +294,111 @@ fn occluders_from(first: u32, i: u32, x: vec3<f32>, l: u32, r: f32, cover_in: f3
         if !n.found || culled(n, l) {
             continue;
         }
-        cover *= occluder_coverage(n, l, r);
+        let c = occluder_coverage(n, l, r);
+        if c < 1.0 {
+            cut |= 1u << min(j, 31u);
+        }
+        cover *= c;
     }
-    return cover;
+    return vec2<f32>(cover, bitcast<f32>(cut));
+}
+
+// Occluder n's coverage of the square of half-diagonal r around world direction dir.
+fn occluder_coverage_toward(n: Near, dir: vec3<f32>, r: f32) -> f32 {
+    let q = objects[n.j];
+    return coverage(distance_at(ovdf_of(q), n.point, normalize_or_zero(q.to_object * dir)), r);
+}
+
+// Sub-squares per side of a light's box over which a Lambertian point's cover is averaged
+// where an occluder cuts the square (rsl_shade::covers::CUT_SPLIT).
+const CUT_SPLIT: u32 = 3u;
+
+// Sub-square (a, b) of light l's box in the hemisphere plane of frame sf: its world
+// direction (xyz) and its cosine integral (w; 0 below the horizon).
+fn sub_square(l: u32, sf: Frame, a: u32, b: u32) -> vec4<f32> {
+    let light = frame[3u * l];
+    let p = hemi_from_dir(to_local(sf, light.xyz));
+    let s = light.w / SQRT_2;
+    let h = s / f32(CUT_SPLIT);
+    let c = p + vec2<f32>(f32(2u * a + 1u) * h - s, f32(2u * b + 1u) * h - s);
+    let weight = box_cosine(c, h);
+    if weight <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(to_world(sf, dir_from_hemi(c)), weight);
+}
+
+// The product of the coverages of the square of half-diagonal r around world direction dir
+// by the objects from `first` on (all but i) of `cut`'s bits, each located again at x: bit
+// j for object j, bit 31 for those from the 31st on whose coverage of light l's whole square
+// is below 1.
+fn objects_toward(first: u32, cut: u32, i: u32, x: vec3<f32>, l: u32, dir: vec3<f32>, r: f32, object_count: u32) -> f32 {
+    var vis = 1.0;
+    for (var j = first; j < object_count && cut != 0u; j++) {
+        if vis <= 0.0 {
+            break;
+        }
+        if j == i || (objects[j].fields & HAS_OVDF) == 0u || (cut & (1u << min(j, 31u))) == 0u {
+            continue;
+        }
+        let n = near(j, x);
+        if !n.found || culled(n, l) || (j >= 31u && occluder_coverage(n, l, frame[3u * l].w) >= 1.0) {
+            continue;
+        }
+        vis *= occluder_coverage_toward(n, dir, r);
+    }
+    return vis;
+}
+
+// rsl_shade's cut_share: the cosine-weighted mean, over the CUT_SPLIT² sub-squares of light
+// l's box in the hemisphere plane of frame sf, of the product of the coverages of each by
+// the occluders that cut the square — the near ones of `cut_near`'s bits, and the objects
+// from `first` on of `cut_objects`' bits (objects_toward). −1 where no part of the box is
+// above the horizon.
+fn cut_share(nears: ptr<function, Nears>, cut_near: u32, first: u32, cut_objects: u32, i: u32, x: vec3<f32>, l: u32, sf: Frame, object_count: u32) -> f32 {
+    let r = frame[3u * l].w / f32(CUT_SPLIT);
+    var seen = 0.0;
+    var total = 0.0;
+    for (var a = 0u; a < CUT_SPLIT; a++) {
+        for (var b = 0u; b < CUT_SPLIT; b++) {
+            let sq = sub_square(l, sf, a, b);
+            if sq.w <= 0.0 {
+                continue;
+            }
+            var vis = 1.0;
+            for (var k = 0u; k < (*nears).count; k++) {
+                if vis <= 0.0 {
+                    break;
+                }
+                if (cut_near & (1u << k)) != 0u && !culled((*nears).items[k], l) {
+                    vis *= occluder_coverage_toward((*nears).items[k], sq.xyz, r);
+                }
+            }
+            if vis > 0.0 {
+                vis *= objects_toward(first, cut_objects, i, x, l, sq.xyz, r, object_count);
+            }
+            seen += sq.w * vis;
+            total += sq.w;
+        }
+    }
+    return select(-1.0, seen / total, total > 0.0);
+}
+
+// cut_share for a point that keeps no near occluders (a pixel's): the objects of `cut`'s
+// bits located again (objects_toward).
+fn cut_share_located(cut: u32, i: u32, x: vec3<f32>, l: u32, sf: Frame, object_count: u32) -> f32 {
+    let r = frame[3u * l].w / f32(CUT_SPLIT);
+    var seen = 0.0;
+    var total = 0.0;
+    for (var a = 0u; a < CUT_SPLIT; a++) {
+        for (var b = 0u; b < CUT_SPLIT; b++) {
+            let sq = sub_square(l, sf, a, b);
+            if sq.w <= 0.0 {
+                continue;
+            }
+            seen += sq.w * objects_toward(0u, cut, i, x, l, sq.xyz, r, object_count);
+            total += sq.w;
+        }
+    }
+    return select(-1.0, seen / total, total > 0.0);
 }

@@ -451,7 +451,14 @@ fn pixel_radiance(t: u32, w: vec3<f32>) -> vec3<f32> {
             // The occluders located here (few pixels refine any: a list of them, as a vertex
             // keeps, would hold the fragment's registers).
             let own = clamp(s.own / s.weight, 0.0, 1.0);
-            let here = occluders_from(0u, i, x, l, frame[3u * l].w, own, pixel.object_count);
+            let located = occluders_from(0u, i, x, l, frame[3u * l].w, own, pixel.object_count);
+            var here = located.x;
+            let cut = bitcast<u32>(located.y);
+            if lambertian && here > 0.0 && cut != 0u {
+                // A cut square (rsl_shade's occluder_cover with a receiver).
+                let share = cut_share_located(cut, i, x, l, sf, pixel.object_count);
+                here = select(here, own * share, share >= 0.0);
+            }
             change = here - cover;
             cover = here;
             found = true;

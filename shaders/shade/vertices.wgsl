@@ -81,31 +81,21 @@ fn traced_cover(g: u32, slot: u32) -> f32 {
     return traced[g * params.traced_count + slot - 1u];
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
-    let g = vertex_index(id);
-    if g >= params.vertex_count {
-        return;
-    }
-    let at = at_vertex(g);
+// The RSL sum at vertex g over every light (shade_vertices' loop), a cut square weighed in
+// the shading frame where `receiver` (others_cover). Called with a literal `receiver`, once
+// per kind of object: the compiler then drops the cut squares' loops from the copy that
+// cannot reach them, which matters on llvmpipe, where every loop iteration of an invocation
+// counts against one limit (65,535), the iterations of loops no lane runs included.
+fn vertex_sum(g: u32, at: AtVertex, nears: ptr<function, Nears>, tails: bool, receiver: bool) -> vec3<f32> {
     let vert = at.vert;
     let i = vert.object;
     let o = objects[i];
-    let x = at.x;
-    let sf = at.sf;
     let table = table_of(o);
-    let lookup = at.lookup;
-    if lookup.kind == VIEW_BELOW {
-        shaded[params.vertex_count + g] = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-        return;
-    }
-    var nears = find_nears(i, x, params.terms, params.object_count);
-    let tails = tails_at(o, sf, lookup.mirror, params.light_count);
     var sum = vec3<f32>(0.0);
     for (var l = 0u; l < params.light_count; l++) {
         let light = frame[3u * l];
         let r = light.w;
-        let brdf = square_for(table, lookup, to_local(sf, light.xyz), r, tail_cos(o, l, tails));
+        let brdf = square_for(table, at.lookup, to_local(at.sf, light.xyz), r, tail_cos(o, l, tails));
         if all(brdf == vec3<f32>(0.0)) {
             continue;
         }
@@ -118,10 +108,83 @@ fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
         if (params.terms & TERM_SELF) != 0u {
             cover = self_cover(o, vert, l, r);
         }
-        cover = others_cover(&nears, i, x, l, r, cover, params.object_count);
+        cover = others_cover(nears, i, at.x, l, r, cover, params.object_count, receiver, at.sf);
         sum += frame[3u * l + 1u].xyz * brdf * cover;
     }
+    return sum;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn shade_vertices(@builtin(global_invocation_id) id: vec3<u32>) {
+    let g = vertex_index(id);
+    if g >= params.vertex_count {
+        return;
+    }
+    let at = at_vertex(g);
+    let i = at.vert.object;
+    let o = objects[i];
+    if at.lookup.kind == VIEW_BELOW {
+        shaded[params.vertex_count + g] = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        return;
+    }
+    var nears = find_nears(i, at.x, params.terms, params.object_count);
+    let tails = tails_at(o, at.sf, at.lookup.mirror, params.light_count);
+    var sum: vec3<f32>;
+    if table_of(o).kind == TABLE_SINGLE {
+        sum = vertex_sum(g, at, &nears, tails, true);
+    } else {
+        sum = vertex_sum(g, at, &nears, tails, false);
+    }
     shaded[params.vertex_count + g] = vec4<f32>(sum, 1.0);
+}
+
+// What vertex_covers_sum keeps: the radiance of every light, and of those not traced.
+struct CoversSum {
+    sum: vec3<f32>,
+    untraced: vec3<f32>,
+}
+
+// shade_vertex_covers' loop over the lights at vertex g, writing every light's cover; with
+// a literal `receiver`, as vertex_sum.
+fn vertex_covers_sum(g: u32, at: AtVertex, nears: ptr<function, Nears>, tails: bool, receiver: bool) -> CoversSum {
+    let vert = at.vert;
+    let i = vert.object;
+    let o = objects[i];
+    let table = table_of(o);
+    let vis = Frame(vert.vis_t, vert.vis_b, vert.vis_n.xyz);
+    var out = CoversSum(vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var l = 0u; l < params.light_count; l++) {
+        let light = frame[3u * l];
+        let r = light.w;
+        let c = g * params.light_count + l;
+        // Wholly below the horizon: no part of the square in the hemisphere plane's disk.
+        let p = hemi_from_dir(to_local(vis, frame[o.light_dirs + l].xyz));
+        if coverage(1.0 - length(p), r) <= 0.0 {
+            covers[c] = vec2<f32>(UNDEFINED_COVER, 1.0);
+            continue;
+        }
+        let slot = u32(frame[3u * l + 2u].w);
+        var cover = 1.0;
+        var own = 1.0;
+        if slot > 0u {
+            cover = traced_cover(g, slot);
+        } else {
+            if (params.terms & TERM_SELF) != 0u {
+                own = self_cover(o, vert, l, r);
+            }
+            cover = others_cover(nears, i, at.x, l, r, own, params.object_count, receiver, at.sf);
+        }
+        covers[c] = vec2<f32>(cover, own);
+        if cover <= 0.0 || at.lookup.kind == VIEW_BELOW {
+            continue;
+        }
+        let term = frame[3u * l + 1u].xyz * square_for(table, at.lookup, to_local(at.sf, light.xyz), r, tail_cos(o, l, tails)) * cover;
+        out.sum += term;
+        if slot == 0u {
+            out.untraced += term;
+        }
+    }
+    return out;
 }
 
 // rsl_shade::FrameSetup::vertex_covers: the vertex shaded as by shade_vertices, keeping every
@@ -135,49 +198,16 @@ fn shade_vertex_covers(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let at = at_vertex(g);
-    let vert = at.vert;
-    let i = vert.object;
+    let i = at.vert.object;
     let o = objects[i];
-    let x = at.x;
-    let sf = at.sf;
-    let table = table_of(o);
-    let lookup = at.lookup;
-    var nears = find_nears(i, x, params.terms, params.object_count);
-    let tails = tails_at(o, sf, lookup.mirror, params.light_count);
-    let vis = Frame(vert.vis_t, vert.vis_b, vert.vis_n.xyz);
-    var sum = vec3<f32>(0.0);
-    var untraced = vec3<f32>(0.0);
-    for (var l = 0u; l < params.light_count; l++) {
-        let light = frame[3u * l];
-        let r = light.w;
-        let at = g * params.light_count + l;
-        // Wholly below the horizon: no part of the square in the hemisphere plane's disk.
-        let p = hemi_from_dir(to_local(vis, frame[o.light_dirs + l].xyz));
-        if coverage(1.0 - length(p), r) <= 0.0 {
-            covers[at] = vec2<f32>(UNDEFINED_COVER, 1.0);
-            continue;
-        }
-        let slot = u32(frame[3u * l + 2u].w);
-        var cover = 1.0;
-        var own = 1.0;
-        if slot > 0u {
-            cover = traced_cover(g, slot);
-        } else {
-            if (params.terms & TERM_SELF) != 0u {
-                own = self_cover(o, vert, l, r);
-            }
-            cover = others_cover(&nears, i, x, l, r, own, params.object_count);
-        }
-        covers[at] = vec2<f32>(cover, own);
-        if cover <= 0.0 || lookup.kind == VIEW_BELOW {
-            continue;
-        }
-        let term = frame[3u * l + 1u].xyz * square_for(table, lookup, to_local(sf, light.xyz), r, tail_cos(o, l, tails)) * cover;
-        sum += term;
-        if slot == 0u {
-            untraced += term;
-        }
+    var nears = find_nears(i, at.x, params.terms, params.object_count);
+    let tails = tails_at(o, at.sf, at.lookup.mirror, params.light_count);
+    var out: CoversSum;
+    if table_of(o).kind == TABLE_SINGLE {
+        out = vertex_covers_sum(g, at, &nears, tails, true);
+    } else {
+        out = vertex_covers_sum(g, at, &nears, tails, false);
     }
-    shaded[params.vertex_count + g] = vec4<f32>(sum, 1.0);
-    shaded[2u * params.vertex_count + g] = vec4<f32>(untraced, 1.0);
+    shaded[params.vertex_count + g] = vec4<f32>(out.sum, 1.0);
+    shaded[2u * params.vertex_count + g] = vec4<f32>(out.untraced, 1.0);
 }

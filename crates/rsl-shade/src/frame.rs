@@ -29,6 +29,8 @@ pub(crate) struct Placed<'a> {
     pub(crate) light_dirs: Vec<Vec3>,
     /// Bounding sphere of the occluder field in world space, and its object-space form.
     pub(crate) bound: Option<OccluderBound>,
+    /// Whether the object's BRDF is view-independent (Lambertian: one table for every view).
+    pub(crate) lambertian: bool,
 }
 
 impl<'a> Placed<'a> {
@@ -36,7 +38,8 @@ impl<'a> Placed<'a> {
         let pose = Pose::new(&object.transform);
         let light_dirs = lights.iter().map(|l| pose.direction_to_object(l.dir)).collect();
         let bound = object.ovdf.map(|f| OccluderBound::new(f, &object.transform, &pose));
-        Self { object, pose, light_dirs, bound }
+        let lambertian = object.table.view_lookup(Vec3::Z) == rsl_brdf::ViewLookup::Single;
+        Self { object, pose, light_dirs, bound, lambertian }
     }
 
     pub(crate) fn point_to_object(&self, x: Vec3) -> Vec3 {

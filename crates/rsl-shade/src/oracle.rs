@@ -299,7 +299,7 @@ fn vertex<'a>(
                     cover *= seen as f32 / pts.len() as f32;
                 }
             } else {
-                cover = setup.others_cover(nears, i, v, l, cover, &mut stats.lookups);
+                cover = setup.others_cover(nears, i, v, l, cover, setup.receiver(i, &frame), &mut stats.lookups);
             }
         }
         cover

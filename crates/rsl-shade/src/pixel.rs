@@ -558,7 +558,8 @@ pub fn occluders_at_point(
             setup.nears(point.object, point.position, &mut n);
             n
         });
-        let here = setup.occluder_cover(nears, l, (own / weight).clamp(0.0, 1.0), stats);
+        let receiver = setup.receiver(point.object, &point.frame);
+        let here = setup.occluder_cover(nears, l, (own / weight).clamp(0.0, 1.0), receiver, stats);
         refined.push((l, (value / weight).clamp(0.0, 1.0), here));
     }
     refined

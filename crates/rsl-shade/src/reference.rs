@@ -49,6 +49,9 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                     cover = o.svdf.coverage_above_horizon(v, q, r) * o.mask.vertex(v).share_above_horizon(q, r);
                 }
                 if setup.terms.occluders {
+                    // Each occluder's coverage of the whole square; those that cut it.
+                    let mut others = 1.0;
+                    let mut cutting = Vec::new();
                     for (j, q) in setup.placed.iter().enumerate() {
                         if j == i {
                             continue;
@@ -58,8 +61,44 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                             continue;
                         }
                         let d = q.pose.direction_to_object(light.dir);
-                        cover *= q.object.ovdf.expect("near() needs a field").coverage(n.x_object, d, r);
+                        let c = q.object.ovdf.expect("near() needs a field").coverage(n.x_object, d, r);
+                        if c < 1.0 {
+                            cutting.push((q, n.x_object));
+                        }
+                        others *= c;
                     }
+                    // A cut square at a Lambertian vertex: the cosine-weighted mean over the
+                    // sub-squares of the light's box of the cutting occluders' coverages.
+                    if setup.cut_squares && p.lambertian && !cutting.is_empty() && others > 0.0 && cover > 0.0 {
+                        let k = crate::covers::CUT_SPLIT;
+                        let centre = hemi_from_dir(local);
+                        let h = r / std::f32::consts::SQRT_2 / k as f32;
+                        let (mut seen, mut total) = (0.0, 0.0);
+                        for a in 0..k {
+                            for b in 0..k {
+                                let offset = |a: usize| (2 * a + 1) as f32 - k as f32;
+                                let c = centre + h * Vec2::new(offset(a), offset(b));
+                                let w = rsl_brdf::cosine::box_cosine(c, h);
+                                if w <= 0.0 {
+                                    continue;
+                                }
+                                let dir = frame.to_world(rsl_sphere::hemi::dir_from_hemi(c));
+                                let vis: f32 = cutting
+                                    .iter()
+                                    .map(|(q, at)| {
+                                        let d = q.pose.direction_to_object(dir);
+                                        q.object.ovdf.expect("near() needs a field").coverage(*at, d, r / k as f32)
+                                    })
+                                    .product();
+                                seen += w * f64::from(vis);
+                                total += w;
+                            }
+                        }
+                        if total > 0.0 {
+                            others = (seen / total) as f32;
+                        }
+                    }
+                    cover *= others;
                 }
                 sum += light.radiance * brdf * cover;
             }

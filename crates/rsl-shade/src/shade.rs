@@ -64,6 +64,9 @@ pub struct FrameSetup<'a> {
     /// Whether a tail's integral is the BRDF at the square's centre
     /// ([`FrameSetup::midpoint_tails`]) rather than the table's density there.
     pub(crate) exact_tails: bool,
+    /// Whether a cut square at a Lambertian point is averaged over its sub-squares
+    /// ([`FrameSetup::occluder_cover`]).
+    pub(crate) cut_squares: bool,
     pub(crate) terms: Terms,
     pub(crate) traced: TracedSetup,
 }
@@ -90,6 +93,7 @@ impl<'a> FrameSetup<'a> {
             along_normals: false,
             tails: objects.iter().map(|o| tail_cosines(o.table.brdf(), lights)).collect(),
             exact_tails: false,
+            cut_squares: true,
             terms,
             traced: TracedSetup { flags: vec![false; lights.len()], ..TracedSetup::default() },
         }
@@ -119,6 +123,14 @@ impl<'a> FrameSetup<'a> {
     /// measure what it costs.
     pub fn without_tails(mut self) -> Self {
         self.tails = Vec::new();
+        self
+    }
+
+    /// The same frame with every occluder's coverage of a square taken whole, also where it
+    /// cuts the square at a Lambertian point ([`FrameSetup::occluder_cover`]): what the
+    /// sub-squares replace, to measure what they gain.
+    pub fn without_cut_squares(mut self) -> Self {
+        self.cut_squares = false;
         self
     }
 
@@ -271,7 +283,15 @@ impl<'a> FrameSetup<'a> {
 
     /// Whether object `i`'s BRDF is view-independent (Lambertian: one table for every view).
     pub fn view_independent(&self, i: usize) -> bool {
-        self.placed[i].object.table.view_lookup(Vec3::Z) == ViewLookup::Single
+        self.placed[i].lambertian
+    }
+
+    /// The frame in which a point of object `i` with world shading frame `frame` weighs its
+    /// cut squares ([`FrameSetup::occluder_cover`]): its own for a Lambertian object, none
+    /// for any other.
+    #[inline]
+    pub(crate) fn receiver<'f>(&self, i: usize, frame: &'f Frame) -> Option<&'f Frame> {
+        (self.cut_squares && self.placed[i].lambertian).then_some(frame)
     }
 }
 

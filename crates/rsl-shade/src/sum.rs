@@ -137,13 +137,13 @@ impl<'a> FrameSetup<'a> {
         &self,
         (nears, stats): &mut (&mut Nears<'a>, &mut FrameStats),
         (i, v, l): (usize, usize, usize),
-        fields: &VertexFields<'_>,
+        (fields, frame): (&VertexFields<'_>, &Frame),
     ) -> f32 {
         if self.is_traced(l) {
             self.traced_cover(i, v, l, &mut stats.traced_rays)
         } else {
             let q = self.light_on_hemi(i, fields, l);
-            self.fields_cover(nears, (i, v, l), q, (&fields.own, &fields.mask), stats).1
+            self.fields_cover(nears, (i, v, l), q, (&fields.own, &fields.mask), self.receiver(i, frame), stats).1
         }
     }
 
@@ -163,7 +163,9 @@ impl<'a> FrameSetup<'a> {
             stats.brdf_lookups += 1;
             self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
         };
-        let cover = |ctx: &mut (&mut Nears<'a>, &mut FrameStats), l: usize| self.vertex_cover(ctx, (i, v, l), &fields);
+        let cover = |ctx: &mut (&mut Nears<'a>, &mut FrameStats), l: usize| {
+            self.vertex_cover(ctx, (i, v, l), (&fields, &at.frame))
+        };
         self.rsl_sum(&mut (nears, stats), Order::BrdfFirst, brdf, cover, None)
     }
 
@@ -209,7 +211,8 @@ impl<'a> FrameSetup<'a> {
                 return self.traced_cover(i, v, l, &mut stats.traced_rays);
             }
             let cover;
-            (own[l], cover) = self.fields_cover(nears, (i, v, l), q, (&fields.own, &fields.mask), stats);
+            let receiver = self.receiver(i, &at.frame);
+            (own[l], cover) = self.fields_cover(nears, (i, v, l), q, (&fields.own, &fields.mask), receiver, stats);
             cover
         };
         self.rsl_sum(&mut (nears, stats, own), Order::CoverFirst, brdf, cover, Some(out))

@@ -88,6 +88,11 @@ pub fn cap_scene() -> Scene {
 /// [`cap_scene`] with every length (and the camera's place) times `s`, the ball as `ball`
 /// makes it (its motion).
 pub fn cap_scene_with(s: f32, ball: impl FnOnce(ObjectBuilder) -> ObjectBuilder) -> Scene {
+    cap_scene_of(s, 384, ball)
+}
+
+/// [`cap_scene_with`] lit by `rsl_count` lights.
+pub fn cap_scene_of(s: f32, rsl_count: u32, ball: impl FnOnce(ObjectBuilder) -> ObjectBuilder) -> Scene {
     scene(
         SceneBuilder::new()
             .preset(Preset::Draft)
@@ -95,7 +100,7 @@ pub fn cap_scene_with(s: f32, ball: impl FnOnce(ObjectBuilder) -> ObjectBuilder)
             .knob("table_resolution", 32)
             .knob("ovdf_directions", 16)
             .constant(Vec3::ONE)
-            .rsl_count(384)
+            .rsl_count(rsl_count)
             .camera(Vec3::new(0.0, 3.0 * s, 0.5 * s), Vec3::ZERO)
             .object(ObjectBuilder::plane("ground", 3.0 * s, 30).material(lambert(0.5)).no_shadows())
             .object(ball(
