@@ -1,8 +1,8 @@
 //! `image_frame`: one whole frame on the CPU — shading and the image — of the default scene
 //! (data/scenes/default.toml, 640×480, standard preset, 30 RSLs) by each method that draws
-//! per pixel and by the vertices interpolated, with antialiasing off (`aa = 1`) and at the
-//! preset's `aa = 16` (4 samples in the pixels that need them, 16 more in a few): what
-//! antialiasing costs.
+//! per pixel and by the vertices interpolated, with antialiasing off (`aa = 1`), at
+//! `aa = 16` (4 samples in the pixels that need them, 16 more in a few) and at the preset's
+//! `aa = 36` (and a 6×6 grid in the few a glint still spans): what antialiasing costs.
 //!
 //! Precomputation comes from the disk cache (`RSL_CACHE_DIR`, else the user cache folder).
 
@@ -17,7 +17,7 @@ fn bench(c: &mut Criterion) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/scenes/default.toml");
     let mut g = c.benchmark_group("image_frame");
     g.sample_size(10);
-    for aa in [1, 16] {
+    for aa in [1, 16, 36] {
         let mut scene = Scene::load(&path).expect("default scene");
         scene.quality.settings.set("aa", aa).expect("a valid aa");
         let options = EngineOptions {

@@ -13,7 +13,9 @@ struct AaParams {
     lens: vec2<f32>,
     // The samples each pixel of the round holds (fs_resolve divides by it).
     count: u32,
-    pad: u32,
+    // The span of a pixel's samples over the image's mean luminance above which it takes
+    // the next round (select_again: SPREAD after the first, GLINT after the second).
+    spread: f32,
 }
 
 @group(0) @binding(0) var<uniform> aa: AaParams;

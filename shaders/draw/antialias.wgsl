@@ -10,7 +10,6 @@
 override DEPTH_JUMP: f32;
 override CONTRAST: f32;
 override FLOOR: f32;
-override SPREAD: f32;
 
 // The drawn image: radiance, and alpha = the object's index + 1 (0: the background).
 @group(0) @binding(1) var image: texture_2d<f32>;
@@ -171,8 +170,9 @@ fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
     spans[k] = vec2<f32>(min(spans[k].x, l), max(spans[k].y, l));
 }
 
-// The second round's pixels: those of the first whose samples span more than SPREAD × the
-// image's mean (rsl_shade::antialias::sample_again; the mean after the first round).
+// The next round's pixels: those of this round whose samples span more than aa.spread ×
+// the image's mean (rsl_shade::antialias::sample_again after the first round,
+// sample_glint after the second; the mean after the first round).
 @compute @workgroup_size(8, 8)
 fn select_again(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= aa.width || id.y >= aa.height {
@@ -180,5 +180,5 @@ fn select_again(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let k = id.y * aa.width + id.x;
     let s = spans[k];
-    mask[k] = select(0u, 1u, mask[k] != 0u && s.y - s.x > SPREAD * means[aa.groups].x);
+    mask[k] = select(0u, 1u, mask[k] != 0u && s.y - s.x > aa.spread * means[aa.groups].x);
 }

@@ -139,7 +139,7 @@ fn draw_layouts_match_wgsl() {
     );
     assert_layout!(shaders::TONEMAP, "ToneParams", ToneParams, [exposure, width, height, pad]);
     for shader in [shaders::AA_FIND_EDGES, shaders::AA_MASK] {
-        assert_layout!(shader, "AaParams", rsl_gpu::draw::AaParams, [width, height, groups, near, lens, count, pad]);
+        assert_layout!(shader, "AaParams", rsl_gpu::draw::AaParams, [width, height, groups, near, lens, count, spread]);
     }
     assert_layout!(shaders::DRAW_LOBES, "LobeParams", rsl_gpu::lobes::LobeParams, [eye, levels, pad0, pad1, pad2]);
     assert_layout!(

@@ -245,8 +245,9 @@ pub fn pixel_point<'f>(mesh: &PixelMesh<'_>, f: &'f Fragment, eye: Vec3) -> Opti
 /// `shade(point, scratch)` (`scratch` one per worker, from `init`), each pixel of the others
 /// its vertices' radiance interpolated, and the rest `background(direction)`. With `aa` > 1
 /// (a square number), the pixels that one sample at the centre does not resolve are the
-/// mean of more samples over their square: 4, and `aa` besides where those span a wide
-/// range ([`crate::antialias`]).
+/// mean of more samples over their square, in the rounds of [`crate::antialias::rounds`]: 4,
+/// then more where those span a wide range, and with `aa` beyond 16 more again where a
+/// glint's range remains ([`crate::antialias`]).
 pub fn draw_pixels<S>(
     camera: &Camera,
     meshes: &[PixelMesh<'_>],
@@ -310,24 +311,30 @@ pub fn draw_pixels<S>(
             }
             out
         };
-        let first = antialias::sample_offsets(aa.min(antialias::FIRST_ROUND));
-        let firsts = sampled(&edges, &first);
-        for (&k, (sum, _, _)) in edges.iter().zip(&firsts) {
-            pixels[k] = *sum / first.len() as f32;
-        }
-        if aa > antialias::FIRST_ROUND {
-            let mean = antialias::mean_luminance(&pixels);
-            let again: Vec<(usize, Vec3)> = edges
-                .iter()
-                .zip(&firsts)
-                .filter(|(_, (_, lo, hi))| antialias::sample_again(*lo, *hi, mean))
-                .map(|(&k, (sum, _, _))| (k, *sum))
-                .collect();
-            let offsets = antialias::sample_offsets(aa);
-            let which: Vec<usize> = again.iter().map(|a| a.0).collect();
-            let n = (first.len() + offsets.len()) as f32;
-            for ((k, sum), (more, _, _)) in again.iter().zip(sampled(&which, &offsets)) {
-                pixels[*k] = (*sum + more) / n;
+        // The pixels of the round (each round's a subset of the one before's), with their
+        // samples' sum, least and greatest luminance so far.
+        let mut taking: Vec<(usize, Vec3, f32, f32)> =
+            edges.iter().map(|&k| (k, Vec3::ZERO, f32::INFINITY, 0.0)).collect();
+        let mut taken = 0;
+        let mut mean = None;
+        for (round, count) in antialias::rounds(aa).into_iter().enumerate() {
+            if round > 0 {
+                // The image's mean after the first round (as the GPU's).
+                let mean = *mean.get_or_insert_with(|| antialias::mean_luminance(&pixels));
+                let pick = if round == 1 { antialias::sample_again } else { antialias::sample_glint };
+                taking.retain(|&(_, _, lo, hi)| pick(lo, hi, mean));
+            }
+            if taking.is_empty() {
+                break;
+            }
+            let offsets = antialias::sample_offsets(count);
+            let which: Vec<usize> = taking.iter().map(|t| t.0).collect();
+            for (t, (sum, lo, hi)) in taking.iter_mut().zip(sampled(&which, &offsets)) {
+                *t = (t.0, t.1 + sum, t.2.min(lo), t.3.max(hi));
+            }
+            taken += offsets.len();
+            for &(k, sum, _, _) in &taking {
+                pixels[k] = sum / taken as f32;
             }
         }
     }

@@ -7,7 +7,9 @@
 //! `0.5 − o` pixels and a depth mask letting fragments through at the edge pixels only (no
 //! other pixel is shaded again). Each sample is added to its pixel's sum, with the least and
 //! greatest luminance; the pixels whose samples span more than `SPREAD` × the image's mean
-//! then take the `k×k` grid of `aa` samples besides. The offsets are the CPU's, so the GPU's
+//! then take the `k×k` grid of `aa` samples (at most 16) besides, and with `aa` beyond 16
+//! those whose samples still span more than `GLINT` × the mean take the grid of `aa` in a
+//! third round (the same pass picks both, with the threshold in `AaParams::spread`) (`rsl_shade::antialias::rounds`). The offsets are the CPU's, so the GPU's
 //! samples are the CPU's.
 //!
 //! Every round is recorded into one command encoder and submitted once: each round's
@@ -39,8 +41,9 @@ pub struct AaParams {
     pub lens: [f32; 2],
     /// The samples each pixel of the round holds.
     pub count: u32,
-    /// Padding.
-    pub pad: u32,
+    /// The span of a pixel's samples over the image's mean luminance above which it takes
+    /// the next round (`SPREAD` after the first, `GLINT` after the second).
+    pub spread: f32,
 }
 
 /// The most workgroups summing the image's luminance (each of 256 invocations).
@@ -120,7 +123,6 @@ impl AaPass {
             ("DEPTH_JUMP", f64::from(antialias::DEPTH_JUMP)),
             ("CONTRAST", f64::from(antialias::CONTRAST)),
             ("FLOOR", f64::from(antialias::FLOOR)),
-            ("SPREAD", f64::from(antialias::SPREAD)),
         ];
         let compute = |shader| ctx.compute_pipeline_with_layout(shader, &constants, Some(&pipeline_layout));
         let buffer = |label, size, usage| {
@@ -312,24 +314,36 @@ impl GpuDraw {
             &[(0, self.params.as_entire_binding()), (1, self.texels.as_entire_binding())],
         );
         let groups = (u64::from(width) * u64::from(height)).div_ceil(256).clamp(1, u64::from(MAX_GROUPS)) as u32;
-        let aa_params = |count| AaParams {
+        let aa_params = |count, spread| AaParams {
             width,
             height,
             groups,
             near: camera.near(),
             lens: [params.lens[0], params.lens[1]],
             count,
-            pad: 0,
+            spread,
         };
         let tiles = (width.div_ceil(8), height.div_ceil(8));
         // Every round's parameters, in the order the rounds need them.
-        let first = antialias::sample_offsets(self.aa.min(antialias::FIRST_ROUND));
-        let more = if self.aa > antialias::FIRST_ROUND { antialias::sample_offsets(self.aa) } else { Vec::new() };
+        let rounds: Vec<Vec<[f32; 2]>> =
+            antialias::rounds(self.aa).into_iter().map(antialias::sample_offsets).collect();
         let mut staged = Staged::default();
-        let edges_at = staged.push(&aa_params(0));
-        let shifted_at: Vec<_> = first.iter().chain(&more).map(|&o| staged.push(&shifted(params, o))).collect();
-        let first_at = staged.push(&aa_params(first.len() as u32));
-        let all_at = staged.push(&aa_params((first.len() + more.len()) as u32));
+        let edges_at = staged.push(&aa_params(0, 0.0));
+        // Per round: each sample's shifted parameters, and the samples counted after it
+        // (each where it is staged).
+        type Round = (Vec<(u64, u64)>, (u64, u64));
+        let mut counted = 0;
+        let rounds_at: Vec<Round> = rounds
+            .iter()
+            .enumerate()
+            .map(|(round, offsets)| {
+                counted += offsets.len() as u32;
+                let shifted: Vec<_> = offsets.iter().map(|&o| staged.push(&shifted(params, o))).collect();
+                // The next round's pick (`antialias::sample_again`, then `sample_glint`).
+                let spread = if round == 0 { antialias::SPREAD } else { antialias::GLINT };
+                (shifted, staged.push(&aa_params(counted, spread)))
+            })
+            .collect();
         let centre_at = staged.push(params);
         let staging = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("antialias rounds' parameters"),
@@ -415,15 +429,16 @@ impl GpuDraw {
                 run(enc, after, None);
             }
         };
-        let (first_rounds, more_rounds) = shifted_at.split_at(first.len());
-        first_rounds.iter().for_each(|&at| sample(&mut enc, at));
-        if more.is_empty() {
-            resolve(&mut enc, first_at, &[], true);
-        } else {
-            // The image's mean after the first round picks the second round's pixels.
-            resolve(&mut enc, first_at, &[mean[0], mean[1], (&pass.select_again, tiles)], false);
-            more_rounds.iter().for_each(|&at| sample(&mut enc, at));
-            resolve(&mut enc, all_at, &[], true);
+        for (round, (shifted, counted_at)) in rounds_at.iter().enumerate() {
+            shifted.iter().for_each(|&at| sample(&mut enc, at));
+            // What picks the next round's pixels: after the first, the image's mean then and
+            // the span; after the second, the span against that same mean.
+            let next: &[(&wgpu::ComputePipeline, (u32, u32))] = match round {
+                _ if round + 1 == rounds_at.len() => &[],
+                0 => &[mean[0], mean[1], (&pass.select_again, tiles)],
+                _ => &[(&pass.select_again, tiles)],
+            };
+            resolve(&mut enc, *counted_at, next, next.is_empty());
         }
         // The centres' parameters back for what follows.
         put(&mut enc, centre_at, &self.params);
