@@ -9,8 +9,9 @@
 //! greatest luminance; the pixels whose samples span more than `SPREAD` × the image's mean
 //! then take the `k×k` grid of `aa` samples (at most 16) besides, and with `aa` beyond 16
 //! those whose samples still span more than `GLINT` × the mean take the grid of `aa` in a
-//! third round (the same pass picks both, with the threshold in `AaParams::spread`) (`rsl_shade::antialias::rounds`). The offsets are the CPU's, so the GPU's
-//! samples are the CPU's.
+//! third round (`rsl_shade::antialias::rounds`; one pass picks the pixels of both, its
+//! threshold in `AaParams::spread`). The offsets are the CPU's, so the GPU's samples are the
+//! CPU's.
 //!
 //! Every round is recorded into one command encoder and submitted once: each round's
 //! parameters (the shifted camera, the samples counted) are staged in one buffer beforehand
