@@ -58,8 +58,16 @@ pub const FIRST_ROUND: u32 = 4;
 /// pixel, its error per covered pixel is 4.13 % at 4, 3.89 % at 2 and 2.46 % at 1 (1.35 %
 /// in the rim's ring of pixels with 4×4 samples everywhere, 8.74 % at 4); the red dielectric
 /// 3.83 %, 3.79 %, 3.59 %. The cost: the default scene's frame on the CPU (`cargo bench
-/// --bench image_frame`, `auto_aa16`) 505 ms at 4, 588 ms at 1.
-pub const SPREAD: f32 = 1.0;
+/// --bench image_frame`, `auto_aa16`) 505 ms at 4, 588 ms at 1. At 0.5 (`aa = 36`) 4,071 of
+/// the default scene's edge pixels take the second round (2,771 at 1), and no object of the
+/// results pages at `standard` got worse by more than 0.02 points (two of the glTF page's
+/// spheres drawn by the lobe methods alone, at 27–32 %, by 0.05 and 0.08) while a dark ball's
+/// silhouette against a bright sky, whose span is under the image's mean, now takes it: in
+/// the white furnace (`docs/bench/furnace`) GGX α = 1 3.14 → 2.34 %, Ward 2.13 → 1.82 %;
+/// the Suzanne beside a near-mirror ball (`docs/bench/sharp_lobes`) 4.26 → 3.98 %; the
+/// glTF blue sphere 2.74 → 2.10 %; the low-sun Suzanne against 8,192 samples per pixel
+/// 4.07 → 3.84 %. The cost, `auto_aa36`: see CHANGELOG.md.
+pub const SPREAD: f32 = 0.5;
 
 /// The samples of the second round at most: a 4×4 grid. With `aa` beyond it, the third
 /// round takes the grid of `aa` samples in the pixels [`sample_glint`] picks.
