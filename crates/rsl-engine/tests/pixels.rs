@@ -565,11 +565,12 @@ fn the_gpu_antialiases_as_the_cpu_does() {
             assert!(both > 2000, "{name}: {both} pixels covered");
             assert!(differ * 200 <= both, "{name}: {differ} pixels covered by one rasteriser only");
             assert!(apart * 1000 <= both, "{name}: {apart} of {both} pixels more than 1e-3 apart");
-            // The pixels further apart are the edges the bound above sets aside: at a ball's
-            // silhouette (one pixel of 4,048 here; two to five with every edge pixel taking
-            // 16 samples, or the eye moved by a millimetre) one of the GPU's samples sees the
-            // background where the CPU's, like both devices' images drawn at 4×4 the
-            // resolution, sees the ball, and the pixel moves by a twentieth of the two.
+            // The pixels further apart are the edges the bound above sets aside: a sample
+            // within a thousandth of a pixel of a ball's silhouette, which the GPU's
+            // rasteriser, snapping vertices to a fixed sub-pixel grid (1/256 of a pixel on
+            // llvmpipe), puts beside the ball and the CPU's, in floating point, on it. The
+            // pixel moves by a twentieth of the two surfaces' difference (one pixel of 4,048
+            // here; two to five with every edge pixel taking 16 samples).
             assert!(l2_within < 1e-4, "{name}: relative L2 {l2_within} over the pixels within 1e-3");
             if aa == 16 {
                 at_16.push(ci);
