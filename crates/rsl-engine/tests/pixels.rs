@@ -360,7 +360,7 @@ fn the_gpu_draws_the_lobes_per_pixel_as_the_cpu_does() {
     assert_vertices_close(&g.radiance, &c.radiance);
     // The two rasterisers may give a pixel on a silhouette to different sides; inside, the
     // same interpolation and the same lookups in f32.
-    let (differ, both, apart, l2, _) = gpu_against_cpu(&gi, &ci, 1e-3);
+    let Agreement { differ, both, apart, l2, .. } = gpu_against_cpu(&gi, &ci, 1e-3);
     println!(
         "GPU against CPU per pixel: relative L2 {l2:.2e}, {apart} pixels more than 1e-3 apart, {both} pixels, {differ} covered by one only"
     );
@@ -418,11 +418,23 @@ fn assert_vertices_close(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) {
     }
 }
 
-/// Per covered pixel, how the GPU's image `g` differs from the CPU's `c`: the pixels
-/// covered by one only, those covered by both, those further apart than `tolerance`
-/// relative (to the larger channel, at least 1e-3 absolute), the relative L2 over the
-/// pixels covered by both, and the relative L2 over those of them within `tolerance`.
-fn gpu_against_cpu(g: &Image, c: &Image, tolerance: f32) -> (usize, usize, usize, f64, f64) {
+/// Per covered pixel, how the GPU's image differs from the CPU's ([`gpu_against_cpu`]).
+struct Agreement {
+    /// Pixels covered by one image only.
+    differ: usize,
+    /// Pixels covered by both.
+    both: usize,
+    /// Of those, the pixels further apart than the tolerance.
+    apart: usize,
+    /// Relative L2 over the pixels covered by both.
+    l2: f64,
+    /// Relative L2 over the pixels covered by both and within the tolerance.
+    l2_within: f64,
+}
+
+/// How the GPU's image `g` differs from the CPU's `c`, a pixel taken as apart where it is
+/// further than `tolerance` relative (to the larger channel, at least 1e-3 absolute).
+fn gpu_against_cpu(g: &Image, c: &Image, tolerance: f32) -> Agreement {
     let (mut num, mut den, mut both, mut differ, mut apart) = (0.0f64, 0.0f64, 0usize, 0usize, 0usize);
     let mut within = 0.0f64;
     for k in 0..c.pixels.len() {
@@ -444,7 +456,7 @@ fn gpu_against_cpu(g: &Image, c: &Image, tolerance: f32) -> (usize, usize, usize
         }
     }
     let relative = |n: f64| (n / den.max(f64::MIN_POSITIVE)).sqrt();
-    (differ, both, apart, relative(num), relative(within))
+    Agreement { differ, both, apart, l2: relative(num), l2_within: relative(within) }
 }
 
 #[test]
@@ -472,7 +484,7 @@ fn the_gpu_draws_the_rsl_sum_per_pixel_as_the_cpu_does() {
         let g = render(&mut gpu, &engine, &s, true);
         let c = render(&mut CpuRslPixels, &engine, &s, true);
         let (gi, ci) = (g.image.expect("GPU image"), c.image.expect("CPU image"));
-        let (differ, both, apart, l2, _) = gpu_against_cpu(&gi, &ci, 1e-3);
+        let Agreement { differ, both, apart, l2, .. } = gpu_against_cpu(&gi, &ci, 1e-3);
         println!(
             "{name}: GPU against CPU per pixel: relative L2 {l2:.2e}, {apart} of {both} pixels more than 1e-3 apart, {differ} covered by one only"
         );
@@ -501,7 +513,7 @@ fn auto_on_the_gpu_draws_each_object_as_the_cpu_does() {
     let c = render(&mut Composite::auto().with_vertex_ratios(), &engine, &s, true);
     let (gi, ci) = (g.image.expect("GPU image"), c.image.expect("CPU image"));
     assert_vertices_close(&g.radiance, &c.radiance);
-    let (differ, both, apart, l2, _) = gpu_against_cpu(&gi, &ci, 1e-3);
+    let Agreement { differ, both, apart, l2, .. } = gpu_against_cpu(&gi, &ci, 1e-3);
     println!(
         "auto, GPU against CPU per pixel: relative L2 {l2:.2e}, {apart} of {both} pixels more than 1e-3 apart, {differ} covered by one only"
     );
@@ -555,7 +567,7 @@ fn the_gpu_antialiases_as_the_cpu_does() {
             } else {
                 pixel_l2(&ci, &at_16[m])
             };
-            let (differ, both, apart, l2, l2_within) = gpu_against_cpu(&gi, &ci, 1e-3);
+            let Agreement { differ, both, apart, l2, l2_within } = gpu_against_cpu(&gi, &ci, 1e-3);
             println!(
                 "{name}, aa = {aa}: GPU against CPU per pixel: relative L2 {l2:.2e} ({l2_within:.2e} over the pixels within 1e-3), {apart} of {both} pixels more than 1e-3 apart, {differ} covered by one only; the CPU's image moved by {changed:.2e} from {}",
                 if aa == 16 { "one sample" } else { "16" }
