@@ -481,8 +481,26 @@ impl MaterialLobes {
     /// (world space), under `env` whose environment-from-world rotation is applied by
     /// `to_env`: `Σ_j α_j P_{κ_j}(μ_j)`, one lookup per lobe.
     pub fn radiance(&self, env: &Prefiltered, frame: &Frame, view_world: Vec3, to_env: impl Fn(Vec3) -> Vec3) -> Vec3 {
+        self.radiance_masked(env, frame, view_world, to_env, |_| 1.0)
+    }
+
+    /// [`MaterialLobes::radiance`] with each lobe's term times `share` of the lobe (its mean
+    /// in world space): the part of it a mask lets through, e.g. a vertex's face mask
+    /// ([`crate::vmf::mask_share`]).
+    pub fn radiance_masked(
+        &self,
+        env: &Prefiltered,
+        frame: &Frame,
+        view_world: Vec3,
+        to_env: impl Fn(Vec3) -> Vec3,
+        share: impl Fn(Vmf) -> f64,
+    ) -> Vec3 {
         self.lobes_at(frame.to_local(view_world))
-            .map(|l| l.weight * env.lookup(to_env(frame.to_world(l.lobe.mean)), l.lobe.kappa))
+            .map(|l| {
+                let mean = frame.to_world(l.lobe.mean);
+                let through = share(Vmf { mean, kappa: l.lobe.kappa }) as f32;
+                l.weight * through * env.lookup(to_env(mean), l.lobe.kappa)
+            })
             .sum()
     }
 }
