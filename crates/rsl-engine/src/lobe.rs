@@ -379,6 +379,15 @@ fn visibility_ratio(shadowed: Vec3, bare: Vec3) -> Vec3 {
 /// first alone moves (and GGX α = 0.05 1.67 → 1.65 %).
 pub const MASK_KAPPA: f32 = 2048.0;
 
+/// What the RSL sums must see of the light the hybrid's lobes see at a vertex, relative to
+/// it, for their visibility ratio to be taken: below, each lobe's own square's cover is
+/// blended in ([`lobe_half_diagonal`]; `FrameSetup::square_covers`). Where the squares see
+/// next to nothing of a lobe — one narrower than the squares, in a gap between them — their
+/// ratio is one of far tails: a white furnace's Beckmann α = 0.05 vertex had 8·10⁻³⁵
+/// shadowed over 8·10⁻³⁴ bare (the face mask's covers of squares far from the lobe), drawn at
+/// 0.07 against the truth's 0.67.
+pub const RATIO_FLOOR: f32 = 1e-4;
+
 /// The half-diagonal of the square a vMF lobe of concentration `kappa` is shadowed over
 /// (the lobe path): the square of the lobe's solid angle `2π/κ` (the inverse of its
 /// peak density `κ/2π`, for `κ ≫ 1`), `4r² = 2π/κ`, at most a hemisphere (`4r² = 2π`).
@@ -560,23 +569,42 @@ impl ObjectDrawing for LobeDrawing {
             // vertex's directions ([`MASK_KAPPA`]): a near-mirror seen at a grazing angle
             // reflects a direction within a few degrees of its plane, below some of its faces'
             // planes. The RSL sums' ratio holds the mask only over whole squares.
-            let ratio: Vec<Vec3> = full[i].iter().zip(&bare[i]).map(|(s, u)| visibility_ratio(*s, *u)).collect();
             let faces = self.incident_faces(engine, i);
             let pose = Pose::new(&ctx.state.objects[i]);
-            let radiance = (0..pos.len())
+            let setup = ctx.setup;
+            let (radiance, ratio): (Vec<Vec3>, Vec<Vec3>) = (0..pos.len())
                 .into_par_iter()
                 .map_init(Vec::new, |around: &mut Vec<(Vec3, f32)>, v| {
                     let frame = LocalFrame::from_normal(nor[v]);
                     let view = (eye - pos[v]).normalize_or_zero();
+                    let to_env = |d| env_from_world * d;
                     around.clear();
                     around.extend(faces.faces(v).map(|(n, w)| (pose.normal(n), w)));
                     let share = |g: rsl_lobe::vmf::Vmf| match g.kappa < MASK_KAPPA {
                         true => 1.0,
                         false => rsl_lobe::vmf::mask_share(g.mean, g.kappa, nor[v], around),
                     };
-                    l.radiance_masked(&env, &frame, view, |d| env_from_world * d, share) * intensity * ratio[v]
+                    let lobes = l.radiance_masked(&env, &frame, view, to_env, share) * intensity;
+                    let mut ratio = visibility_ratio(full[i][v], bare[i][v]);
+                    // Where the squares see next to nothing of what the lobes see, each
+                    // lobe's own square instead (the lobe path's: its width, the fields and
+                    // the face mask over it), blended in as the squares see less.
+                    let floor = RATIO_FLOOR * lobes;
+                    if bare[i][v].cmplt(floor).any() {
+                        let cover = |g: rsl_lobe::vmf::Vmf| {
+                            let (mut c, mut stats) = ([1.0f32], FrameStats::default());
+                            setup.square_covers(i, v, &[(g.mean, lobe_half_diagonal(g.kappa))], &mut c, &mut stats);
+                            f64::from(c[0])
+                        };
+                        let own =
+                            visibility_ratio(l.radiance_masked(&env, &frame, view, to_env, cover) * intensity, lobes);
+                        let seen =
+                            (bare[i][v] / floor.max(Vec3::splat(f32::MIN_POSITIVE))).clamp(Vec3::ZERO, Vec3::ONE);
+                        ratio = ratio * seen + own * (Vec3::ONE - seen);
+                    }
+                    (lobes * ratio, ratio)
                 })
-                .collect();
+                .unzip();
             let shader = shader(l, nor, ratio, ratio_at_pixels.then_some((untraced, bare_untraced)));
             parts[i] = Some(Part::per_pixel(radiance, Box::new(shader)));
         }
@@ -608,20 +636,25 @@ impl PixelShader for LobeShader<'_> {
 
     fn shade(&self, mesh: &PixelMesh<'_>, p: &PixelPoint<'_>, buf: &mut [f32]) -> Vec3 {
         let indices = mesh.indices;
+        let (eye, env_from_world, intensity) = self.view;
+        let view = (eye - p.position).normalize_or_zero();
+        let lobes = self.material.radiance(&self.env.0, &p.frame, view, |d| env_from_world * d) * intensity;
+        let at_vertices = p.fragment.interpolate(indices, &self.ratio);
         let ratio = match &self.untraced {
             Some((rest, rest_bare)) => {
                 let mut st = FrameStats::default();
                 let (traced, traced_bare) = rsl_shade::traced_at_point(self.setup, mesh, p, buf, &mut st);
-                visibility_ratio(
-                    p.fragment.interpolate(indices, rest) + traced,
-                    p.fragment.interpolate(indices, rest_bare) + traced_bare,
-                )
+                let bare = p.fragment.interpolate(indices, rest_bare) + traced_bare;
+                let ratio = visibility_ratio(p.fragment.interpolate(indices, rest) + traced, bare);
+                // Where the squares see next to nothing of the lobes, the vertices' ratios
+                // (their lobes' own squares blended in, [`RATIO_FLOOR`]).
+                let floor = RATIO_FLOOR * lobes;
+                let seen = (bare / floor.max(Vec3::splat(f32::MIN_POSITIVE))).clamp(Vec3::ZERO, Vec3::ONE);
+                ratio * seen + at_vertices * (Vec3::ONE - seen)
             }
-            None => p.fragment.interpolate(indices, &self.ratio),
+            None => at_vertices,
         };
-        let (eye, env_from_world, intensity) = self.view;
-        let view = (eye - p.position).normalize_or_zero();
-        self.material.radiance(&self.env.0, &p.frame, view, |d| env_from_world * d) * intensity * ratio
+        lobes * ratio
     }
 
     fn gpu_lobes(&self) -> Option<GpuLobe<'_>> {
