@@ -388,6 +388,19 @@ pub const MASK_KAPPA: f32 = 2048.0;
 /// 0.07 against the truth's 0.67.
 pub const RATIO_FLOOR: f32 = 1e-4;
 
+/// The RSL sums' ratio `shadowed / bare` for lobes that see `lobes` unshadowed, where the
+/// squares see at least [`RATIO_FLOOR`] of it; below, blended toward `fallback` (called only
+/// then) by the share they see, all of it where they see nothing.
+fn floored_ratio(shadowed: Vec3, bare: Vec3, lobes: Vec3, fallback: impl FnOnce() -> Vec3) -> Vec3 {
+    let ratio = visibility_ratio(shadowed, bare);
+    let floor = RATIO_FLOOR * lobes;
+    if !bare.cmplt(floor).any() {
+        return ratio;
+    }
+    let seen = (bare / floor.max(Vec3::splat(f32::MIN_POSITIVE))).clamp(Vec3::ZERO, Vec3::ONE);
+    ratio * seen + fallback() * (Vec3::ONE - seen)
+}
+
 /// The half-diagonal of the square a vMF lobe of concentration `kappa` is shadowed over
 /// (the lobe path): the square of the lobe's solid angle `2π/κ` (the inverse of its
 /// peak density `κ/2π`, for `κ ≫ 1`), `4r² = 2π/κ`, at most a hemisphere (`4r² = 2π`).
@@ -569,7 +582,8 @@ impl ObjectDrawing for LobeDrawing {
             // vertex's directions ([`MASK_KAPPA`]): a near-mirror seen at a grazing angle
             // reflects a direction within a few degrees of its plane, below some of its faces'
             // planes. The RSL sums' ratio holds the mask only over whole squares.
-            let faces = self.incident_faces(engine, i);
+            let clip = l.lobes_per_view().any(|w| w.lobe.kappa >= MASK_KAPPA);
+            let faces = clip.then(|| self.incident_faces(engine, i));
             let pose = Pose::new(&ctx.state.objects[i]);
             let setup = ctx.setup;
             let (radiance, ratio): (Vec<Vec3>, Vec<Vec3>) = (0..pos.len())
@@ -579,29 +593,26 @@ impl ObjectDrawing for LobeDrawing {
                     let view = (eye - pos[v]).normalize_or_zero();
                     let to_env = |d| env_from_world * d;
                     around.clear();
-                    around.extend(faces.faces(v).map(|(n, w)| (pose.normal(n), w)));
+                    if let Some(faces) = &faces {
+                        around.extend(faces.faces(v).map(|(n, w)| (pose.normal(n), w)));
+                    }
                     let share = |g: rsl_lobe::vmf::Vmf| match g.kappa < MASK_KAPPA {
                         true => 1.0,
                         false => rsl_lobe::vmf::mask_share(g.mean, g.kappa, nor[v], around),
                     };
                     let lobes = l.radiance_masked(&env, &frame, view, to_env, share) * intensity;
-                    let mut ratio = visibility_ratio(full[i][v], bare[i][v]);
                     // Where the squares see next to nothing of what the lobes see, each
                     // lobe's own square instead (the lobe path's: its width, the fields and
-                    // the face mask over it), blended in as the squares see less.
-                    let floor = RATIO_FLOOR * lobes;
-                    if bare[i][v].cmplt(floor).any() {
+                    // the face mask over it).
+                    let own = || {
                         let cover = |g: rsl_lobe::vmf::Vmf| {
                             let (mut c, mut stats) = ([1.0f32], FrameStats::default());
                             setup.square_covers(i, v, &[(g.mean, lobe_half_diagonal(g.kappa))], &mut c, &mut stats);
                             f64::from(c[0])
                         };
-                        let own =
-                            visibility_ratio(l.radiance_masked(&env, &frame, view, to_env, cover) * intensity, lobes);
-                        let seen =
-                            (bare[i][v] / floor.max(Vec3::splat(f32::MIN_POSITIVE))).clamp(Vec3::ZERO, Vec3::ONE);
-                        ratio = ratio * seen + own * (Vec3::ONE - seen);
-                    }
+                        visibility_ratio(l.radiance_masked(&env, &frame, view, to_env, cover) * intensity, lobes)
+                    };
+                    let ratio = floored_ratio(full[i][v], bare[i][v], lobes, own);
                     (lobes * ratio, ratio)
                 })
                 .unzip();
@@ -639,20 +650,17 @@ impl PixelShader for LobeShader<'_> {
         let (eye, env_from_world, intensity) = self.view;
         let view = (eye - p.position).normalize_or_zero();
         let lobes = self.material.radiance(&self.env.0, &p.frame, view, |d| env_from_world * d) * intensity;
-        let at_vertices = p.fragment.interpolate(indices, &self.ratio);
+        let at_vertices = || p.fragment.interpolate(indices, &self.ratio);
         let ratio = match &self.untraced {
             Some((rest, rest_bare)) => {
                 let mut st = FrameStats::default();
                 let (traced, traced_bare) = rsl_shade::traced_at_point(self.setup, mesh, p, buf, &mut st);
-                let bare = p.fragment.interpolate(indices, rest_bare) + traced_bare;
-                let ratio = visibility_ratio(p.fragment.interpolate(indices, rest) + traced, bare);
+                let shadowed = p.fragment.interpolate(indices, rest) + traced;
                 // Where the squares see next to nothing of the lobes, the vertices' ratios
-                // (their lobes' own squares blended in, [`RATIO_FLOOR`]).
-                let floor = RATIO_FLOOR * lobes;
-                let seen = (bare / floor.max(Vec3::splat(f32::MIN_POSITIVE))).clamp(Vec3::ZERO, Vec3::ONE);
-                ratio * seen + at_vertices * (Vec3::ONE - seen)
+                // (their lobes' own squares blended in).
+                floored_ratio(shadowed, p.fragment.interpolate(indices, rest_bare) + traced_bare, lobes, at_vertices)
             }
-            None => at_vertices,
+            None => at_vertices(),
         };
         lobes * ratio
     }
