@@ -2,7 +2,8 @@
 //! vertex, the unshadowed glossy radiance from the material's vMF lobes over the prefiltered
 //! environment, times the RSL path's visibility ratio `Σ_i E_i·B̄_i·V̄_i / Σ_i E_i·B̄_i` (the
 //! ratio estimator of Heitz et al. 2018, with RSL visibility in place of rays), per channel;
-//! at the vertices, the narrowest lobes clipped by the vertex's face mask ([`MASK_KAPPA`]).
+//! at the vertices, the lobes clipped by the vertex's face mask ([`rsl_lobe::vmf::mask_share`])
+//! and the ratio formed without it.
 //!
 //! Beside it, the lobe path with its own shadows (`method = "lobe"`, variant (a),
 //! [`LobeDrawing`] with fields): transport lobes (Green et al. 2006) carry the object's own
@@ -368,17 +369,6 @@ fn visibility_ratio(shadowed: Vec3, bare: Vec3) -> Vec3 {
         .clamp(Vec3::ZERO, Vec3::ONE)
 }
 
-/// The narrowest lobes, clipped by a vertex's face mask in the hybrid's vertices
-/// ([`rsl_lobe::vmf::mask_share`]): `κ` from 2,048 (narrower than about 1.3°). A vMF lobe is
-/// symmetric about its mean, where a microfacet lobe seen at a grazing angle has little of its
-/// mass within about α of the horizon (its masking term `G₁` of the light's direction), so the
-/// share of a broader lobe's mass that the faces near the horizon take is overstated. In the
-/// white furnace (`data/scenes/accuracy/furnace.toml`, per vertex against 4,096 samples) the
-/// mask from `κ` = 0 took GGX α = 0.01 from 6.84 to 2.17 % but made GGX α = 0.05 1.67 →
-/// 1.87 %, Cook–Torrance 0.2 1.26 → 1.44 %, Blinn–Phong 50 1.24 → 1.41 %; from 2,048 the
-/// first alone moves (and GGX α = 0.05 1.67 → 1.65 %).
-pub const MASK_KAPPA: f32 = 2048.0;
-
 /// What the RSL sums must see of the light the hybrid's lobes see at a vertex, relative to
 /// it, for their visibility ratio to be taken: below, each lobe's own square's cover is
 /// blended in ([`lobe_half_diagonal`]; `FrameSetup::square_covers`). Where the squares see
@@ -566,8 +556,13 @@ impl ObjectDrawing for LobeDrawing {
         }
         // The RSL sum with every term and without any: their ratio is the visibility the
         // lobes are multiplied by; per vertex, each with its untraced lights' part for the
-        // ratio at each pixel.
-        let (full, untraced, full_stats) = rsl_shade::shade_objects_untraced(ctx.setup, which);
+        // ratio at each pixel. The lobes are clipped by the vertex's face mask at their own
+        // scale at the vertices (below), so there the ratio is formed from the sums whose own
+        // part leaves the mask out: a square straddling the horizon would take it again
+        // (a near-mirror ball's vertices seen at 65–80° lost 2–7 % to it in a furnace). The
+        // pixels' lobes are not clipped; their ratio keeps the mask.
+        let rsl_shade::MaskedSums { untraced, unmasked, stats: full_stats, .. } =
+            rsl_shade::shade_objects_masked_and_not(ctx.setup, which);
         let bare_setup = engine.setup(ctx.scene, ctx.state, eye, Terms { self_visibility: false, occluders: false })?;
         let (bare, bare_untraced, bare_stats) = rsl_shade::shade_objects_untraced(&bare_setup, which);
         *stats = stats.plus(full_stats).plus(bare_stats);
@@ -578,12 +573,11 @@ impl ObjectDrawing for LobeDrawing {
             }
             let l = self.frame.lobes[i].clone().context("the lobes were not prepared")?;
             let (pos, nor) = (&ctx.positions[i], &ctx.normals[i]);
-            // The narrowest lobes clipped by the vertex's face mask, as the truth weighs a
-            // vertex's directions ([`MASK_KAPPA`]): a near-mirror seen at a grazing angle
+            // The lobes clipped by the vertex's face mask, as the truth weighs a vertex's
+            // directions ([`rsl_lobe::vmf::mask_share`]): a near-mirror seen at a grazing angle
             // reflects a direction within a few degrees of its plane, below some of its faces'
-            // planes. The RSL sums' ratio holds the mask only over whole squares.
-            let clip = l.lobes_per_view().any(|w| w.lobe.kappa >= MASK_KAPPA);
-            let faces = clip.then(|| self.incident_faces(engine, i));
+            // planes.
+            let faces = self.incident_faces(engine, i);
             let pose = Pose::new(&ctx.state.objects[i]);
             let setup = ctx.setup;
             let (radiance, ratio): (Vec<Vec3>, Vec<Vec3>) = (0..pos.len())
@@ -593,13 +587,8 @@ impl ObjectDrawing for LobeDrawing {
                     let view = (eye - pos[v]).normalize_or_zero();
                     let to_env = |d| env_from_world * d;
                     around.clear();
-                    if let Some(faces) = &faces {
-                        around.extend(faces.faces(v).map(|(n, w)| (pose.normal(n), w)));
-                    }
-                    let share = |g: rsl_lobe::vmf::Vmf| match g.kappa < MASK_KAPPA {
-                        true => 1.0,
-                        false => rsl_lobe::vmf::mask_share(g.mean, g.kappa, nor[v], around),
-                    };
+                    around.extend(faces.faces(v).map(|(n, w)| (pose.normal(n), w)));
+                    let share = |g: rsl_lobe::vmf::Vmf| rsl_lobe::vmf::mask_share(g.mean, g.kappa, nor[v], around);
                     let lobes = l.radiance_masked(&env, &frame, view, to_env, share) * intensity;
                     // Where the squares see next to nothing of what the lobes see, each
                     // lobe's own square instead (the lobe path's: its width, the fields and
@@ -612,7 +601,7 @@ impl ObjectDrawing for LobeDrawing {
                         };
                         visibility_ratio(l.radiance_masked(&env, &frame, view, to_env, cover) * intensity, lobes)
                     };
-                    let ratio = floored_ratio(full[i][v], bare[i][v], lobes, own);
+                    let ratio = floored_ratio(unmasked[i][v], bare[i][v], lobes, own);
                     (lobes * ratio, ratio)
                 })
                 .unzip();

@@ -238,9 +238,12 @@ fn a_sun_below_another_objects_horizon_does_not_leak_through_the_lobes() {
 /// truth: at the vertices seen within 3° of grazing, the mirror direction lies within a few
 /// degrees of the vertex's plane, where some of its faces' planes hide it (the truth weighs a
 /// vertex's directions by its face mask). The hybrid's narrowest lobes are clipped by that
-/// mask ([`rsl_engine::lobe::MASK_KAPPA`]). Unclipped, those 44 vertices were 24.1 % too
+/// mask ([`rsl_lobe::vmf::mask_share`]). Unclipped, those 44 vertices were 24.1 % too
 /// bright on average (relative L2 24.2 %; the ball 5.1 %); clipped, 3.2 % too dark (4.7 %;
-/// the ball 2.3 %), against 1,024 samples per vertex.
+/// the ball 2.3 %), against 1,024 samples per vertex. The RSL sums' ratio then took the mask
+/// again over whole squares: the 204 vertices seen at 65–80° were 2.25 % too dark on average
+/// (relative L2 2.87 %); with the ratio formed without the mask, +0.03 % (0.23 %), the 44
+/// grazing vertices −1.4 % (4.0 %), the ball 1.1 %.
 #[test]
 fn a_near_mirror_seen_at_a_grazing_angle_keeps_its_face_mask() {
     let material = Brdf::Ggx { alpha: 0.01, specular: Vec3::splat(0.8), diffuse: Vec3::ZERO };
@@ -250,19 +253,43 @@ fn a_near_mirror_seen_at_a_grazing_angle_keeps_its_face_mask() {
     let truth = vertices(&mut Truth::new(&neutral, 1024, 3).expect("truth"), &neutral, &s);
     let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
     let hybrid = vertices(&mut Composite::hybrid(), &engine, &s);
-    let grazing: Vec<usize> = (0..truth.radiance[0].len())
-        .filter(|&v| {
-            let c = truth.normals[0][v].dot((s.camera.eye - truth.positions[0][v]).normalize());
-            c > 0.0 && c < 0.05
-        })
-        .collect();
-    let pick = |f: &Frame| grazing.iter().map(|&v| f.radiance[0][v]).collect::<Vec<Vec3>>();
-    let (got, want) = (pick(&hybrid), pick(&truth));
+    let grazing = seen_between(&truth, &s, 0.0, 0.05);
+    let (got, want) = (pick_from(&hybrid, &grazing), pick_from(&truth, &grazing));
     let error = relative_l2(&got, &want);
-    let bias = got.iter().zip(&want).map(|(g, w)| f64::from(g.x / w.x) - 1.0).sum::<f64>() / got.len() as f64;
+    let bias = mean_bias(&got, &want);
     let ball = l2(&hybrid, &truth, 0);
     eprintln!("{} grazing vertices: relative L2 {error:.4}, mean {bias:+.4}; the ball {ball:.4}", grazing.len());
+    // Seen at 65–80°, the lobe is 10–25° above the horizon, and the squares near it straddle
+    // the horizon: their sums' face mask is not taken again.
+    let band = seen_between(&truth, &s, 0.17, 0.42);
+    let (got, want) = (pick_from(&hybrid, &band), pick_from(&truth, &band));
+    let band_bias = mean_bias(&got, &want);
+    eprintln!(
+        "{} vertices seen at 65–80°: relative L2 {:.4}, mean {band_bias:+.4}",
+        band.len(),
+        relative_l2(&got, &want)
+    );
     assert!(grazing.len() > 40, "{}", grazing.len());
     assert!(error < 0.08 && bias.abs() < 0.05, "grazing vertices: relative L2 {error:.4}, mean {bias:+.4}");
-    assert!(ball < 0.03, "the ball: {ball:.4}");
+    assert!(band.len() > 100 && band_bias.abs() < 0.01, "{} vertices at 65–80°: mean {band_bias:+.4}", band.len());
+    assert!(ball < 0.02, "the ball: {ball:.4}");
+}
+
+/// Object 0's vertices whose cosine to the eye lies in `lo..hi`.
+fn seen_between(f: &Frame, s: &Scene, lo: f32, hi: f32) -> Vec<usize> {
+    (0..f.radiance[0].len())
+        .filter(|&v| {
+            let c = f.normals[0][v].dot((s.camera.eye - f.positions[0][v]).normalize());
+            c > lo && c < hi
+        })
+        .collect()
+}
+
+fn pick_from(f: &Frame, vertices: &[usize]) -> Vec<Vec3> {
+    vertices.iter().map(|&v| f.radiance[0][v]).collect()
+}
+
+/// The mean of `got / want − 1` over the red channel.
+fn mean_bias(got: &[Vec3], want: &[Vec3]) -> f64 {
+    got.iter().zip(want).map(|(g, w)| f64::from(g.x / w.x) - 1.0).sum::<f64>() / got.len() as f64
 }

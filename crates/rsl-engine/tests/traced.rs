@@ -154,6 +154,17 @@ fn the_fast_path_and_the_reference_agree_with_traced_lights() {
     for (f, r) in fast.iter().flatten().zip(reference.iter().flatten()) {
         assert!((*f - *r).abs().max_element() <= 1e-5 * r.abs().max_element().max(1e-3), "{f} vs {r}");
     }
+    // With and without the face mask in one pass, the traced lights' rays shared: each as
+    // its own setup gives it.
+    let unmasked = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap().without_face_mask();
+    let (open, _) = rsl_shade::shade(&unmasked);
+    let both = rsl_shade::shade_objects_masked_and_not(&setup, &vec![true; fast.len()]);
+    for (got, want) in [(&both.radiance, &fast), (&both.unmasked, &open)] {
+        for (f, r) in got.iter().flatten().zip(want.iter().flatten()) {
+            assert!((*f - *r).abs().max_element() <= 1e-5 * r.abs().max_element().max(1e-3), "{f} vs {r}");
+        }
+    }
+    assert!(both.stats.traced_rays > 0);
     // The covers a GPU reads are the ones the CPU multiplies in.
     let covers = setup.traced_covers();
     assert_eq!(covers.count, 3);

@@ -75,7 +75,7 @@ impl<'a> FrameSetup<'a> {
         let mut own = 1.0;
         if self.terms.self_visibility {
             stats.self_lookups += 1;
-            own = self_cover((self_vis, mask), q, r, self.reaches[l]);
+            own = self_cover((self_vis, self.face_mask.then_some(mask)), q, r, self.reaches[l]);
         }
         let cover = if self.terms.occluders { self.others_cover(nears, i, v, l, own, receiver, stats) } else { own };
         (own, cover)
@@ -205,7 +205,9 @@ impl<'a> FrameSetup<'a> {
             if self.terms.self_visibility {
                 let q = hemi_from_dir(o.frames.visibility[v].to_local(p.pose.direction_to_object(dir)));
                 stats.self_lookups += 1;
-                *cover = self_cover((&o.svdf.vertex(v), &o.mask.vertex(v)), q, r, rsl_vis::mask::reach(r));
+                let mask = o.mask.vertex(v);
+                *cover =
+                    self_cover((&o.svdf.vertex(v), self.face_mask.then_some(&mask)), q, r, rsl_vis::mask::reach(r));
             }
             for (n, at) in nears.iter_mut() {
                 if *cover <= 0.0 {
@@ -238,10 +240,18 @@ impl<'a> FrameSetup<'a> {
 /// What an object leaves of a square of half-diagonal `r` centred at hemisphere point `q` of
 /// a vertex's visibility frame: its self-visibility field's coverage above the horizon (the
 /// BRDF's integral already leaves out the part below), times the share of it the vertex's
-/// faces see (`reach`: [`rsl_vis::mask::reach`] of `r`).
-pub(crate) fn self_cover((own, mask): (&SvdfVertex<'_>, &VertexMask<'_>), q: Vec2, r: f32, reach: (f32, f32)) -> f32 {
+/// faces see (`reach`: [`rsl_vis::mask::reach`] of `r`) where a `mask` is given.
+pub(crate) fn self_cover(
+    (own, mask): (&SvdfVertex<'_>, Option<&VertexMask<'_>>),
+    q: Vec2,
+    r: f32,
+    reach: (f32, f32),
+) -> f32 {
     let cover = own.coverage_above_horizon(q, r);
-    if cover > 0.0 { cover * mask.share_above_horizon_with(q, r, reach) } else { cover }
+    match mask {
+        Some(mask) if cover > 0.0 => cover * mask.share_above_horizon_with(q, r, reach),
+        _ => cover,
+    }
 }
 
 /// An occluder field's lookup at a vertex, prepared when first needed.

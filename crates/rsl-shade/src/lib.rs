@@ -24,7 +24,7 @@ pub use raster::{
     sample_fragments,
 };
 pub use shade::{
-    FrameSetup, FrameStats, Light, OccluderBound, Pose, ShadeObject, TAIL_WIDTHS, Terms, Traced, TracedCovers,
-    VertexFrames, density_tails, drawn_tail_cosines, shade, shade_objects, shade_objects_untraced, shade_reference,
-    tail_cosines,
+    FrameSetup, FrameStats, Light, MaskedSums, OccluderBound, Pose, ShadeObject, TAIL_WIDTHS, Terms, Traced,
+    TracedCovers, VertexFrames, density_tails, drawn_tail_cosines, shade, shade_objects, shade_objects_masked_and_not,
+    shade_objects_untraced, shade_reference, tail_cosines,
 };

@@ -283,7 +283,7 @@ fn vertex<'a>(
                 if above.is_empty() { 0.0 } else { seen / above.len() as f32 }
             } else {
                 stats.lookups.self_lookups += 1;
-                self_cover((&fields.own, &fields.mask), c, r, rsl_vis::mask::reach(r))
+                self_cover((&fields.own, setup.face_mask.then_some(&fields.mask)), c, r, rsl_vis::mask::reach(r))
             };
         }
         if terms.occluders && cover > 0.0 {

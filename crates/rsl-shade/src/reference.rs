@@ -46,7 +46,10 @@ pub fn shade_reference(setup: &FrameSetup<'_>) -> Vec<Vec<Vec3>> {
                 if setup.terms.self_visibility {
                     let d = p.pose.direction_to_object(light.dir);
                     let q: Vec2 = hemi_from_dir(vis_frame.to_local(d));
-                    cover = o.svdf.coverage_above_horizon(v, q, r) * o.mask.vertex(v).share_above_horizon(q, r);
+                    cover = o.svdf.coverage_above_horizon(v, q, r);
+                    if setup.face_mask {
+                        cover *= o.mask.vertex(v).share_above_horizon(q, r);
+                    }
                 }
                 if setup.terms.occluders {
                     // Each occluder's coverage of the whole square; those that cut it.

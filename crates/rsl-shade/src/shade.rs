@@ -67,6 +67,9 @@ pub struct FrameSetup<'a> {
     /// Whether a cut square at a Lambertian point is averaged over its sub-squares
     /// ([`FrameSetup::occluder_cover`]).
     pub(crate) cut_squares: bool,
+    /// Whether the object's own part of a cover is weighted by the vertex's face mask
+    /// ([`FrameSetup::without_face_mask`]).
+    pub(crate) face_mask: bool,
     pub(crate) terms: Terms,
     pub(crate) traced: TracedSetup,
 }
@@ -94,6 +97,7 @@ impl<'a> FrameSetup<'a> {
             tails: objects.iter().map(|o| tail_cosines(o.table.brdf(), lights)).collect(),
             exact_tails: false,
             cut_squares: true,
+            face_mask: true,
             terms,
             traced: TracedSetup { flags: vec![false; lights.len()], ..TracedSetup::default() },
         }
@@ -105,6 +109,16 @@ impl<'a> FrameSetup<'a> {
     /// to the others ([`shade`] of this setup is the first bounce's source).
     pub fn along_normals(mut self) -> Self {
         self.along_normals = true;
+        self
+    }
+
+    /// The same frame with the object's own part of every cover left without the vertex's
+    /// face mask: the self-visibility field above the vertex's horizon alone (and a traced
+    /// light's rays above it unweighted). For a drawing that weighs a vertex's directions by
+    /// the mask at a finer scale than a square (the hybrid's lobes, `rsl_engine::lobe`), whose
+    /// RSL sums' ratio must not take it again ([`shade_objects_masked_and_not`] gives both).
+    pub fn without_face_mask(mut self) -> Self {
+        self.face_mask = false;
         self
     }
 
@@ -361,4 +375,28 @@ pub fn shade_objects_untraced(setup: &FrameSetup<'_>, which: &[bool]) -> (Vec<Ve
     let sums = setup.per_object(blocks);
     let part = |f: fn(&crate::sum::Sum) -> Vec3| sums.iter().map(|s| s.iter().map(f).collect()).collect();
     (part(|s| s.radiance), part(|s| s.untraced), stats)
+}
+
+/// Per-vertex sums of the objects `which` selects, each with its own part of the covers taken
+/// with the vertex's face mask and without it, in one pass ([`FrameSetup::without_face_mask`]).
+pub struct MaskedSums {
+    /// [`shade_objects_untraced`]'s radiance.
+    pub radiance: Vec<Vec<Vec3>>,
+    /// [`shade_objects_untraced`]'s part from the lights that are not traced.
+    pub untraced: Vec<Vec<Vec3>>,
+    /// The radiance without the face mask.
+    pub unmasked: Vec<Vec<Vec3>>,
+    /// What the pass cost.
+    pub stats: FrameStats,
+}
+
+/// [`shade_objects_untraced`] and the radiance without the face mask beside it, from one pass
+/// over the vertices ([`MaskedSums`]).
+pub fn shade_objects_masked_and_not(setup: &FrameSetup<'_>, which: &[bool]) -> MaskedSums {
+    let (blocks, stats) = setup.par_blocks(Some(which), BLOCK, FrameStats::plus, |nears, stats, i, vertices| {
+        vertices.map(|v| setup.vertex_both(i, v, nears, stats)).collect::<Vec<_>>()
+    });
+    let sums = setup.per_object(blocks);
+    let part = |f: fn(&(crate::sum::Sum, Vec3)) -> Vec3| sums.iter().map(|s| s.iter().map(f).collect()).collect();
+    MaskedSums { radiance: part(|s| s.0.radiance), untraced: part(|s| s.0.untraced), unmasked: part(|s| s.1), stats }
 }

@@ -169,6 +169,58 @@ impl<'a> FrameSetup<'a> {
         self.rsl_sum(&mut (nears, stats), Order::BrdfFirst, brdf, cover, None)
     }
 
+    /// [`FrameSetup::vertex`] with the object's own part of each cover taken with the
+    /// vertex's face mask and without it ([`FrameSetup::without_face_mask`]), in one pass:
+    /// the sum as [`FrameSetup::vertex`] gives it, and the radiance without the mask. Each
+    /// light's BRDF integral, field lookups and rays serve both.
+    pub(crate) fn vertex_both(&self, i: usize, v: usize, nears: &mut Nears<'a>, stats: &mut FrameStats) -> (Sum, Vec3) {
+        stats.vertices += 1;
+        let at = self.at_vertex(i, v);
+        if at.lookup == ViewLookup::Below {
+            stats.back_facing += 1;
+            return (Sum::default(), Vec3::ZERO);
+        }
+        self.nears(i, at.x, nears);
+        let fields = self.vertex_fields(i, v);
+        let tails = self.tails_at(i, at.view, &at.frame);
+        let receiver = self.receiver(i, &at.frame);
+        let (mut sum, mut open) = (Sum::default(), Vec3::ZERO);
+        for (l, light) in self.lights.iter().enumerate() {
+            stats.brdf_lookups += 1;
+            let b = self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(light.dir), l);
+            if b == Vec3::ZERO {
+                continue;
+            }
+            let [masked, unmasked] = if self.is_traced(l) {
+                self.traced_cover_both(i, v, l, &mut stats.traced_rays)
+            } else {
+                let (q, r) = (self.light_on_hemi(i, &fields, l), light.half_diagonal);
+                let (mut own, mut share) = (1.0, 1.0);
+                if self.terms.self_visibility {
+                    stats.self_lookups += 1;
+                    own = fields.own.coverage_above_horizon(q, r);
+                    if own > 0.0 {
+                        share = fields.mask.share_above_horizon_with(q, r, self.reaches[l]);
+                    }
+                }
+                // What the others leave is the same factor under either own part.
+                let others = if self.terms.occluders && own > 0.0 {
+                    self.others_cover(nears, i, v, l, 1.0, receiver, stats)
+                } else {
+                    1.0
+                };
+                [own * share * others, own * others]
+            };
+            let term = light.radiance * b;
+            sum.radiance += term * masked;
+            if !self.is_traced(l) {
+                sum.untraced += term * masked;
+            }
+            open += term * unmasked;
+        }
+        (sum, open)
+    }
+
     /// [`FrameSetup::vertex`], keeping every light's cover in `out` (one per light; what
     /// multiplies the light's BRDF integral there, [`UNDEFINED`] for a light wholly below
     /// the vertex's horizon) and, in `own`, the part of it that the object itself leaves

@@ -86,7 +86,7 @@ impl<'a> FrameSetup<'a> {
     }
 
     /// Traced light `l`'s cover at vertex `v` of object `i` under the frame's terms: with
-    /// self-visibility, the mask-weighted fraction of its rays above the vertex's horizon that
+    /// self-visibility, the mask-weighted (without [`FrameSetup::without_face_mask`]) fraction of its rays above the vertex's horizon that
     /// neither the object itself nor (with occluders) any other object blocks; without it,
     /// the fraction of all its rays no other object blocks. `rays` counts the rays traced.
     pub fn traced_cover(&self, i: usize, v: usize, l: usize, rays: &mut u64) -> f32 {
@@ -103,6 +103,27 @@ impl<'a> FrameSetup<'a> {
         others: bool,
         rays: &mut u64,
     ) -> f32 {
+        self.traced_at_vertex(i, v, l, (own, others), false, rays)[0]
+    }
+
+    /// Traced light `l`'s cover at vertex `v` of object `i` under the frame's terms, with and
+    /// without the vertex's face mask (`[masked, unmasked]`: [`FrameSetup::traced_cover`] of
+    /// this setup and of [`FrameSetup::without_face_mask`]'s) from the same rays.
+    pub(crate) fn traced_cover_both(&self, i: usize, v: usize, l: usize, rays: &mut u64) -> [f32; 2] {
+        self.traced_at_vertex(i, v, l, (self.terms.self_visibility, self.terms.occluders), true, rays)
+    }
+
+    /// [`FrameSetup::traced_cover_with`], and with `both` the share of the same rays without
+    /// the face mask beside it.
+    fn traced_at_vertex(
+        &self,
+        i: usize,
+        v: usize,
+        l: usize,
+        terms: (bool, bool),
+        both: bool,
+        rays: &mut u64,
+    ) -> [f32; 2] {
         let p = &self.placed[i];
         let x = p.position(v) + p.pose.normal(p.object.mesh.normals[v]).normalize_or_zero() * self.traced.lift;
         let vis_frame = &p.object.frames.visibility[v];
@@ -112,9 +133,9 @@ impl<'a> FrameSetup<'a> {
         // weighted by its face-averaged mask (what the field's cover means).
         let above = |d: Vec3| {
             let local = vis_frame.to_local(p.pose.direction_to_object(d));
-            (local.z > 0.0).then(|| mask.at(local))
+            (local.z > 0.0).then(|| if self.face_mask { mask.at(local) } else { 1.0 })
         };
-        self.traced_from(i, x, l, dirs, (own, others), above, rays)
+        self.traced_from_both(i, x, l, dirs, terms, above, both, rays)
     }
 
     /// Traced light `l`'s cover at a point of object `i` that is not a vertex (a pixel's):
@@ -148,12 +169,30 @@ impl<'a> FrameSetup<'a> {
         x: Vec3,
         l: usize,
         dirs: &[Vec3],
-        (own, others): (bool, bool),
+        terms: (bool, bool),
         above: impl Fn(Vec3) -> Option<f32>,
         rays: &mut u64,
     ) -> f32 {
+        self.traced_from_both(i, x, l, dirs, terms, above, false, rays)[0]
+    }
+
+    /// [`FrameSetup::traced_from`]'s share, and with `both` beside it the share of the same
+    /// directions unweighted (every direction `above` counts with weight one; the rays that
+    /// a zero weight would spare are traced too).
+    #[allow(clippy::too_many_arguments)]
+    fn traced_from_both(
+        &self,
+        i: usize,
+        x: Vec3,
+        l: usize,
+        dirs: &[Vec3],
+        (own, others): (bool, bool),
+        above: impl Fn(Vec3) -> Option<f32>,
+        both: bool,
+        rays: &mut u64,
+    ) -> [f32; 2] {
         if !own && !others {
-            return 1.0;
+            return [1.0; 2];
         }
         let p = &self.placed[i];
         let cone = self.cones[l];
@@ -179,7 +218,7 @@ impl<'a> FrameSetup<'a> {
         // The object itself: only one that can hide part of itself (a stored field).
         let itself = if own && matches!(p.object.svdf, Svdf::Field { .. }) { p.object.occluder } else { None };
         if count == 0 && itself.is_none() && !own {
-            return 1.0;
+            return [1.0; 2];
         }
         let x_own = p.point_to_object(x);
         let casters = casters[..count.min(8)].iter().chain(&more);
@@ -190,14 +229,14 @@ impl<'a> FrameSetup<'a> {
             let length = dir.length();
             length > 0.0 && q.object.occluder.is_some_and(|o| o.occluded(xo, dir / length, f32::INFINITY))
         };
-        let (mut seen, mut counted) = (0.0f32, 0usize);
+        let (mut seen, mut seen_all, mut counted) = (0.0f32, 0.0f32, 0usize);
         for &d in dirs {
             let mut weight = 1.0;
             if own {
                 let Some(w) = above(d) else { continue };
                 counted += 1;
                 weight = w;
-                if weight <= 0.0 {
+                if weight <= 0.0 && !both {
                     continue;
                 }
                 if let Some(o) = itself {
@@ -214,8 +253,9 @@ impl<'a> FrameSetup<'a> {
                 continue;
             }
             seen += weight;
+            seen_all += 1.0;
         }
-        if counted == 0 { 0.0 } else { seen / counted as f32 }
+        if counted == 0 { [0.0; 2] } else { [seen / counted as f32, seen_all / counted as f32] }
     }
 
     /// Every vertex's [`FrameSetup::traced_cover`] of every traced light, for a shader that
