@@ -108,7 +108,7 @@ pub fn halfspace_share(mean: Vec3, kappa: f32, m: Vec3) -> f64 {
 /// tilt of parallel (a few degrees on a tessellated surface), where the smaller is the joint
 /// share. Where the lobe lies wholly below the normal's plane, the mask at the mean.
 pub fn mask_share(mean: Vec3, kappa: f32, normal: Vec3, faces: &[(Vec3, f32)]) -> f64 {
-    // Every plane more than 5.5 widths below the mean (Φ(5.5) = 1 − 2·10⁻⁸): all through.
+    // The mean more than 5.5 widths above every plane (Φ(5.5) = 1 − 2·10⁻⁸): all through.
     let lowest = faces.iter().map(|(n, _)| n.dot(mean)).fold(normal.dot(mean), f32::min);
     if lowest > 0.0 && f64::from(kappa).sqrt() * f64::from(lowest) > 5.5 * f64::from(1.0 - lowest * lowest).sqrt() {
         return 1.0;
