@@ -86,7 +86,10 @@ fn view_lookup(table: TableRef, view: vec3<f32>, theta_max: f32) -> ViewLookup {
         out.turn = vec4<f32>(cos(theta - th0), sin(theta - th0), cos(theta - th1), sin(theta - th1));
         out.weight = vec2<f32>(1.0 - f, f);
         if table.amplitude != 0.0 {
-            out.weight *= pow(vec2<f32>(cos(th0), cos(th1)) / cos(theta), vec2<f32>(table.amplitude));
+            // Beyond the last view, its slice scaled on by the view's own cosine
+            // (rsl_brdf::table::MIN_VIEW_COS).
+            let cos_view = select(cos(theta), max(view.z, 1e-5), view.z < cos(theta_max));
+            out.weight *= pow(vec2<f32>(cos(th0), cos(th1)) / cos_view, vec2<f32>(table.amplitude));
         }
         return out;
     }

@@ -192,6 +192,13 @@ fn lobe_radiance(base: u32, f: Frame, view: vec3<f32>) -> vec3<f32> {
     } else if !has_a {
         shares = vec2<f32>(0.0, 1.0);
     }
+    // Beyond the last fitted view, its lobes scaled by (cos θ_max / cos θ)^e
+    // (rsl_lobe::view_amplitude; e = 0 but for Ward).
+    let e = head.w;
+    let last = cos(theta_max);
+    if e > 0.0 && view.z < last {
+        shares *= pow(last / max(view.z, 1e-5), e);
+    }
     let lobes = base + 3u + views;
     for (var side = 0u; side < 2u; side++) {
         let j = k + side;

@@ -43,6 +43,11 @@ pub fn theta_max() -> f32 {
     (1e-3f32).acos()
 }
 
+/// The least cosine of a view's polar angle by which a BRDF whose value grows as `cos^−e` of
+/// it near grazing ([`Brdf::view_amplitude_exponent`]: Ward) is scaled beyond the last
+/// tabulated or fitted view (about 89.9994°): its amplitude stays finite at grazing.
+pub const MIN_VIEW_COS: f32 = 1e-5;
+
 /// `v ≥ 2` polar view angles `θ_k = θ_max·(1 − (1 − k/(v−1))²)`, denser toward grazing.
 pub fn polar_views(v: usize, theta_max: f32) -> Vec<f32> {
     (0..v).map(|k| theta_max * (1.0 - (1.0 - k as f32 / (v - 1) as f32).powi(2))).collect()
@@ -313,7 +318,9 @@ impl BrdfTable {
                     Vec2::new(cos, sin)
                 });
                 let e = self.brdf.view_amplitude_exponent();
-                let scale = |k: usize| if e == 0.0 { 1.0 } else { (thetas[k].cos() / theta.cos()).powf(e) };
+                // Beyond the last view, its slice scaled on by the view's own cosine.
+                let cos_view = if view.z < theta_max().cos() { view.z.max(MIN_VIEW_COS) } else { theta.cos() };
+                let scale = |k: usize| if e == 0.0 { 1.0 } else { (thetas[k].cos() / cos_view).powf(e) };
                 let weights = [(1.0 - f) * scale(k), f * scale(k + 1)];
                 ViewLookup::Isotropic { cos, sin, slice: k, weights, turn }
             }

@@ -61,14 +61,15 @@ pub fn pack_environment(env: &PackedEnvironment) -> (Vec<[u32; 4]>, Vec<[f32; 4]
     (levels, texels)
 }
 
-/// Appends `m`'s entries to `out`: `[θ_max, views, lobes per view, 0]`, the diffuse lobe, per
+/// Appends `m`'s entries to `out`: `[θ_max, views, lobes per view, the amplitude's exponent
+/// beyond θ_max]`, the diffuse lobe, per
 /// view `[has lobes, θ, 0, 0]`, then per view its lobes; a lobe is `[mean, κ]`, `[weight, 0]`.
 pub fn pack_material(m: &PackedMaterial, out: &mut Vec<[f32; 4]>) {
     let lobe = |l: &PackedLobe, out: &mut Vec<[f32; 4]>| {
         out.push(l.mean.extend(l.kappa).to_array());
         out.push(l.weight.extend(0.0).to_array());
     };
-    out.push([m.theta_max, m.views() as f32, rsl_lobe::SPECULAR_LOBES as f32, 0.0]);
+    out.push([m.theta_max, m.views() as f32, rsl_lobe::SPECULAR_LOBES as f32, m.amplitude_exponent]);
     lobe(&m.diffuse, out);
     out.extend(m.has_specular.iter().zip(&m.thetas).map(|(&h, &t)| [if h { 1.0 } else { 0.0 }, t, 0.0, 0.0]));
     for l in &m.specular {

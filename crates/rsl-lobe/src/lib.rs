@@ -13,7 +13,7 @@ pub mod prefilter;
 pub mod transport;
 pub mod vmf;
 
-pub use material::{FitParams, MaterialLobes, SPECULAR_LOBES, SpecularLobes, WeightedLobe};
+pub use material::{FitParams, MaterialLobes, SPECULAR_LOBES, SpecularLobes, WeightedLobe, view_amplitude};
 pub use packed::{PackedEnvironment, PackedLevel, PackedLobe, PackedMaterial};
 pub use prefilter::{PrefilterParams, Prefiltered};
 pub use transport::{TransportLobes, TransportParams};

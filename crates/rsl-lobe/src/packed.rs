@@ -80,6 +80,9 @@ pub struct PackedLobe {
 pub struct PackedMaterial {
     /// Largest polar view angle fitted (radians).
     pub theta_max: f32,
+    /// The exponent of the specular lobes' amplitude beyond `theta_max`
+    /// ([`crate::MaterialLobes::beyond_last_view`]).
+    pub amplitude_exponent: f32,
     /// Per view `k`, lobes `3k`, `3k + 1` and `3k + 2` ([`SPECULAR_LOBES`] per view).
     pub specular: Vec<PackedLobe>,
     /// Whether view `k` has lobes (a view without them takes its neighbour's, unblended).
@@ -112,7 +115,8 @@ impl PackedMaterial {
             kappa: d.lobe.kappa,
             weight: d.weight,
         });
-        Self { theta_max, specular, has_specular, thetas, diffuse }
+        let amplitude_exponent = lobes.brdf().view_amplitude_exponent();
+        Self { theta_max, amplitude_exponent, specular, has_specular, thetas, diffuse }
     }
 
     /// Number of tabulated views.
