@@ -184,17 +184,19 @@ impl<'a> FrameSetup<'a> {
         let fields = self.vertex_fields(i, v);
         let tails = self.tails_at(i, at.view, &at.frame);
         let receiver = self.receiver(i, &at.frame);
-        let (mut sum, mut open) = (Sum::default(), Vec3::ZERO);
-        for (l, light) in self.lights.iter().enumerate() {
-            stats.brdf_lookups += 1;
-            let b = self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(light.dir), l);
-            if b == Vec3::ZERO {
-                continue;
-            }
+        // Each light's integral is kept in the context for its covers, which add the
+        // unmasked term beside the masked one the sum takes.
+        type Ctx<'c, 'a> = (&'c mut Nears<'a>, &'c mut FrameStats, Vec3, Vec3);
+        let brdf = |ctx: &mut Ctx<'_, 'a>, l: usize| {
+            ctx.1.brdf_lookups += 1;
+            ctx.2 = self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l);
+            ctx.2
+        };
+        let cover = |(nears, stats, b, open): &mut Ctx<'_, 'a>, l: usize| {
             let [masked, unmasked] = if self.is_traced(l) {
                 self.traced_cover_both(i, v, l, &mut stats.traced_rays)
             } else {
-                let (q, r) = (self.light_on_hemi(i, &fields, l), light.half_diagonal);
+                let (q, r) = (self.light_on_hemi(i, &fields, l), self.lights[l].half_diagonal);
                 let (mut own, mut share) = (1.0, 1.0);
                 if self.terms.self_visibility {
                     stats.self_lookups += 1;
@@ -211,14 +213,12 @@ impl<'a> FrameSetup<'a> {
                 };
                 [own * share * others, own * others]
             };
-            let term = light.radiance * b;
-            sum.radiance += term * masked;
-            if !self.is_traced(l) {
-                sum.untraced += term * masked;
-            }
-            open += term * unmasked;
-        }
-        (sum, open)
+            *open += self.lights[l].radiance * *b * unmasked;
+            masked
+        };
+        let mut ctx = (nears, stats, Vec3::ZERO, Vec3::ZERO);
+        let sum = self.rsl_sum(&mut ctx, Order::BrdfFirst, brdf, cover, None);
+        (sum, ctx.3)
     }
 
     /// [`FrameSetup::vertex`], keeping every light's cover in `out` (one per light; what
