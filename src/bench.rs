@@ -90,6 +90,11 @@ pub struct BenchArgs {
     /// measuring nothing (a shard still running is left for a later run, and named).
     #[arg(long, conflicts_with = "shard")]
     pub merge: bool,
+    /// Measure every configuration again, replacing its rows already in --out (kept rows are
+    /// matched by scene, configuration, time and truth, not by the build that measured them:
+    /// after a change to shading, measure a page afresh with this).
+    #[arg(long, conflicts_with = "merge")]
+    pub fresh: bool,
     /// Precomputation options (the cache also holds the truths).
     #[command(flatten)]
     pub prepare: crate::render::PrepareArgs,
@@ -186,6 +191,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         command: command_line(),
         shard: args.shard,
         merge_only: args.merge,
+        fresh: args.fresh,
     };
     let truth = match options.truth_noise {
         Some(x) => format!("truths to {:.2}% noise", 100.0 * x),

@@ -4,8 +4,8 @@
 //! the Monte Carlo truth per vertex — relative L2 for the scene and per object, the mean
 //! and 95th percentile of the per-vertex relative error — with the truth's own noise beside
 //! it. The truth is computed once per (scene contents, time, samples, seed) and cached;
-//! finished configurations are kept in `results.csv` and never measured again, so an
-//! interrupted bench resumes. Reports: CSV, Markdown and SVG plots ([`report`]).
+//! finished configurations are kept in `results.csv` and not measured again (unless
+//! [`BenchOptions::fresh`]), so an interrupted bench resumes. Reports: CSV, Markdown and SVG plots ([`report`]).
 
 pub mod budget;
 pub mod config;
@@ -69,6 +69,11 @@ pub struct BenchOptions {
     pub shard: Option<shard::Shard>,
     /// Only join the finished shards' rows and write the report: measure nothing.
     pub merge_only: bool,
+    /// Measure every configuration again, replacing its rows (and its error budgets) already
+    /// in the output folder: kept rows are reused by scene, configuration, time and truth,
+    /// not by the build that measured them, so after a change to shading a page is measured
+    /// afresh with this.
+    pub fresh: bool,
 }
 
 /// One measured point: a configuration of a scene at a time.
@@ -589,9 +594,10 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             .iter()
             .copied()
             .filter(|(c, t)| {
-                !summary.rows.iter().chain(&joined).any(|r| {
-                    r.scene == name && r.config == c.id() && r.time == *t && r.truth_key == key_at(*t, bounce(c))
-                })
+                options.fresh
+                    || !summary.rows.iter().chain(&joined).any(|r| {
+                        r.scene == name && r.config == c.id() && r.time == *t && r.truth_key == key_at(*t, bounce(c))
+                    })
             })
             .collect();
         summary.reused += mine.len() - todo.len();
@@ -617,13 +623,14 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
             .filter(|(i, _)| options.shard.is_none_or(|s| s.takes(first_budget + i)))
             .map(|(_, w)| w)
             .filter(|(c, t, o, _)| {
-                !budget_rows.iter().chain(&joined_budget).any(|r| {
-                    r.scene == name
-                        && r.config == c.id()
-                        && r.time == *t
-                        && r.oracle == *o
-                        && r.truth_key == key_at(*t, bounce(c))
-                })
+                options.fresh
+                    || !budget_rows.iter().chain(&joined_budget).any(|r| {
+                        r.scene == name
+                            && r.config == c.id()
+                            && r.time == *t
+                            && r.oracle == *o
+                            && r.truth_key == key_at(*t, bounce(c))
+                    })
             })
             .collect();
         if todo.is_empty() && budget_todo.is_empty() {

@@ -68,6 +68,7 @@ fn options(scene: PathBuf, out: PathBuf, cache: PathBuf, sweeps: &[&str]) -> Ben
         command: String::new(),
         shard: None,
         merge_only: false,
+        fresh: false,
     }
 }
 
@@ -111,6 +112,17 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     let again = run(&options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"])).unwrap();
     assert_eq!((again.measured, again.reused, again.truths_estimated, again.truths_reused), (0, 2, 0, 1));
     assert_eq!(again.rows, first.rows);
+    // Asked to measure afresh, it measures both again and replaces their rows (no row twice),
+    // against the cached truths.
+    let fresh =
+        run(&BenchOptions { fresh: true, ..options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"]) }).unwrap();
+    assert_eq!((fresh.measured, fresh.reused, fresh.truths_estimated, fresh.truths_reused), (2, 0, 0, 2));
+    let kept = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    assert_eq!(kept.lines().count(), 3, "a header and one row per configuration:\n{kept}");
+    for (a, b) in fresh.rows.iter().zip(&first.rows) {
+        assert_eq!((a.rsl, a.config.as_str()), (b.rsl, b.config.as_str()));
+        assert!((a.relative_l2 - b.relative_l2).abs() < 1e-9, "the same configuration measures the same error");
+    }
     // A bench cut short after its first configuration resumes with the second; a new
     // configuration reuses the cached truth.
     let text = std::fs::read_to_string(out.join("results.csv")).unwrap();
