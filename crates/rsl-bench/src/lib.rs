@@ -5,7 +5,8 @@
 //! and 95th percentile of the per-vertex relative error — with the truth's own noise beside
 //! it. The truth is computed once per (scene contents, time, samples, seed) and cached;
 //! finished configurations are kept in `results.csv` and not measured again (unless
-//! [`BenchOptions::fresh`]), so an interrupted bench resumes. Reports: CSV, Markdown and SVG plots ([`report`]).
+//! [`BenchOptions::fresh`]), so an interrupted bench resumes. Reports: CSV, Markdown and
+//! SVG plots ([`report`]).
 
 pub mod budget;
 pub mod config;
