@@ -506,6 +506,8 @@ impl ObjectDrawing for LobeDrawing {
                 let l = self.frame.lobes[i].clone().context("the lobes were not prepared")?;
                 let t = self.frame.transport[i].as_ref().context("the transport lobes were not prepared")?;
                 let (pos, nor) = (&ctx.positions[i], &ctx.normals[i]);
+                // The frames the transport lobes were fitted in (`TransportJob::run`).
+                let fit_frames = &engine.frames(i).visibility;
                 let pose = Pose::new(&ctx.state.objects[i]);
                 let to_world = |d: Vec3| (pose.linear_to_world * d).normalize_or(d);
                 // The transport lobes (the object's own shadows fitted in), each shadowed by
@@ -521,7 +523,7 @@ impl ObjectDrawing for LobeDrawing {
                             st.back_facing += 1;
                             return (Vec3::ZERO, Vec3::ZERO, st);
                         }
-                        t.lobes_at(v, pose.direction_to_object(to_eye), lobes);
+                        t.lobes_following(&l, &fit_frames[v], v, pose.direction_to_object(to_eye), lobes);
                         let squares: Vec<(Vec3, f32)> =
                             lobes.iter().map(|w| (to_world(w.lobe.mean), lobe_half_diagonal(w.lobe.kappa))).collect();
                         let mut covers = vec![0.0f32; squares.len()];

@@ -471,6 +471,23 @@ impl MaterialLobes {
         Some(std::array::from_fn(|i| if i < SPECULAR_LOBES { a[i] } else { b[i - SPECULAR_LOBES] }))
     }
 
+    /// The sum of the weights of [`MaterialLobes::specular_lobes`] at `view` (unit, local
+    /// frame): the unshadowed specular lobes' share of a white environment's light toward the
+    /// view; zero at or below the horizon and without a specular part.
+    pub fn specular_weight(&self, view: Vec3) -> Vec3 {
+        if view.z.is_nan() || view.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        self.specular_lobes(view).map_or(Vec3::ZERO, |l| l.iter().map(|w| w.weight).sum())
+    }
+
+    /// The sum of the weights of [`MaterialLobes::nearest_specular_lobes`] at `view`: what a
+    /// tabulation of views that takes those lobes (the transport lobes') holds there, before
+    /// any shadow; zero without a specular part.
+    pub fn nearest_specular_weight(&self, view: Vec3) -> Vec3 {
+        self.nearest_specular_lobes(view).map_or(Vec3::ZERO, |l| l.iter().map(|w| w.weight).sum())
+    }
+
     /// The specular lobes of the tabulated view nearest `view` (unit, local frame, above the
     /// horizon), turned to it as in [`MaterialLobes::specular_lobes`], whole (not blended
     /// with the next view's); `None` without a specular part. Lobe `m` of two views close
