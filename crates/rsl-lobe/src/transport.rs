@@ -401,16 +401,23 @@ impl TransportLobes {
     /// The lobes of vertex `v` for unit object-space view `view` into `out` (object space):
     /// each specular lobe interpolated across the three nearest views, then the diffuse lobe.
     pub fn lobes_at(&self, v: usize, view: Vec3, out: &mut Vec<WeightedLobe>) {
+        let near = (self.per_view > 0).then(|| self.nearest_views(view));
+        self.lobes_near(v, near.as_ref(), out);
+    }
+
+    /// [`TransportLobes::lobes_at`] for the three views `near` around the view (none for a
+    /// material without specular lobes): the lobes into `out`, and how many of them are
+    /// specular (the diffuse lobe, if any, follows them).
+    fn lobes_near(&self, v: usize, near: Option<&[(usize, f32); 3]>, out: &mut Vec<WeightedLobe>) -> usize {
         out.clear();
-        if self.per_view > 0 {
-            let near = self.nearest_views(view);
+        if let Some(near) = near {
             for k in 0..self.per_view {
                 // The weight and the mean linearly (every view's lobe has a mean, weighted or
                 // not: a reflection's direction is linear in the view); κ weighted by each
                 // view's weight too, so that a lobe a view leaves empty (one lobe fitted
                 // there, or wholly shadowed) lends its width to none.
                 let (mut weight, mut mean, mut kappa, mut mass) = (Vec3::ZERO, Vec3::ZERO, 0.0f32, 0.0f32);
-                for &(j, w) in &near {
+                for &(j, w) in near {
                     let l = self.at_view(v, j)[k];
                     let m = w * l.weight.element_sum();
                     weight += l.weight * w;
@@ -424,7 +431,9 @@ impl TransportLobes {
                 }
             }
         }
+        let specular = out.len();
         out.extend(self.diffuse[v].filter(|d| d.weight != Vec3::ZERO));
+        specular
     }
 
     /// [`TransportLobes::lobes_at`] with the specular lobes' weights scaled, per channel, by
@@ -446,18 +455,18 @@ impl TransportLobes {
         view: Vec3,
         out: &mut Vec<WeightedLobe>,
     ) {
-        self.lobes_at(v, view, out);
         if self.per_view == 0 {
+            self.lobes_near(v, None, out);
             return;
         }
-        let fitted: Vec3 = self
-            .nearest_views(view)
+        let near = self.nearest_views(view);
+        let specular = self.lobes_near(v, Some(&near), out);
+        let fitted: Vec3 = near
             .iter()
             .map(|&(j, w)| material.nearest_specular_weight(shown_view(frame.to_local(self.views[j]))) * w)
             .sum();
         let want = material.specular_weight(frame.to_local(view));
         let scale = Vec3::select(fitted.cmpgt(Vec3::splat(1e-12)), want / fitted, Vec3::ONE);
-        let specular = out.len() - usize::from(self.diffuse[v].is_some_and(|d| d.weight != Vec3::ZERO));
         for l in &mut out[..specular] {
             l.weight *= scale;
         }
