@@ -32,7 +32,9 @@
 //! The method draws the direct light as it always does; the gathered light is added to each
 //! vertex's radiance and, in the image, interpolated across triangles (the CPU rasteriser,
 //! antialiased as the image is) and added to every pixel. It turns and moves with the
-//! objects: nothing is precomputed. The direct part is the method's own, so with `bounces =
+//! objects: nothing is precomputed. Where the frame's drawing already found every light's
+//! cover at an object's vertices (the RSL sum per pixel on the CPU, [`Frame::covers`]),
+//! they are read rather than found again: a cover does not depend on the view. The direct part is the method's own, so with `bounces =
 //! 0` every frame is exactly what the method draws alone.
 
 use crate::engine::Engine;
@@ -41,12 +43,18 @@ use anyhow::{Result, bail};
 use glam::Vec3;
 use rayon::prelude::*;
 use rsl_scene::{Scene, SceneState};
-use rsl_shade::Terms;
+use rsl_shade::{Covers, Terms};
 use rsl_truth::{EnvLight, GatherView, SurfaceHit};
 use std::time::Instant;
 
 /// The seed of the gathers' directions (one per bounce).
 const SEED: u64 = 0x6f75_6e63_655f_7273;
+
+thread_local! {
+    /// Each thread's buffer of one point's covers, one per light ([`interreflections`]'s
+    /// sources): a hit allocates nothing.
+    static SCRATCH: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
 
 /// The light gathered at every vertex ([`interreflections`]).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -59,13 +67,15 @@ pub struct Gathered {
 
 /// The light of `bounces` bounces between the surfaces of `scene` at `state`, reflected
 /// toward the camera's eye, at every vertex. Needs the engine's RSL layer (the sources are
-/// its shading).
+/// its shading). `known`: per object, every light's cover at its vertices where the frame's
+/// drawing already found them at `state` with every term ([`Frame::covers`]; `None`, or an
+/// empty list, where not): those objects' covers are not found again.
 pub fn interreflections(
     engine: &Engine,
     scene: &Scene,
     state: &SceneState,
-    bounces: u32,
-    rays: u32,
+    (bounces, rays): (u32, u32),
+    known: &[Option<Covers>],
 ) -> Result<Gathered> {
     if !engine.layers().rsl {
         bail!(
@@ -84,36 +94,54 @@ pub fn interreflections(
     // A glossy surface's radiance along its normal is never read (it sends its RSL sum
     // toward each receiver): its covers alone are found.
     let lambertian: Vec<bool> = (0..n).map(|i| setup.view_independent(i)).collect();
-    let (along, covers, _) = rsl_shade::shade_covers_for(&setup, &vec![true; n], &lambertian);
+    // A light's cover does not depend on the view: the covers the drawing found are the
+    // ones found here, and of a Lambertian surface only its sums along the normals are read
+    // again from them (`FrameSetup::sums_from_covers`).
+    let known: Vec<Option<&Covers>> = (0..n).map(|i| known.get(i).and_then(Option::as_ref)).collect();
+    let find: Vec<bool> = known.iter().map(Option::is_none).collect();
+    let sum: Vec<bool> = (0..n).map(|i| find[i] && lambertian[i]).collect();
+    let (mut along, mut found, _) = rsl_shade::shade_covers_for(&setup, &find, &sum);
+    let mut untraced: Vec<Vec<Vec3>> =
+        found.iter_mut().map(|c| c.as_mut().map_or_else(Vec::new, |c| std::mem::take(&mut c.untraced))).collect();
+    for (i, c) in known.iter().enumerate() {
+        if let (Some(c), true) = (c, lambertian[i]) {
+            (along[i], untraced[i]) = setup.sums_from_covers(i, c);
+        }
+    }
+    let covers: Vec<Option<&Covers>> = (0..n).map(|i| known[i].or(found[i].as_ref())).collect();
     let traced = setup.traced_lights();
     let lights = setup.light_count();
     let direct_at = |hit: &SurfaceHit| {
-        let Some(c) = &covers[hit.object] else { return Vec3::ZERO };
+        let Some(c) = covers[hit.object] else { return Vec3::ZERO };
         let j = hit.object;
         let [a, b, d] = hit.corners.map(|k| k as usize * c.lights);
         let edge = |l: usize| c.values[a + l] != c.values[b + l] || c.values[a + l] != c.values[d + l];
-        let crossed: Vec<usize> = traced.iter().copied().filter(|&l| edge(l)).collect();
-        if lambertian[j] && crossed.is_empty() {
+        let crossed = traced.iter().any(|&l| edge(l));
+        if lambertian[j] && !crossed {
             return at(&along, hit);
         }
-        let mut at = vec![0.0; lights];
-        let mut base = Vec3::ZERO;
-        if lambertian[j] {
-            let [a, b, d] = hit.corners.map(|k| c.untraced[k as usize]);
-            base = a * hit.weights.x + b * hit.weights.y + d * hit.weights.z;
-            for &l in &traced {
-                at[l] = c.values[hit.corners[0] as usize * c.lights + l].max(0.0);
+        // Each thread's buffer of the lights' covers at the point, reused from hit to hit.
+        SCRATCH.with_borrow_mut(|at| {
+            at.clear();
+            at.resize(lights, 0.0);
+            let mut base = Vec3::ZERO;
+            if lambertian[j] {
+                let [a, b, d] = hit.corners.map(|k| untraced[j][k as usize]);
+                base = a * hit.weights.x + b * hit.weights.y + d * hit.weights.z;
+                for &l in &traced {
+                    at[l] = c.values[hit.corners[0] as usize * c.lights + l].max(0.0);
+                }
+            } else {
+                c.at_corners(hit.corners, hit.weights, at);
             }
-        } else {
-            c.at_corners(hit.corners, hit.weights, &mut at);
-        }
-        let mut rays = 0;
-        for &l in &crossed {
-            // One ray, the square's centre: each gathered direction draws its own.
-            at[l] = setup.traced_cover_at(j, (hit.point, hit.frame.n, hit.face), l, 1, &mut rays);
-        }
-        let mut stats = rsl_shade::FrameStats::default();
-        base + setup.point_toward(j, hit.toward, &hit.frame, &at, &mut stats)
+            let mut rays = 0;
+            for &l in traced.iter().filter(|&&l| edge(l)) {
+                // One ray, the square's centre: each gathered direction draws its own.
+                at[l] = setup.traced_cover_at(j, (hit.point, hit.frame.n, hit.face), l, 1, &mut rays);
+            }
+            let mut stats = rsl_shade::FrameStats::default();
+            base + setup.point_toward(j, hit.toward, &hit.frame, at, &mut stats)
+        })
     };
     // Only the geometry is traced: the environment is the direct part's.
     let truth = Truth::scene(engine, scene, state, EnvLight::Constant(Vec3::ZERO))?;
@@ -255,13 +283,15 @@ impl Bounced {
 
     /// Adds the interreflections of the frame's scene to `frame`.
     fn add_bounces(engine: &Engine, scene: &Scene, frame: &mut Frame) -> Result<()> {
+        // The drawing's covers are read here, and not kept in the frame.
+        let known = std::mem::take(&mut frame.covers);
         let q = scene.quality.settings;
         if q.bounces == 0 || q.bounce_rays == 0 {
             return Ok(());
         }
         let start = Instant::now();
         let Gathered { light: indirect, positions } =
-            interreflections(engine, scene, &frame.state, q.bounces, q.bounce_rays)?;
+            interreflections(engine, scene, &frame.state, (q.bounces, q.bounce_rays), &known)?;
         if frame.has_vertices() {
             for (r, g) in frame.radiance.iter_mut().zip(&indirect) {
                 for (r, g) in r.iter_mut().zip(g) {

@@ -98,6 +98,12 @@ pub trait PixelShader: Sync {
     fn gpu_lobes(&self) -> Option<GpuLobe<'_>> {
         None
     }
+
+    /// The covers found at the object's vertices, when its pixels read them (the RSL sum
+    /// per pixel): kept in the frame for the interreflections ([`Frame::covers`]).
+    fn into_covers(self: Box<Self>) -> Option<Covers> {
+        None
+    }
 }
 
 /// A boxed [`PixelShader`] living as long as the frame's data.
@@ -258,7 +264,7 @@ pub fn compose(
         _ if !per_pixel => Some(timings.time("draw", || rasterise(engine, scene, &state, &positions, &radiance))),
         _ => Some(timings.time("draw per pixel", || draw_per_pixel(&ctx, &shaders, &radiance))),
     };
-    drop(shaders);
+    let covers = shaders.into_iter().map(|s| s.and_then(PixelShader::into_covers)).collect();
     for (i, r) in gpu_radiance.into_iter().enumerate() {
         if let Some(r) = r {
             radiance[i] = r;
@@ -277,6 +283,7 @@ pub fn compose(
         stats,
         shadow_rays: 0,
         timings,
+        covers,
     })
 }
 
@@ -358,6 +365,10 @@ impl PixelShader for CoverShader<'_> {
 
     fn shade(&self, mesh: &PixelMesh<'_>, point: &PixelPoint<'_>, buf: &mut [f32]) -> Vec3 {
         rsl_shade::point_radiance(self.setup, &self.covers, mesh, point, buf, &mut FrameStats::default())
+    }
+
+    fn into_covers(self: Box<Self>) -> Option<Covers> {
+        Some(self.covers)
     }
 }
 

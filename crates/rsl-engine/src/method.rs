@@ -80,6 +80,11 @@ pub struct Frame {
     pub shadow_rays: u64,
     /// What each stage cost.
     pub timings: Timings,
+    /// Per object, every light's cover at its vertices where the drawing found them all
+    /// (the RSL sum per pixel on the CPU, [`rsl_shade::shade_covers`]; `None` for the other
+    /// objects, and empty for the other drawings): the interreflections read them instead of
+    /// finding them again, and take them ([`crate::bounce::Bounced`]).
+    pub covers: Vec<Option<rsl_shade::Covers>>,
 }
 
 impl Frame {
@@ -98,6 +103,7 @@ impl Frame {
             stats: f.stats,
             shadow_rays: 0,
             timings,
+            covers: Vec::new(),
         }
     }
 
@@ -148,6 +154,7 @@ impl Frame {
             stats: FrameStats::default(),
             shadow_rays: 0,
             timings,
+            covers: Vec::new(),
         })
     }
 
@@ -721,6 +728,7 @@ impl Method for Truth {
             stats,
             shadow_rays,
             timings,
+            covers: Vec::new(),
         })
     }
 }

@@ -533,3 +533,53 @@ fn covers_without_radiance_are_the_covers_with() {
         assert!(s2.brdf_lookups < stats.brdf_lookups, "{} < {}", s2.brdf_lookups, stats.brdf_lookups);
     }
 }
+
+/// [`rsl_shade::FrameSetup::sums_from_covers`]: the covers found for the eye, summed again
+/// along the normals, give what finding them along the normals sums, to the bit (a light's
+/// cover does not depend on the view); and the interreflections gathered from a drawing's
+/// covers ([`rsl_engine::method::Frame::covers`]) are those gathered finding them again.
+#[test]
+fn covers_found_for_the_eye_give_the_sums_along_the_normals() {
+    let s =
+        scene(
+            SceneBuilder::new()
+                .map(root().join("data/hdri/studio.exr"))
+                .camera(Vec3::new(0.0, 1.5, 4.0), Vec3::ZERO)
+                .object(ObjectBuilder::plane("floor", 4.0, 12).material(Brdf::Lambert { albedo: Vec3::splat(0.6) }))
+                .object(
+                    ObjectBuilder::sphere("ball", 0.5, 16)
+                        .translation(Vec3::new(0.0, 0.6, 0.0))
+                        .material(Brdf::Lambert { albedo: Vec3::new(0.8, 0.4, 0.2) }),
+                )
+                .object(
+                    ObjectBuilder::sphere("glossy", 0.4, 16)
+                        .translation(Vec3::new(0.9, 0.45, 0.2))
+                        .material(Brdf::Ggx { alpha: 0.2, specular: Vec3::splat(0.9), diffuse: Vec3::splat(0.1) }),
+                ),
+        );
+    let engine = Engine::new(&s, memory_only()).unwrap();
+    let state = s.at(0.0);
+    let eye = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap();
+    let along = engine.setup(&s, &state, s.camera.eye, Terms::default()).unwrap().along_normals().midpoint_tails();
+    let all = [true; 3];
+    let (toward_eye, known, _) = rsl_shade::shade_covers(&eye, &all);
+    let (radiance, found, _) = rsl_shade::shade_covers_for(&along, &all, &all);
+    for i in 0..3 {
+        let (k, f) = (known[i].as_ref().unwrap(), found[i].as_ref().unwrap());
+        assert_eq!((&k.values, &k.own), (&f.values, &f.own), "object {i}'s covers");
+        let (r, u) = along.sums_from_covers(i, k);
+        assert_eq!((&r, &u), (&radiance[i], &f.untraced), "object {i}'s sums");
+    }
+    // The views differ: the ball's far side faces away from the eye and has light along its
+    // normals.
+    let away = (0..toward_eye[1].len()).filter(|&v| toward_eye[1][v] == Vec3::ZERO && radiance[1][v] != Vec3::ZERO);
+    assert!(away.count() > 20);
+    let gathered = |known: &[Option<rsl_shade::Covers>]| {
+        rsl_engine::bounce::interreflections(&engine, &s, &state, (1, 16), known).unwrap()
+    };
+    let own = gathered(&[]);
+    assert!(own.light.iter().flatten().any(|g| g.max_element() > 0.0), "some light bounces");
+    assert_eq!(gathered(&known), own);
+    // Some objects' covers known, the others found.
+    assert_eq!(gathered(&[None, known[1].clone()]), own);
+}

@@ -27,9 +27,10 @@
 use crate::antialias;
 use crate::raster::{Fragment, Image, RasterMesh, fragments, image_ray, pixel_ray, sample_fragments};
 use crate::shade::{BLOCK, FrameSetup, FrameStats};
-use crate::sum::Sum;
+use crate::sum::{Order, Sum};
 use glam::Vec3;
 use rayon::prelude::*;
+use rsl_brdf::ViewLookup;
 use rsl_scene::Camera;
 use rsl_sphere::Frame;
 
@@ -186,6 +187,39 @@ pub fn shade_covers_for(
         }
     }
     (radiance, covers, stats)
+}
+
+impl FrameSetup<'_> {
+    /// The vertices' sums of object `i` (radiance, and [`Covers::untraced`]) from `covers`
+    /// already found at them by [`shade_covers`] in a frame set up for the same scene state
+    /// and terms, read toward this frame's views (along the normals with
+    /// [`FrameSetup::along_normals`]): a light's cover does not depend on the view, so this
+    /// is what [`shade_covers_for`] sums for the object, to the bit, without finding a cover
+    /// again — only the BRDF's integrals are read.
+    pub fn sums_from_covers(&self, i: usize, covers: &Covers) -> (Vec<Vec3>, Vec<Vec3>) {
+        let (lights, n) = (self.lights.len(), self.placed[i].object.mesh.vertex_count());
+        debug_assert_eq!((covers.lights, covers.values.len()), (lights, n * lights), "another frame's covers");
+        if lights == 0 || covers.lights != lights || covers.values.len() != n * lights {
+            return (vec![Vec3::ZERO; n], vec![Vec3::ZERO; n]);
+        }
+        covers
+            .values
+            .par_chunks_exact(lights)
+            .enumerate()
+            .map(|(v, row)| {
+                let at = self.at_vertex(i, v);
+                let tails = self.tails_at(i, at.view, &at.frame);
+                let brdf = |_: &mut (), l: usize| {
+                    if at.lookup == ViewLookup::Below {
+                        return Vec3::ZERO;
+                    }
+                    self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
+                };
+                let s = self.rsl_sum(&mut (), Order::CoverFirst, brdf, |_, l| row[l], None);
+                (s.radiance, s.untraced)
+            })
+            .unzip()
+    }
 }
 
 /// One object as [`draw_pixels`] sees it: world-space vertices, and either its world

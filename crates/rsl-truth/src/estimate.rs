@@ -373,40 +373,70 @@ pub const MAX_SPP: u32 = 1 << 16;
 /// quality knob's bound.
 pub use rsl_scene::quality::MAX_BOUNCES;
 
+/// One object of a [`TruthScene`] placed in the world ([`TruthScene::new`]).
+struct PlacedObject {
+    positions: Vec<Vec3>,
+    frames: Vec<Frame>,
+    faces: IncidentFaces,
+    /// Its triangles to trace (world space, unscaled), each with its owner (object,
+    /// triangle).
+    tris: Vec<Triangle>,
+    owners: Vec<(u32, u32)>,
+}
+
+impl PlacedObject {
+    /// Object `i`, `o`, placed by its transform.
+    fn new(i: usize, o: &TruthObject<'_>) -> Result<Self, TruthError> {
+        let pose = Pose::new(&o.transform);
+        let p: Vec<Vec3> = o.mesh.positions.par_iter().map(|&p| pose.position(p)).collect();
+        let limit = rsl_sphere::mesh::MAX_COORDINATE;
+        let extent = p.iter().map(|x| x.abs().max_element()).fold(0.0, f32::max);
+        if extent.is_nan() || extent > limit {
+            return Err(TruthError::TooLarge { object: i, extent, limit });
+        }
+        let frames: Vec<Frame> =
+            (0..o.mesh.vertex_count()).into_par_iter().map(|v| pose.frame(o.frames.shading(v))).collect();
+        // Coincident copies of a triangle within an object: one is kept (a BVH cannot split
+        // them, and every ray would test them all); the first copy is the face hit.
+        let (mut tris, mut owners) = (Vec::new(), Vec::new());
+        let mut seen = std::collections::HashSet::new();
+        for (t, tri) in o.mesh.indices.chunks_exact(3).enumerate() {
+            let [a, b, c] = [0, 1, 2].map(|k| p[tri[k] as usize]);
+            if (b - a).cross(c - a).length_squared() > 0.0
+                && a.is_finite()
+                && b.is_finite()
+                && c.is_finite()
+                && seen.insert(rsl_sphere::mesh::triangle_key(a, b, c))
+            {
+                tris.push(Triangle { v0: a.into(), v1: b.into(), v2: c.into() });
+                owners.push((i as u32, t as u32));
+            }
+        }
+        let normals: Vec<Vec3> = frames.iter().map(|f| f.n).collect();
+        let faces = IncidentFaces::new(&p, &normals, &o.mesh.indices);
+        Ok(Self { positions: p, frames, faces, tris, owners })
+    }
+}
+
 impl TruthScene {
     /// Places every object and builds the BVH. `world_from_env` rotates the environment.
     pub fn new(objects: &[TruthObject<'_>], env: EnvLight, world_from_env: Quat) -> Result<Self, TruthError> {
         if objects.is_empty() {
             return Err(TruthError::NoObjects);
         }
-        let mut positions = Vec::new();
-        let mut frames: Vec<Vec<Frame>> = Vec::new();
+        // Each object placed apart (in parallel): its world positions and frames, its
+        // triangles, and its vertices' faces.
+        let placed: Vec<Result<PlacedObject, TruthError>> =
+            objects.par_iter().enumerate().map(|(i, o)| PlacedObject::new(i, o)).collect();
+        let (mut positions, mut frames, mut faces) = (Vec::new(), Vec::new(), Vec::new());
         let (mut tris, mut owners) = (Vec::new(), Vec::new());
-        for (i, o) in objects.iter().enumerate() {
-            let pose = Pose::new(&o.transform);
-            let p: Vec<Vec3> = o.mesh.positions.iter().map(|&p| pose.position(p)).collect();
-            let limit = rsl_sphere::mesh::MAX_COORDINATE;
-            let extent = p.iter().map(|x| x.abs().max_element()).fold(0.0, f32::max);
-            if extent.is_nan() || extent > limit {
-                return Err(TruthError::TooLarge { object: i, extent, limit });
-            }
-            frames.push((0..o.mesh.vertex_count()).map(|v| pose.frame(o.frames.shading(v))).collect());
-            // Coincident copies of a triangle within an object: one is kept (a BVH cannot
-            // split them, and every ray would test them all); the first copy is the face hit.
-            let mut seen = std::collections::HashSet::new();
-            for (t, tri) in o.mesh.indices.chunks_exact(3).enumerate() {
-                let [a, b, c] = [0, 1, 2].map(|k| p[tri[k] as usize]);
-                if (b - a).cross(c - a).length_squared() > 0.0
-                    && a.is_finite()
-                    && b.is_finite()
-                    && c.is_finite()
-                    && seen.insert(rsl_sphere::mesh::triangle_key(a, b, c))
-                {
-                    tris.push(Triangle { v0: a.into(), v1: b.into(), v2: c.into() });
-                    owners.push((i as u32, t as u32));
-                }
-            }
-            positions.push(p);
+        for placed in placed {
+            let placed = placed?;
+            tris.extend(placed.tris);
+            owners.extend(placed.owners);
+            positions.push(placed.positions);
+            frames.push(placed.frames);
+            faces.push(placed.faces);
         }
         if tris.is_empty() {
             return Err(TruthError::NoTriangles);
@@ -417,18 +447,7 @@ impl TruthScene {
         // Traced at a power-of-two scale (`rsl_sphere::mesh::ray_scale`), so that rays
         // resolve scenes of any size.
         let scale = rsl_sphere::mesh::ray_scale(radius, lo.abs().max(hi.abs()).max_element());
-        for t in &mut tris {
-            *t = Triangle { v0: t.v0 * scale, v1: t.v1 * scale, v2: t.v2 * scale };
-        }
-        let faces = positions
-            .iter()
-            .zip(&frames)
-            .zip(objects)
-            .map(|((p, f), o)| {
-                let normals: Vec<Vec3> = f.iter().map(|f| f.n).collect();
-                IncidentFaces::new(p, &normals, &o.mesh.indices)
-            })
-            .collect();
+        tris.par_iter_mut().for_each(|t| *t = Triangle { v0: t.v0 * scale, v1: t.v1 * scale, v2: t.v2 * scale });
         let bvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut std::time::Duration::default());
         Ok(Self {
             positions,
