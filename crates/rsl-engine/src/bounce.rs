@@ -34,8 +34,9 @@
 //! antialiased as the image is) and added to every pixel. It turns and moves with the
 //! objects: nothing is precomputed. Where the frame's drawing already found every light's
 //! cover at an object's vertices (the RSL sum per pixel on the CPU, [`Frame::covers`]),
-//! they are read rather than found again: a cover does not depend on the view. The direct part is the method's own, so with `bounces =
-//! 0` every frame is exactly what the method draws alone.
+//! they are read rather than found again: a cover does not depend on the view. The direct
+//! part is the method's own, so with `bounces = 0` every frame is exactly what the method
+//! draws alone.
 
 use crate::engine::Engine;
 use crate::method::{Changes, Frame, Kept, Method, Preparation, Prepared, Request, Truth, rasterise_over};
