@@ -213,7 +213,7 @@ impl FrameSetup<'_> {
                     if at.lookup == ViewLookup::Below {
                         return Vec3::ZERO;
                     }
-                    self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
+                    self.integral_at(i, &at, tails, l)
                 };
                 let s = self.rsl_sum(&mut (), Order::CoverFirst, brdf, |_, l| row[l], None);
                 (s.radiance, s.untraced)

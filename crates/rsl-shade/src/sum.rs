@@ -120,6 +120,13 @@ impl<'a> FrameSetup<'a> {
         AtVertex { placed, x, frame, view, lookup: placed.object.table.view_lookup(view) }
     }
 
+    /// Light `l`'s BRDF integral at vertex `at` of object `i`, read toward its view in its
+    /// shading frame (`tails`: the lights far from the lobe by the midpoint rule).
+    #[inline]
+    pub(crate) fn integral_at(&self, i: usize, at: &AtVertex<'_, 'a>, tails: bool, l: usize) -> Vec3 {
+        self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
+    }
+
     /// Vertex `v` of object `i`'s visibility data.
     pub(crate) fn vertex_fields(&self, i: usize, v: usize) -> VertexFields<'_> {
         let o = &self.placed[i].object;
@@ -161,7 +168,7 @@ impl<'a> FrameSetup<'a> {
         let tails = self.tails_at(i, at.view, &at.frame);
         let brdf = |(_, stats): &mut (&mut Nears<'a>, &mut FrameStats), l: usize| {
             stats.brdf_lookups += 1;
-            self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
+            self.integral_at(i, &at, tails, l)
         };
         let cover = |ctx: &mut (&mut Nears<'a>, &mut FrameStats), l: usize| {
             self.vertex_cover(ctx, (i, v, l), (&fields, &at.frame))
@@ -189,7 +196,7 @@ impl<'a> FrameSetup<'a> {
         type Ctx<'c, 'a> = (&'c mut Nears<'a>, &'c mut FrameStats, Vec3, Vec3);
         let brdf = |ctx: &mut Ctx<'_, 'a>, l: usize| {
             ctx.1.brdf_lookups += 1;
-            ctx.2 = self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l);
+            ctx.2 = self.integral_at(i, &at, tails, l);
             ctx.2
         };
         let cover = |(nears, stats, b, open): &mut Ctx<'_, 'a>, l: usize| {
@@ -249,7 +256,7 @@ impl<'a> FrameSetup<'a> {
                 return Vec3::ZERO;
             }
             stats.brdf_lookups += 1;
-            self.light_integral(i, (&at.lookup, at.view, tails), at.frame.to_local(self.lights[l].dir), l)
+            self.integral_at(i, &at, tails, l)
         };
         let cover = |(nears, stats, own): &mut Ctx<'_, 'a>, l: usize| {
             own[l] = 1.0;
