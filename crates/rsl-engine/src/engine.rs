@@ -25,7 +25,7 @@ use glam::Vec3;
 use rsl_brdf::{Brdf, BrdfTable, Resolution};
 use rsl_env::{CubeEnv, Decomposition, Rsl};
 use rsl_scene::{EnvironmentSource, Preset, QualitySettings, Scene, SceneState};
-use rsl_shade::{FrameSetup, FrameStats, Light, ShadeObject, Terms, Traced, VertexFrames};
+use rsl_shade::{Covers, FrameSetup, FrameStats, Light, ShadeObject, Terms, Traced, VertexFrames};
 use rsl_sphere::latlong::LatLongMap;
 use rsl_sphere::mesh::TriMesh;
 use rsl_vis::rays::Occluder;
@@ -604,6 +604,28 @@ impl Engine {
     /// Shades every vertex of `scene` at time `t` (the CPU fast path), seen from the camera.
     pub fn shade(&self, scene: &Scene, t: f32) -> Result<ShadedFrame> {
         self.shade_with(scene, t, Terms::default())
+    }
+
+    /// [`Engine::shade`] keeping every light's cover at every vertex
+    /// ([`rsl_shade::shade_covers`]), for the interreflections to read rather than find
+    /// again ([`crate::bounce::interreflections`]'s `known`): the radiance is
+    /// [`Engine::shade`]'s to float rounding (the lights are summed in another order). `None`
+    /// for the covers where they would pass the memory bound of
+    /// [`crate::engine::check_size`]: the radiance alone, as [`Engine::shade`].
+    pub fn shade_keeping_covers(&self, scene: &Scene, t: f32) -> Result<(ShadedFrame, Option<Vec<Option<Covers>>>)> {
+        let state = scene.at(t);
+        let setup = self.setup(scene, &state, scene.camera.eye, Terms::default())?;
+        let all = vec![true; scene.objects.len()];
+        if crate::lobe::check_covers_size(self, &setup, &all).is_err() {
+            let start = Instant::now();
+            let (radiance, stats) = rsl_shade::shade(&setup);
+            let shade_ms = start.elapsed().as_secs_f64() * 1e3;
+            return Ok((ShadedFrame::of(&setup, state, radiance, stats, shade_ms), None));
+        }
+        let start = Instant::now();
+        let (radiance, covers, stats) = rsl_shade::shade_covers(&setup, &all);
+        let shade_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok((ShadedFrame::of(&setup, state, radiance, stats, shade_ms), Some(covers)))
     }
 
     /// [`Engine::shade`] for the objects `which` selects (one flag per object): the others'

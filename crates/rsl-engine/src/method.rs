@@ -336,7 +336,8 @@ impl Method for CpuRsl {
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
-        Ok(Self::drawn(engine, scene, request, engine.shade(scene, request.time)?))
+        let (f, covers) = Self::shade_all(engine, scene, request.time)?;
+        Ok(Self::drawn(engine, scene, request, f, covers))
     }
 
     /// Shades only the changed objects' vertices; the others keep theirs.
@@ -348,8 +349,8 @@ impl Method for CpuRsl {
         changes: &Changes,
         kept: &mut Kept,
     ) -> Result<Frame> {
-        let f = Self::shade_changed(engine, scene, request.time, changes, kept)?;
-        Ok(Self::drawn(engine, scene, request, f))
+        let (f, covers) = Self::shade_changed(engine, scene, request.time, changes, kept)?;
+        Ok(Self::drawn(engine, scene, request, f, covers))
     }
 }
 
@@ -391,45 +392,60 @@ impl VertexKept {
 }
 
 impl CpuRsl {
-    /// The frame of shaded vertices `f`, rasterised when `request` asks for an image.
-    fn drawn(engine: &Engine, scene: &Scene, request: &Request, f: ShadedFrame) -> Frame {
+    /// The frame of shaded vertices `f`, rasterised when `request` asks for an image, with
+    /// the covers found at the vertices (empty: none).
+    fn drawn(engine: &Engine, scene: &Scene, request: &Request, f: ShadedFrame, covers: Vec<Option<Covers>>) -> Frame {
         let mut timings = Timings::default();
         timings.add("shade", f.shade_ms, None);
         let image = request
             .image
             .then(|| timings.time("draw", || rasterise(engine, scene, &f.state, &f.positions, &f.radiance)));
-        Frame::rsl(f, image, None, timings)
+        Frame { covers, ..Frame::rsl(f, image, None, timings) }
+    }
+
+    /// Every vertex of the frame at `time`, and where the scene asks for interreflections
+    /// every light's cover at them: [`crate::bounce::Bounced`] reads those rather than
+    /// find them again ([`Engine::shade_keeping_covers`]). Without bounces, no covers.
+    fn shade_all(engine: &Engine, scene: &Scene, time: f32) -> Result<(ShadedFrame, Vec<Option<Covers>>)> {
+        let q = scene.quality.settings;
+        if q.bounces == 0 || q.bounce_rays == 0 {
+            return Ok((engine.shade(scene, time)?, Vec::new()));
+        }
+        let (f, covers) = engine.shade_keeping_covers(scene, time)?;
+        Ok((f, covers.unwrap_or_default()))
     }
 
     /// The vertices of the frame at `time`: the objects `changes` marks shaded again, the
-    /// others as kept.
+    /// others as kept; with the covers of [`CpuRsl::shade_all`] where every object was
+    /// shaded.
     fn shade_changed(
         engine: &Engine,
         scene: &Scene,
         time: f32,
         changes: &Changes,
         kept: &mut Kept,
-    ) -> Result<ShadedFrame> {
+    ) -> Result<(ShadedFrame, Vec<Option<Covers>>)> {
         let n = scene.objects.len();
         let Some(mut k) = VertexKept::reusable(kept, changes, n) else {
-            let f = engine.shade(scene, time)?;
-            let covers = vec![None; n];
+            let (f, covers) = Self::shade_all(engine, scene, time)?;
             let k = VertexKept {
                 positions: f.positions.clone(),
                 normals: f.normals.clone(),
                 radiance: f.radiance.clone(),
-                covers,
+                covers: vec![None; n],
             };
             *kept = Some(Box::new(k));
-            return Ok(f);
+            return Ok((f, covers));
         };
+        // The changed objects alone are shaded, without their covers: the interreflections
+        // find every object's.
         let mut f = engine.shade_objects(scene, time, &changes.objects)?;
         for i in (0..n).filter(|&i| changes.objects[i]) {
             k.replace(&mut f, i);
         }
         let frame = k.frame(f.state, f.stats, f.shade_ms);
         *kept = Some(k);
-        Ok(frame)
+        Ok((frame, Vec::new()))
     }
 }
 

@@ -1,6 +1,7 @@
 //! End-to-end tests of the engine: scene → prepared data → shaded vertices.
 
 use glam::{Quat, Vec3};
+use rsl_engine::registry::{MethodId, MethodOptions};
 use rsl_engine::scene::{Brdf, Scene};
 use rsl_engine::{Engine, EngineOptions};
 use rsl_shade::Terms;
@@ -582,4 +583,18 @@ fn covers_found_for_the_eye_give_the_sums_along_the_normals() {
     assert_eq!(gathered(&known), own);
     // Some objects' covers known, the others found.
     assert_eq!(gathered(&[None, known[1].clone()]), own);
+    // The `rsl` method keeps its covers for the interreflections where the scene asks for
+    // bounces: its vertices are its shading without bounces plus the light gathered with
+    // every cover found again.
+    let mut bounced = s.clone();
+    (bounced.quality.settings.bounces, bounced.quality.settings.bounce_rays) = (1, 16);
+    let direct = engine.shade(&s, 0.0).unwrap().radiance;
+    let mut method = MethodId::RSL.create(&engine, &MethodOptions::default()).unwrap();
+    let request = rsl_engine::method::Request { image: false, vertices: true, ..rsl_engine::method::Request::at(0.0) };
+    let frame = method.render(&engine, &bounced, &request).unwrap();
+    assert!(frame.covers.is_empty(), "the frame handed back keeps no covers");
+    for (i, (d, g)) in direct.iter().zip(&own.light).enumerate() {
+        let want: Vec<Vec3> = d.iter().zip(g).map(|(d, g)| *d + *g).collect();
+        assert_eq!(frame.radiance[i], want, "object {i}'s vertices with one bounce");
+    }
 }
