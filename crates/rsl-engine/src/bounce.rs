@@ -275,21 +275,27 @@ impl Bounced {
         Self { inner }
     }
 
+    /// Whether `scene`'s quality asks for interreflections (bounces, and directions to
+    /// gather them along).
+    pub(crate) fn asked(scene: &Scene) -> bool {
+        let q = scene.quality.settings;
+        q.bounces > 0 && q.bounce_rays > 0
+    }
+
     /// The request the inner method gets: the vertices' radiance too, since the gathered
     /// light is added to them.
     fn inner_request(scene: &Scene, request: &Request) -> Request {
-        let q = scene.quality.settings;
-        if q.bounces > 0 && q.bounce_rays > 0 { Request { vertices: true, ..*request } } else { *request }
+        if Self::asked(scene) { Request { vertices: true, ..*request } } else { *request }
     }
 
     /// Adds the interreflections of the frame's scene to `frame`.
     fn add_bounces(engine: &Engine, scene: &Scene, frame: &mut Frame) -> Result<()> {
         // The drawing's covers are read here, and not kept in the frame.
         let known = std::mem::take(&mut frame.covers);
-        let q = scene.quality.settings;
-        if q.bounces == 0 || q.bounce_rays == 0 {
+        if !Self::asked(scene) {
             return Ok(());
         }
+        let q = scene.quality.settings;
         let start = Instant::now();
         let Gathered { light: indirect, positions } =
             interreflections(engine, scene, &frame.state, (q.bounces, q.bounce_rays), &known)?;

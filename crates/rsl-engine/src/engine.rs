@@ -616,16 +616,17 @@ impl Engine {
         let state = scene.at(t);
         let setup = self.setup(scene, &state, scene.camera.eye, Terms::default())?;
         let all = vec![true; scene.objects.len()];
-        if crate::lobe::check_covers_size(self, &setup, &all).is_err() {
-            let start = Instant::now();
-            let (radiance, stats) = rsl_shade::shade(&setup);
-            let shade_ms = start.elapsed().as_secs_f64() * 1e3;
-            return Ok((ShadedFrame::of(&setup, state, radiance, stats, shade_ms), None));
-        }
+        let keep = crate::lobe::check_covers_size(self, &setup, &all).is_ok();
         let start = Instant::now();
-        let (radiance, covers, stats) = rsl_shade::shade_covers(&setup, &all);
+        let (radiance, covers, stats) = if keep {
+            let (radiance, covers, stats) = rsl_shade::shade_covers(&setup, &all);
+            (radiance, Some(covers), stats)
+        } else {
+            let (radiance, stats) = rsl_shade::shade(&setup);
+            (radiance, None, stats)
+        };
         let shade_ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok((ShadedFrame::of(&setup, state, radiance, stats, shade_ms), Some(covers)))
+        Ok((ShadedFrame::of(&setup, state, radiance, stats, shade_ms), covers))
     }
 
     /// [`Engine::shade`] for the objects `which` selects (one flag per object): the others'

@@ -407,8 +407,7 @@ impl CpuRsl {
     /// every light's cover at them: [`crate::bounce::Bounced`] reads those rather than
     /// find them again ([`Engine::shade_keeping_covers`]). Without bounces, no covers.
     fn shade_all(engine: &Engine, scene: &Scene, time: f32) -> Result<(ShadedFrame, Vec<Option<Covers>>)> {
-        let q = scene.quality.settings;
-        if q.bounces == 0 || q.bounce_rays == 0 {
+        if !crate::bounce::Bounced::asked(scene) {
             return Ok((engine.shade(scene, time)?, Vec::new()));
         }
         let (f, covers) = engine.shade_keeping_covers(scene, time)?;
