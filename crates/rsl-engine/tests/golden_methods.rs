@@ -13,6 +13,7 @@ use glam::Vec3;
 use rsl_engine::method::{Method, Request};
 use rsl_engine::scene::Scene;
 use rsl_engine::{Device, Engine, EngineOptions, Layers, MethodId, MethodOptions};
+use std::sync::OnceLock;
 
 mod common;
 use common::root;
@@ -35,15 +36,22 @@ fn golden_scene() -> Scene {
     s
 }
 
-fn engine(scene: &Scene, rsl: bool, test: &str) -> Engine {
-    let cache = std::env::temp_dir().join(format!("rsl-golden-methods-{test}-{}", std::process::id()));
-    let options = EngineOptions {
-        cache_dir: Some(cache),
-        quality: Some(rsl_engine::scene::Preset::Draft),
-        layers: Layers { rsl },
-        ..Default::default()
-    };
-    Engine::new(scene, options).expect("engine")
+/// The golden scene's engine, with the RSL layer (`rsl`) or without: built once and shared by
+/// the tests, each of which draws it with its own method.
+fn engine(scene: &Scene, rsl: bool) -> &'static Engine {
+    static WITH: OnceLock<Engine> = OnceLock::new();
+    static WITHOUT: OnceLock<Engine> = OnceLock::new();
+    let cell = if rsl { &WITH } else { &WITHOUT };
+    cell.get_or_init(|| {
+        let cache = std::env::temp_dir().join(format!("rsl-golden-methods-{rsl}-{}", std::process::id()));
+        let options = EngineOptions {
+            cache_dir: Some(cache),
+            quality: Some(rsl_engine::scene::Preset::Draft),
+            layers: Layers { rsl },
+            ..Default::default()
+        };
+        Engine::new(scene, options).expect("engine")
+    })
 }
 
 /// Every 8th vertex's radiance, then the image's pixels.
@@ -126,18 +134,18 @@ fn method(name: &str, engine: &Engine, test: &str) -> Option<Box<dyn Method>> {
 
 fn golden(name: &str) {
     let scene = golden_scene();
-    let engine = engine(&scene, name != "truth", name);
-    let Some(mut m) = method(name, &engine, name) else { return };
-    check(name, output(m.as_mut(), &engine, &scene));
+    let engine = engine(&scene, name != "truth");
+    let Some(mut m) = method(name, engine, name) else { return };
+    check(name, output(m.as_mut(), engine, &scene));
 }
 
 /// The RSL path with the oracles `list` (rsl-shade's `oracle`, as the bench's error budget
 /// runs it), per vertex and rasterised; golden file `oracle-<list>` (`+` for commas).
 fn golden_oracle(list: &str) {
     let scene = golden_scene();
-    let engine = engine(&scene, true, &format!("oracle-{list}"));
+    let engine = engine(&scene, true);
     let mut m = rsl_engine::method::Oracle::new(rsl_shade::Oracles::parse(list).expect("oracle names"));
-    check(&format!("oracle-{}", list.replace(',', "+")), output(&mut m, &engine, &scene));
+    check(&format!("oracle-{}", list.replace(',', "+")), output(&mut m, engine, &scene));
 }
 
 #[test]

@@ -79,17 +79,36 @@ const GLTF_FURNACE: f32 = 0.02;
 /// Samples per vertex of the truth in these cases.
 const SPP: u32 = 256;
 
-/// The engine and method of `kind` for `scene` (`None`: no GPU adapter, case skipped).
-fn prepare(kind: Kind, scene: &Scene, test: &str) -> Option<(Engine, Box<dyn Method>)> {
+/// The engine and method of `kind` for `scene` (`None`: no GPU adapter, case skipped). The
+/// engine is built once per `scene` name (a case's scene is the same for every method) and
+/// set of layers, and shared by the methods after, as a session shares one.
+fn prepare(kind: Kind, scene: &Scene, name: &str, test: &str) -> Option<(Arc<Engine>, Box<dyn Method>)> {
+    use std::collections::HashMap;
+    use std::sync::{LazyLock, Mutex};
+    static ENGINES: LazyLock<Mutex<HashMap<String, Arc<Engine>>>> = LazyLock::new(Default::default);
     let layers = kind.id.capabilities().layers;
-    let engine = Engine::new(scene, EngineOptions { layers, ..Default::default() }).expect("engine");
+    let key = format!("{name} {layers:?}");
+    let kept = ENGINES.lock().unwrap().get(&key).cloned();
+    let engine = match kept {
+        Some(engine) => engine,
+        None => {
+            let engine = Arc::new(Engine::new(scene, EngineOptions { layers, ..Default::default() }).expect("engine"));
+            ENGINES.lock().unwrap().insert(key, engine.clone());
+            engine
+        }
+    };
+    let method = create(kind, &engine, test)?;
+    Some((engine, method))
+}
+
+/// The method of `kind` for `engine` (`None`: no GPU adapter).
+fn create(kind: Kind, engine: &Engine, test: &str) -> Option<Box<dyn Method>> {
     let gpu = match kind.device {
         Device::Gpu => Some(Arc::new(rsl_gpu::testing::context_or_skip(test)?)),
         _ => None,
     };
     let options = MethodOptions { device: kind.device, spp: SPP, seed: 7, gpu, ..Default::default() };
-    let method = kind.id.create(&engine, &options).expect("the method builds");
-    Some((engine, method))
+    Some(kind.id.create(engine, &options).expect("the method builds"))
 }
 
 fn vertices_at(method: &mut dyn Method, engine: &Engine, scene: &Scene, t: f32) -> Frame {
@@ -121,7 +140,7 @@ fn furnace(kind: Kind, test: &str) {
     // One RSL per texel of a 6×8×8 grid, so the light set is a fine quadrature of the
     // cosine; what remains is the table's precision (the 1 % bound of the RSL paths).
     let s = furnace_ball(lambert(0.5), Preset::Draft, &[("env_grid", 8), ("table_resolution", 32)], 384, 16);
-    let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+    let Some((engine, mut method)) = prepare(kind, &s, "furnace", test) else { return };
     let f = vertices_at(method.as_mut(), &engine, &s, 0.0);
     let expected = Vec3::splat(0.5);
     let mut bad = Vec::new();
@@ -156,22 +175,23 @@ fn gltf_furnace(kind: Kind, test: &str) {
     let mesh = rsl_scene::Primitive::Sphere { radius: 1.0, resolution: 16 }.mesh();
     let faces = rsl_sphere::faces::IncidentFaces::of(&mesh);
     let mut bad = Vec::new();
-    for material in materials {
+    for (m, material) in materials.into_iter().enumerate() {
         let s = furnace_ball(material, Preset::Standard, &[("env_grid", 8)], 384, 16);
-        let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+        let Some((engine, mut method)) = prepare(kind, &s, &format!("gltf_furnace {m}"), test) else { return };
         let f = vertices_at(method.as_mut(), &engine, &s, 0.0);
+        // The vertices checked, each with its normal and the direction to the eye.
+        let views: Vec<(usize, Vec3, Vec3, f32)> = (0..f.radiance[0].len())
+            .filter(|&v| facing(&f, 0, v, s.camera.eye))
+            .map(|v| {
+                let n = f.normals[0][v];
+                let view = (s.camera.eye - f.positions[0][v]).normalize();
+                (v, n, view, n.dot(view).clamp(0.0, 1.0))
+            })
+            .filter(|&(.., c)| c >= 0.3)
+            .collect();
+        let expected = gltf_furnace_albedos(m, &material, &faces, &views);
         let (mut checked, mut worst, mut failed) = (0, 0.0f32, 0);
-        for v in (0..f.radiance[0].len()).filter(|&v| facing(&f, 0, v, s.camera.eye)) {
-            let n = f.normals[0][v];
-            let view = (s.camera.eye - f.positions[0][v]).normalize();
-            let c = n.dot(view).clamp(0.0, 1.0);
-            if c < 0.3 {
-                continue;
-            }
-            let t = (view - n * c).normalize();
-            let b = n.cross(t);
-            let mask = |d: Vec3| faces.mask(v, t * d.x + b * d.y + n * d.z);
-            let expected = directional_albedo(&material, Vec3::new((1.0 - c * c).sqrt(), 0.0, c), &mask);
+        for (&(v, ..), expected) in views.iter().zip(expected) {
             checked += 1;
             worst = worst.max((f.radiance[0][v] - expected).abs().max_element() / expected.max_element());
             if let Err(e) = within(kind, &f, 0, v, expected, GLTF_FURNACE * expected.max_element()) {
@@ -185,6 +205,46 @@ fn gltf_furnace(kind: Kind, test: &str) {
         assert!(checked > 30, "{checked}");
     }
     assert!(bad.is_empty(), "{kind:?}: {bad:?}");
+}
+
+/// The directional albedo, by quadrature, of material `m` (`material`) at each of `views`
+/// (vertex, normal, direction to the eye, their cosine), weighted by the vertex's face mask.
+/// Every method draws the same vertices, and the quadrature (800,000 directions) is the
+/// case's cost: each answer is computed once, in parallel, and kept for the methods after
+/// (looked up by the vertex's exact normal and view, so a method whose frame placed a vertex
+/// otherwise gets its own).
+fn gltf_furnace_albedos(
+    m: usize,
+    material: &Brdf,
+    faces: &rsl_sphere::faces::IncidentFaces,
+    views: &[(usize, Vec3, Vec3, f32)],
+) -> Vec<Vec3> {
+    use rayon::prelude::*;
+    use std::collections::HashMap;
+    use std::sync::{LazyLock, Mutex};
+    type Key = (usize, usize, [u32; 6]);
+    static KEPT: LazyLock<Mutex<HashMap<Key, Vec3>>> = LazyLock::new(Default::default);
+    let key = |&(v, n, view, _): &(usize, Vec3, Vec3, f32)| {
+        let [a, b, c] = n.to_array().map(f32::to_bits);
+        let [d, e, f] = view.to_array().map(f32::to_bits);
+        (m, v, [a, b, c, d, e, f])
+    };
+    let missing: Vec<&(usize, Vec3, Vec3, f32)> = {
+        let kept = KEPT.lock().unwrap();
+        views.iter().filter(|w| !kept.contains_key(&key(w))).collect()
+    };
+    let found: Vec<(Key, Vec3)> = missing
+        .par_iter()
+        .map(|&&(v, n, view, c)| {
+            let t = (view - n * c).normalize();
+            let b = n.cross(t);
+            let mask = |d: Vec3| faces.mask(v, t * d.x + b * d.y + n * d.z);
+            (key(&(v, n, view, c)), directional_albedo(material, Vec3::new((1.0 - c * c).sqrt(), 0.0, c), &mask))
+        })
+        .collect();
+    let mut kept = KEPT.lock().unwrap();
+    kept.extend(found);
+    views.iter().map(|w| kept[&key(w)]).collect()
 }
 
 // ---- Points under a sphere: the analytic cap -----------------------------------------------
@@ -224,7 +284,7 @@ fn check_cap(kind: Kind, s: &Scene, f: &Frame) -> usize {
 
 fn cap(kind: Kind, test: &str) {
     let s = cap_scene();
-    let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+    let Some((engine, mut method)) = prepare(kind, &s, "cap", test) else { return };
     let f = vertices_at(method.as_mut(), &engine, &s, 0.0);
     check_cap(kind, &s, &f);
 }
@@ -237,7 +297,10 @@ fn rotation(kind: Kind, test: &str) {
     let a = turned_suzanne(0.0, eye);
     let q = Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 70f32.to_radians());
     let b = turned_suzanne(70.0, q * eye);
-    let Some((mut engine, mut method)) = prepare(kind, &a, test) else { return };
+    // Its own engine: synced to the turned scene below.
+    let mut engine =
+        Engine::new(&a, EngineOptions { layers: kind.id.capabilities().layers, ..Default::default() }).expect("engine");
+    let Some(mut method) = create(kind, &engine, test) else { return };
     let fa = vertices_at(method.as_mut(), &engine, &a, 0.0);
     engine.sync(&b).unwrap();
     let fb = vertices_at(method.as_mut(), &engine, &b, 0.0);
@@ -262,7 +325,7 @@ fn moving_occluder(kind: Kind, test: &str) {
     // The ball orbits the vertical axis through (0.6, 0, 0): its shadow moves over the
     // ground, and each frame matches the cap at the ball's position then.
     let s = cap_scene_with(1.0, |ball| ball.orbit(Vec3::new(0.6, 0.0, 0.0), Vec3::Y, 90.0));
-    let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+    let Some((engine, mut method)) = prepare(kind, &s, "moving_occluder", test) else { return };
     let f0 = vertices_at(method.as_mut(), &engine, &s, 0.0);
     let f1 = vertices_at(method.as_mut(), &engine, &s, 1.0);
     let (c0, c1) = (f0.state.objects[1].translation, f1.state.objects[1].translation);
@@ -374,7 +437,7 @@ fn inverted_normals(kind: Kind, test: &str) {
             .object(rsl_scene::build::ObjectBuilder::mesh("bowl", &mesh).material(common::ggx(0.3, 0.5, 0.4)))
             .build(dir.join(format!("{name}.toml")))
             .expect("the bowl's scene");
-        let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+        let Some((engine, mut method)) = prepare(kind, &s, &format!("inverted_normals {name}"), test) else { return };
         let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
         frames.push(method.render(&engine, &s, &request).expect("frame"));
     }
@@ -416,7 +479,7 @@ fn bowl_bounces(kind: Kind, test: &str) {
         .object(rsl_scene::build::ObjectBuilder::mesh("bowl", &mesh).material(lambert(rho)))
         .build(dir.join("bowl.toml"))
         .expect("the bowl's scene");
-    let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+    let Some((engine, mut method)) = prepare(kind, &s, "bowl_bounces", test) else { return };
     let inner: Vec<usize> =
         (0..engine.mesh(0).vertex_count()).filter(|&v| engine.mesh(0).positions[v].y < -0.3).collect();
     let mut expected = rho / 2.0;
@@ -491,7 +554,7 @@ fn silhouettes(kind: Kind, test: &str) {
             .image(64, 48)
             .object(rsl_scene::build::ObjectBuilder::sphere("ball", 1.0, 6).material(common::ggx(0.3, 0.8, 0.1))),
     );
-    let Some((engine, mut method)) = prepare(kind, &s, test) else { return };
+    let Some((engine, mut method)) = prepare(kind, &s, "silhouettes", test) else { return };
     let request = Request { time: 0.0, image: true, vertices: false, exposure: None };
     let frame = method.render(&engine, &s, &request).expect("frame");
     let image = frame.image.expect("an image");
