@@ -81,9 +81,11 @@ pub struct Frame {
     /// What each stage cost.
     pub timings: Timings,
     /// Per object, every light's cover at its vertices where the drawing found them all
-    /// (the RSL sum per pixel on the CPU, [`rsl_shade::shade_covers`]; `None` for the other
-    /// objects, and empty for the other drawings): the interreflections read them instead of
-    /// finding them again, and take them ([`crate::bounce::Bounced`]).
+    /// (the RSL sum per pixel on the CPU, [`rsl_shade::shade_covers`], within `auto` or as
+    /// method `pixel`, and the `rsl` method on the CPU; the last two only where the scene
+    /// asks for bounces): `None` for the other objects, and empty for the other drawings.
+    /// The interreflections read them instead of finding them again, and take them
+    /// ([`crate::bounce::Bounced`]).
     pub covers: Vec<Option<rsl_shade::Covers>>,
 }
 
@@ -514,8 +516,12 @@ impl Method for CpuRslPixels {
             })
         });
         let f = k.frame(f.state, f.stats, 0.0);
+        // The interreflections read the covers (those of the objects that did not change
+        // are still theirs) instead of finding them again; the kept ones stay for the next
+        // frame.
+        let covers = if crate::bounce::Bounced::asked(scene) { k.covers.clone() } else { Vec::new() };
         *kept = Some(k);
-        Ok(Frame::rsl(f, image, None, timings))
+        Ok(Frame { covers, ..Frame::rsl(f, image, None, timings) })
     }
 }
 

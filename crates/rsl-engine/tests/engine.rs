@@ -588,13 +588,38 @@ fn covers_found_for_the_eye_give_the_sums_along_the_normals() {
     // every cover found again.
     let mut bounced = s.clone();
     (bounced.quality.settings.bounces, bounced.quality.settings.bounce_rays) = (1, 16);
-    let direct = engine.shade(&s, 0.0).unwrap().radiance;
-    let mut method = MethodId::RSL.create(&engine, &MethodOptions::default()).unwrap();
     let request = rsl_engine::method::Request { image: false, vertices: true, ..rsl_engine::method::Request::at(0.0) };
-    let frame = method.render(&engine, &bounced, &request).unwrap();
-    assert!(frame.covers.is_empty(), "the frame handed back keeps no covers");
-    for (i, (d, g)) in direct.iter().zip(&own.light).enumerate() {
-        let want: Vec<Vec3> = d.iter().zip(g).map(|(d, g)| *d + *g).collect();
-        assert_eq!(frame.radiance[i], want, "object {i}'s vertices with one bounce");
-    }
+    // `id`'s frame with one bounce through the registry: its frame without, plus the light
+    // gathered with every cover found again; the covers are taken, not handed back.
+    let one_bounce = |id: MethodId| {
+        let render = |s: &Scene| {
+            let mut method = id.create(&engine, &MethodOptions::default()).unwrap();
+            method.render(&engine, s, &request).unwrap()
+        };
+        let (direct, frame) = (render(&s), render(&bounced));
+        assert!(frame.covers.is_empty(), "{id}: the frame handed back keeps no covers");
+        for (i, (d, g)) in direct.radiance.iter().zip(&own.light).enumerate() {
+            let want: Vec<Vec3> = d.iter().zip(g).map(|(d, g)| *d + *g).collect();
+            assert_eq!(frame.radiance[i], want, "{id}: object {i}'s vertices with one bounce");
+        }
+    };
+    one_bounce(MethodId::RSL);
+    assert_eq!(engine.shade(&s, 0.0).unwrap().radiance, {
+        let mut m = MethodId::RSL.create(&engine, &MethodOptions::default()).unwrap();
+        m.render(&engine, &s, &request).unwrap().radiance
+    });
+    // The RSL sum per pixel (every object here, the Lambertian ones for their shadows) hands
+    // its covers to the interreflections where the scene asks for bounces, on a whole frame
+    // and on one that shades only what changed (the others' covers kept), and none without.
+    use rsl_engine::method::{Changes, CpuRslPixels, Method};
+    let mut pixels = CpuRslPixels;
+    let mut kept = None;
+    let f = pixels.render_changed(&engine, &bounced, &request, &Changes::all(3), &mut kept).unwrap();
+    assert_eq!(f.covers, known, "every object's covers");
+    let only_ball = Changes { objects: vec![false, false, true], moved: false };
+    let f = pixels.render_changed(&engine, &bounced, &request, &only_ball, &mut kept).unwrap();
+    assert_eq!(f.covers, known, "the glossy ball's covers shaded again, the others kept");
+    assert!(pixels.render(&engine, &s, &request).unwrap().covers.is_empty(), "no bounces, no covers");
+    // Through the registry the interreflections take them.
+    one_bounce(MethodId::PIXEL);
 }
