@@ -613,16 +613,29 @@ impl Engine {
     /// for the covers where they would pass the memory bound of
     /// [`crate::engine::check_size`]: the radiance alone, as [`Engine::shade`].
     pub fn shade_keeping_covers(&self, scene: &Scene, t: f32) -> Result<(ShadedFrame, Option<Vec<Option<Covers>>>)> {
+        self.shade_objects_keeping_covers(scene, t, &vec![true; scene.objects.len()])
+    }
+
+    /// [`Engine::shade_keeping_covers`] for the objects `which` selects (one flag per
+    /// object), as [`Engine::shade_objects`]: the others' radiance, positions, normals and
+    /// covers come back empty. An object's radiance and covers are those of the whole frame.
+    /// The memory bound is the whole frame's covers, since a front end keeps those of the
+    /// objects not shaded again.
+    pub fn shade_objects_keeping_covers(
+        &self,
+        scene: &Scene,
+        t: f32,
+        which: &[bool],
+    ) -> Result<(ShadedFrame, Option<Vec<Option<Covers>>>)> {
         let state = scene.at(t);
         let setup = self.setup(scene, &state, scene.camera.eye, Terms::default())?;
-        let all = vec![true; scene.objects.len()];
-        let keep = crate::lobe::check_covers_size(self, &setup, &all).is_ok();
+        let keep = crate::lobe::check_covers_size(self, &setup, &vec![true; which.len()]).is_ok();
         let start = Instant::now();
         let (radiance, covers, stats) = if keep {
-            let (radiance, covers, stats) = rsl_shade::shade_covers(&setup, &all);
+            let (radiance, covers, stats) = rsl_shade::shade_covers(&setup, which);
             (radiance, Some(covers), stats)
         } else {
-            let (radiance, stats) = rsl_shade::shade(&setup);
+            let (radiance, stats) = rsl_shade::shade_objects(&setup, which);
             (radiance, None, stats)
         };
         let shade_ms = start.elapsed().as_secs_f64() * 1e3;

@@ -357,7 +357,8 @@ impl Method for CpuRsl {
 }
 
 /// What [`CpuRsl`] and [`CpuRslPixels`] keep between frames: the last frame's vertices, and
-/// per object drawn per pixel every light's cover at its vertices.
+/// per object drawn per pixel (or, where the scene asks for interreflections, shaded by
+/// [`CpuRsl`]) every light's cover at its vertices.
 struct VertexKept {
     positions: Vec<Vec<Vec3>>,
     normals: Vec<Vec<Vec3>>,
@@ -417,8 +418,10 @@ impl CpuRsl {
     }
 
     /// The vertices of the frame at `time`: the objects `changes` marks shaded again, the
-    /// others as kept; with the covers of [`CpuRsl::shade_all`] where every object was
-    /// shaded.
+    /// others as kept; where the scene asks for interreflections, with every light's cover at
+    /// them ([`CpuRsl::shade_all`]), those of the objects shaded again found with them and the
+    /// others' kept (`None` for an object shaded while none were asked: the
+    /// interreflections find those).
     fn shade_changed(
         engine: &Engine,
         scene: &Scene,
@@ -427,26 +430,32 @@ impl CpuRsl {
         kept: &mut Kept,
     ) -> Result<(ShadedFrame, Vec<Option<Covers>>)> {
         let n = scene.objects.len();
+        let bounces = crate::bounce::Bounced::asked(scene);
         let Some(mut k) = VertexKept::reusable(kept, changes, n) else {
             let (f, covers) = Self::shade_all(engine, scene, time)?;
             let k = VertexKept {
                 positions: f.positions.clone(),
                 normals: f.normals.clone(),
                 radiance: f.radiance.clone(),
-                covers: vec![None; n],
+                covers: if covers.len() == n { covers.clone() } else { vec![None; n] },
             };
             *kept = Some(Box::new(k));
             return Ok((f, covers));
         };
-        // The changed objects alone are shaded, without their covers: the interreflections
-        // find every object's.
-        let mut f = engine.shade_objects(scene, time, &changes.objects)?;
+        let (mut f, covers) = if bounces {
+            engine.shade_objects_keeping_covers(scene, time, &changes.objects)?
+        } else {
+            (engine.shade_objects(scene, time, &changes.objects)?, None)
+        };
+        let mut covers = covers.unwrap_or_else(|| vec![None; n]);
         for i in (0..n).filter(|&i| changes.objects[i]) {
             k.replace(&mut f, i);
+            k.covers[i] = covers[i].take();
         }
         let frame = k.frame(f.state, f.stats, f.shade_ms);
+        let covers = if bounces { k.covers.clone() } else { Vec::new() };
         *kept = Some(k);
-        Ok((frame, Vec::new()))
+        Ok((frame, covers))
     }
 }
 

@@ -608,18 +608,22 @@ fn covers_found_for_the_eye_give_the_sums_along_the_normals() {
         let mut m = MethodId::RSL.create(&engine, &MethodOptions::default()).unwrap();
         m.render(&engine, &s, &request).unwrap().radiance
     });
-    // The RSL sum per pixel (every object here, the Lambertian ones for their shadows) hands
-    // its covers to the interreflections where the scene asks for bounces, on a whole frame
-    // and on one that shades only what changed (the others' covers kept), and none without.
-    use rsl_engine::method::{Changes, CpuRslPixels, Method};
-    let mut pixels = CpuRslPixels;
-    let mut kept = None;
-    let f = pixels.render_changed(&engine, &bounced, &request, &Changes::all(3), &mut kept).unwrap();
-    assert_eq!(f.covers, known, "every object's covers");
+    // The RSL sum per pixel (every object here, the Lambertian ones for their shadows) and the
+    // `rsl` method hand their covers to the interreflections where the scene asks for
+    // bounces, on a whole frame and on one that shades only what changed (the others' covers
+    // kept, the frame the whole one to the bit), and none without.
+    use rsl_engine::method::{Changes, CpuRsl, CpuRslPixels, Method};
     let only_ball = Changes { objects: vec![false, false, true], moved: false };
-    let f = pixels.render_changed(&engine, &bounced, &request, &only_ball, &mut kept).unwrap();
-    assert_eq!(f.covers, known, "the glossy ball's covers shaded again, the others kept");
-    assert!(pixels.render(&engine, &s, &request).unwrap().covers.is_empty(), "no bounces, no covers");
+    for method in [&mut CpuRslPixels as &mut dyn Method, &mut CpuRsl] {
+        let what = method.describe();
+        let mut kept = None;
+        let whole = method.render_changed(&engine, &bounced, &request, &Changes::all(3), &mut kept).unwrap();
+        assert_eq!(whole.covers, known, "{what}: every object's covers");
+        let part = method.render_changed(&engine, &bounced, &request, &only_ball, &mut kept).unwrap();
+        assert_eq!(part.covers, known, "{what}: the glossy ball's covers shaded again, the others kept");
+        assert_eq!(part.radiance, whole.radiance, "{what}: the frame that shaded the ball alone");
+        assert!(method.render(&engine, &s, &request).unwrap().covers.is_empty(), "{what}: no bounces, no covers");
+    }
     // Through the registry the interreflections take them.
     one_bounce(MethodId::PIXEL);
 }
