@@ -381,6 +381,12 @@ impl VertexKept {
         self.radiance[i] = std::mem::take(&mut f.radiance[i]);
     }
 
+    /// The kept covers for the interreflections of `scene` (copied: they stay kept), or none
+    /// where it asks for no bounces.
+    fn covers_for(&self, scene: &Scene) -> Vec<Option<Covers>> {
+        if crate::bounce::Bounced::asked(scene) { self.covers.clone() } else { Vec::new() }
+    }
+
     /// The frame made of the kept vertices (copied: they stay kept).
     fn frame(&self, state: SceneState, stats: FrameStats, shade_ms: f64) -> ShadedFrame {
         ShadedFrame {
@@ -430,7 +436,6 @@ impl CpuRsl {
         kept: &mut Kept,
     ) -> Result<(ShadedFrame, Vec<Option<Covers>>)> {
         let n = scene.objects.len();
-        let bounces = crate::bounce::Bounced::asked(scene);
         let Some(mut k) = VertexKept::reusable(kept, changes, n) else {
             let (f, covers) = Self::shade_all(engine, scene, time)?;
             let k = VertexKept {
@@ -442,7 +447,7 @@ impl CpuRsl {
             *kept = Some(Box::new(k));
             return Ok((f, covers));
         };
-        let (mut f, covers) = if bounces {
+        let (mut f, covers) = if crate::bounce::Bounced::asked(scene) {
             engine.shade_objects_keeping_covers(scene, time, &changes.objects)?
         } else {
             (engine.shade_objects(scene, time, &changes.objects)?, None)
@@ -453,7 +458,7 @@ impl CpuRsl {
             k.covers[i] = covers[i].take();
         }
         let frame = k.frame(f.state, f.stats, f.shade_ms);
-        let covers = if bounces { k.covers.clone() } else { Vec::new() };
+        let covers = k.covers_for(scene);
         *kept = Some(k);
         Ok((frame, covers))
     }
@@ -528,7 +533,7 @@ impl Method for CpuRslPixels {
         // The interreflections read the covers (those of the objects that did not change
         // are still theirs) instead of finding them again; the kept ones stay for the next
         // frame.
-        let covers = if crate::bounce::Bounced::asked(scene) { k.covers.clone() } else { Vec::new() };
+        let covers = k.covers_for(scene);
         *kept = Some(k);
         Ok(Frame { covers, ..Frame::rsl(f, image, None, timings) })
     }
