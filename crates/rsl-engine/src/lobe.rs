@@ -21,7 +21,9 @@
 //!
 //! Prepared once and kept: the environment prefiltered up to the sharpest lobe the scene's
 //! materials need (`κ` rounded up to a power of two, at most 4096), and each material's lobes
-//! (refitted when its parameters change).
+//! (refitted when its parameters change). Each object's transport lobes are also kept in the
+//! disk cache (`tlobe-<key>.bin`, [`crate::cache`]), keyed by its mesh, frames and material:
+//! a later run, or another method instance, reads them back instead of fitting them again.
 //!
 //! Images ([`Composite::per_pixel`], the default): each pixel of a glossy object looks its lobes
 //! up for its own interpolated normal and view (one prefiltered lookup per lobe), times the
@@ -166,8 +168,13 @@ impl LobeDrawing {
             "the object's vertices, or draw it with method \"hybrid\"",
             (TransportLobes::bytes_per_vertex(material, &TransportParams::default()) * mesh.vertex_count()) as u64,
         )?;
+        let file = engine.cache_dir().map(|d| {
+            let disk = transport_disk_key(engine, i, self.no_self_shadows);
+            (d.join(format!("tlobe-{disk:016x}.bin")), disk)
+        });
         Ok(Ok(TransportJob {
             key,
+            file,
             object: i,
             mesh: mesh.clone(),
             frames: engine.frames(i).clone(),
@@ -276,10 +283,39 @@ fn share(key: u64, top: u32, p: &Arc<Prefiltered>) {
 /// The transport lobes' key: mesh, material, fitted without self-shadows.
 type TransportKey = (u64, u64, bool);
 
+/// The disk cache's content key of object `i`'s transport lobes: its mesh and vertex frames
+/// bit for bit, its material, the fits' parameters and versions, and whether it shadows itself.
+fn transport_disk_key(engine: &Engine, i: usize, no_self_shadows: bool) -> u64 {
+    let (t, m) = (TransportParams::default(), FitParams::default());
+    let frames: Vec<u32> = engine
+        .frames(i)
+        .visibility
+        .iter()
+        .flat_map(|f| [f.t, f.b, f.n])
+        .flat_map(|v| v.to_array().map(f32::to_bits))
+        .collect();
+    crate::cache::KeyHasher::default()
+        .str("transport")
+        .u64(u64::from(crate::cache::TRANSPORT_VERSION))
+        .u64(u64::from(rsl_lobe::transport::FIT_VERSION))
+        .u64(engine.keys(i).mesh)
+        .words(&frames)
+        .u64(engine.brdf(i).key())
+        .u64(u64::from(no_self_shadows))
+        .u64(u64::from(t.frequency))
+        .u64(t.samples as u64)
+        .u64(t.diffuse_samples as u64)
+        .u64(m.views as u64)
+        .u64(m.samples as u64)
+        .finish()
+}
+
 /// Fitting one object's transport lobes ([`rsl_lobe::transport`]): `Send`, to run anywhere.
 #[derive(Clone)]
 struct TransportJob {
     key: TransportKey,
+    /// The disk cache's file and content key ([`transport_disk_key`]), where there is a cache.
+    file: Option<(std::path::PathBuf, u64)>,
     object: usize,
     mesh: Arc<rsl_sphere::mesh::TriMesh>,
     frames: Arc<rsl_shade::VertexFrames>,
@@ -301,7 +337,51 @@ impl TransportJob {
     /// space. Self-visibility is traced against the object's triangles from each vertex
     /// lifted along its normal (as the truth's rays start), times the face mask (as the RSL
     /// path's self-visibility); with `V_self = 1` when the key says so.
+    /// Read from the disk cache where an earlier fit left them (a file that does not verify,
+    /// or was fitted for another mesh, is reported, removed and fitted again), else fitted
+    /// and written there.
     fn run(&self) -> Result<Arc<TransportLobes>> {
+        if let Some((path, key)) = &self.file
+            && path.exists()
+        {
+            let task = format!("reading the transport lobes of object {} from the cache", self.object);
+            match self.progress.task(&task, |_| self.read(path, *key)) {
+                Ok(t) => return Ok(Arc::new(t)),
+                Err(why) => {
+                    tracing::warn!("cache file {} rejected ({why}); fitting again", path.display());
+                    let _ = std::fs::remove_file(path);
+                }
+            }
+        }
+        let fit = self.fit()?;
+        if let Some((path, key)) = &self.file
+            && let Err(e) = crate::cache::write(path, &crate::cache::transport_to_bytes(&fit, *key))
+        {
+            tracing::warn!("the transport lobes of object {} are not cached: {e:#}", self.object);
+        }
+        Ok(Arc::new(fit))
+    }
+
+    /// The lobes in `path`, checked against `key` and against this object.
+    fn read(&self, path: &std::path::Path, key: u64) -> Result<TransportLobes, String> {
+        let bytes = rsl_sphere::io::read_bounded(path, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| e.to_string())?;
+        let t = crate::cache::transport_from_bytes(&bytes, key)?;
+        let per_view = if self.material.brdf().is_lambertian() { 0 } else { rsl_lobe::SPECULAR_LOBES };
+        let views = rsl_lobe::transport::geodesic_views(TransportParams::default().frequency).len();
+        if (t.vertex_count(), t.views().len(), t.specular_per_view()) != (self.mesh.vertex_count(), views, per_view) {
+            return Err(format!(
+                "fitted for {} vertices × {} views × {} lobes, the object has {} × {views} × {per_view}",
+                t.vertex_count(),
+                t.views().len(),
+                t.specular_per_view(),
+                self.mesh.vertex_count()
+            ));
+        }
+        Ok(t)
+    }
+
+    /// Fits the lobes.
+    fn fit(&self) -> Result<TransportLobes> {
         let mesh = &self.mesh;
         let occluder =
             rsl_vis::rays::Occluder::new(mesh).map_err(|e| anyhow::anyhow!("object {}: {e}", self.object))?;
@@ -328,9 +408,7 @@ impl TransportJob {
             mesh.vertex_count(),
             rsl_lobe::transport::geodesic_views(params.frequency).len()
         );
-        let fit =
-            self.progress.task(&task, |report| TransportLobes::fit(&self.material, frames, &params, visible, report));
-        Ok(Arc::new(fit))
+        Ok(self.progress.task(&task, |report| TransportLobes::fit(&self.material, frames, &params, visible, report)))
     }
 }
 

@@ -319,3 +319,62 @@ fn every_ball_of_the_white_furnace_is_within_two_percent_per_vertex() {
         }
     }
 }
+
+/// The transport lobes go to the disk cache: a second engine (a later run) reads them back
+/// instead of fitting them and draws the same frame to the bit; a damaged file is reported,
+/// removed, fitted again and replaced.
+#[test]
+fn transport_lobes_are_read_back_from_the_disk_cache() {
+    use rsl_engine::progress::Event;
+    use std::sync::{Arc, Mutex};
+    let s = floor_scene(true);
+    let dir = std::env::temp_dir().join(format!("rsl-transport-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    // One run: a fresh engine and lobe method over the cache, the tasks it started, its frame.
+    let run = || {
+        let tasks = Arc::new(Mutex::new(Vec::<String>::new()));
+        let seen = tasks.clone();
+        let progress = rsl_engine::Progress::new(move |e| {
+            if let Event::Started { task } = e {
+                seen.lock().unwrap().push(task.to_string());
+            }
+        });
+        let engine = Engine::new(&s, EngineOptions { cache_dir: Some(dir.clone()), progress, ..Default::default() })
+            .expect("engine");
+        let frame = vertices(&mut Composite::lobe(), &engine, &s);
+        let tasks = tasks.lock().unwrap().clone();
+        let fitted = tasks.iter().filter(|t| t.starts_with("transport lobes of object")).count();
+        let read = tasks.iter().filter(|t| t.starts_with("reading the transport lobes")).count();
+        (frame, fitted, read)
+    };
+    let files = || -> Vec<std::path::PathBuf> {
+        let mut f: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with("tlobe-"))
+            .collect();
+        f.sort();
+        f
+    };
+    // The glossy floor has transport lobes (the Lambert ball is the RSL path's).
+    let (first, objects, read) = run();
+    assert_eq!((objects, read), (1, 0));
+    let written = files();
+    assert_eq!(written.len(), objects, "one file per object: {written:?}");
+    let (second, fitted, read) = run();
+    assert_eq!((fitted, read), (0, objects), "the second run fitted again");
+    assert_eq!(second.radiance, first.radiance);
+    // A byte flipped in the floor's file: rejected, removed, fitted again, written anew.
+    let floor = written[0].clone();
+    let mut bytes = std::fs::read(&floor).unwrap();
+    let k = bytes.len() / 2;
+    bytes[k] ^= 0x40;
+    std::fs::write(&floor, &bytes).unwrap();
+    let (third, fitted, read) = run();
+    assert_eq!((fitted, read), (1, objects), "the damaged file is read, refused, and its lobes fitted");
+    assert_eq!(third.radiance, first.radiance);
+    assert_ne!(std::fs::read(&floor).unwrap(), bytes, "the damaged file was replaced");
+    let (_, fitted, read) = run();
+    assert_eq!((fitted, read), (0, objects));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -48,6 +48,19 @@ use glam::{DVec3, Mat3, Quat, Vec2, Vec3};
 use rayon::prelude::*;
 use rsl_sphere::Frame;
 
+/// The version of the fit ([`TransportLobes::fit`] and the material fit it starts from): a
+/// cache of fitted lobes keys on it, and it changes whenever what a fit gives does.
+pub const FIT_VERSION: u32 = 1;
+
+/// The highest geodesic frequency [`TransportLobes::from_payload`] reads (2,562 views).
+pub const MAX_FREQUENCY: u32 = 16;
+
+/// Bytes of [`TransportLobes::to_payload`]'s header: frequency, lobes per view, vertices.
+const PAYLOAD_HEADER: usize = 16;
+
+/// Bytes of one lobe in [`TransportLobes::to_payload`]: weight, mean and `κ`, 7 × f32.
+const LOBE_BYTES: usize = 28;
+
 /// How transport lobes are fitted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TransportParams {
@@ -284,6 +297,8 @@ fn shadowed(lobe: &WeightedLobe, k: usize, visible: &impl Fn(Vec3) -> f32) -> We
 /// diffuse lobe. Object space.
 #[derive(Clone, Debug)]
 pub struct TransportLobes {
+    /// The geodesic frequency of the views ([`TransportParams::frequency`], at least 1).
+    frequency: u32,
     views: Vec<Vec3>,
     locator: ViewLocator,
     /// Specular lobes per view (0 without a specular part, else [`SPECULAR_LOBES`]).
@@ -313,7 +328,8 @@ impl TransportLobes {
         visible: impl Fn(usize, Vec3) -> f32 + Sync,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Self {
-        let (views, triangles) = geodesic(params.frequency);
+        let frequency = params.frequency.max(1);
+        let (views, triangles) = geodesic(frequency);
         let locator = ViewLocator::new(&views, triangles);
         let per_view = if material.brdf().is_lambertian() { 0 } else { SPECULAR_LOBES };
         let k = (params.samples as f64).sqrt().ceil().max(1.0) as usize;
@@ -359,7 +375,106 @@ impl TransportLobes {
             specular.extend(s);
             diffuse.push(d);
         }
-        Self { views, locator, per_view, specular, diffuse }
+        Self { frequency, views, locator, per_view, specular, diffuse }
+    }
+
+    /// The lobes as bytes, little-endian, for a cache file (which frames them with a checksum
+    /// and the key they were fitted for): the frequency, the specular lobes per view, the
+    /// vertex count, every vertex's specular lobes (`[vertex][view][lobe]`), one byte per
+    /// vertex saying whether it has a diffuse lobe, then those diffuse lobes; a lobe is its
+    /// weight (3 × f32), mean (3 × f32) and `κ`. [`TransportLobes::from_payload`] reads it
+    /// back to the bit.
+    pub fn to_payload(&self) -> Vec<u8> {
+        let lobes = self.specular.len() + self.diffuse.iter().flatten().count();
+        let mut out = Vec::with_capacity(PAYLOAD_HEADER + self.diffuse.len() + lobes * LOBE_BYTES);
+        out.extend_from_slice(&self.frequency.to_le_bytes());
+        out.extend_from_slice(&(self.per_view as u32).to_le_bytes());
+        out.extend_from_slice(&(self.diffuse.len() as u64).to_le_bytes());
+        let lobe = |out: &mut Vec<u8>, l: &WeightedLobe| {
+            let (w, m) = (l.weight, l.lobe.mean);
+            for x in [w.x, w.y, w.z, m.x, m.y, m.z, l.lobe.kappa] {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+        };
+        for l in &self.specular {
+            lobe(&mut out, l);
+        }
+        out.extend(self.diffuse.iter().map(|d| u8::from(d.is_some())));
+        for d in self.diffuse.iter().flatten() {
+            lobe(&mut out, d);
+        }
+        out
+    }
+
+    /// Reads [`TransportLobes::to_payload`]'s bytes, checking every count against the
+    /// length before anything is allocated, and every value (finite, `κ ≥ 0`). The views
+    /// are the geodesic sphere of the stored frequency (at most [`MAX_FREQUENCY`]).
+    pub fn from_payload(bytes: &[u8]) -> Result<Self, String> {
+        if bytes.len() < PAYLOAD_HEADER {
+            return Err(format!("{} bytes, shorter than the header ({PAYLOAD_HEADER})", bytes.len()));
+        }
+        let u32_at = |k: usize| u32::from_le_bytes(bytes[k..k + 4].try_into().expect("4 bytes"));
+        let frequency = u32_at(0);
+        if !(1..=MAX_FREQUENCY).contains(&frequency) {
+            return Err(format!("frequency {frequency}, outside 1 to {MAX_FREQUENCY}"));
+        }
+        let per_view = u32_at(4) as usize;
+        if per_view != 0 && per_view != SPECULAR_LOBES {
+            return Err(format!("{per_view} specular lobes per view (0 or {SPECULAR_LOBES})"));
+        }
+        let vertices = u64::from_le_bytes(bytes[8..16].try_into().expect("8 bytes"));
+        let views = 10 * frequency as u64 * frequency as u64 + 2;
+        let too_long = || format!("{vertices} vertices do not fit in {} bytes", bytes.len());
+        let specular = vertices.checked_mul(views * per_view as u64).ok_or_else(too_long)?;
+        let flags_at = specular
+            .checked_mul(LOBE_BYTES as u64)
+            .and_then(|b| b.checked_add(PAYLOAD_HEADER as u64))
+            .filter(|&b| b.saturating_add(vertices) <= bytes.len() as u64)
+            .ok_or_else(too_long)? as usize;
+        let (vertices, specular) = (vertices as usize, specular as usize);
+        let flags = &bytes[flags_at..flags_at + vertices];
+        if let Some(f) = flags.iter().find(|&&f| f > 1) {
+            return Err(format!("a diffuse flag of {f} (0 or 1)"));
+        }
+        let diffuse_count = flags.iter().filter(|&&f| f == 1).count();
+        let expected = flags_at + vertices + diffuse_count * LOBE_BYTES;
+        if bytes.len() != expected {
+            return Err(format!("{} bytes where the counts give {expected}", bytes.len()));
+        }
+        let lobe_at = |k: usize| -> Result<WeightedLobe, String> {
+            let f = |i: usize| f32::from_le_bytes(bytes[k + 4 * i..k + 4 * i + 4].try_into().expect("4 bytes"));
+            let l = WeightedLobe {
+                weight: Vec3::new(f(0), f(1), f(2)),
+                lobe: Vmf { mean: Vec3::new(f(3), f(4), f(5)), kappa: f(6) },
+            };
+            if l.weight.is_finite() && l.lobe.mean.is_finite() && l.lobe.kappa.is_finite() && l.lobe.kappa >= 0.0 {
+                Ok(l)
+            } else {
+                Err(format!("a lobe with non-finite or negative values ({l:?})"))
+            }
+        };
+        let specular = (0..specular).map(|j| lobe_at(PAYLOAD_HEADER + j * LOBE_BYTES)).collect::<Result<_, _>>()?;
+        let mut next = flags_at + vertices;
+        let diffuse = flags
+            .iter()
+            .map(|&f| {
+                (f == 1)
+                    .then(|| {
+                        let l = lobe_at(next);
+                        next += LOBE_BYTES;
+                        l
+                    })
+                    .transpose()
+            })
+            .collect::<Result<_, _>>()?;
+        let (views, triangles) = geodesic(frequency);
+        let locator = ViewLocator::new(&views, triangles);
+        Ok(Self { frequency, views, locator, per_view, specular, diffuse })
+    }
+
+    /// The specular lobes per view (0: the material has no specular part).
+    pub fn specular_per_view(&self) -> usize {
+        self.per_view
     }
 
     /// The views (object space).
@@ -544,7 +659,7 @@ mod tests {
     fn nearest_views_reproduce_a_view_from_its_triangle() {
         let (views, triangles) = geodesic(3);
         let locator = ViewLocator::new(&views, triangles);
-        let t = TransportLobes { views, locator, per_view: 0, specular: vec![], diffuse: vec![] };
+        let t = TransportLobes { frequency: 3, views, locator, per_view: 0, specular: vec![], diffuse: vec![] };
         for i in 0..500 {
             let z = 1.0 - 2.0 * (i as f32 + 0.5) / 500.0;
             let phi = i as f32 * 2.399_963;

@@ -185,3 +185,59 @@ fn between_the_views_the_lobes_amplitude_follows_the_material_at_the_view() {
         }
     }
 }
+
+#[test]
+fn transport_lobes_read_back_to_the_bit_and_damage_is_an_error() {
+    let params = TransportParams::default();
+    // Half of each vertex's directions shadowed, so that every lobe is refitted.
+    let shadow = |_: usize, d: Vec3| if d.x > 0.2 { 0.0 } else { 1.0 };
+    for brdf in [
+        Brdf::Ggx { alpha: 0.1, specular: Vec3::new(0.9, 0.7, 0.5), diffuse: Vec3::splat(0.1) },
+        Brdf::Lambert { albedo: Vec3::new(0.2, 0.4, 0.6) },
+    ] {
+        let material = MaterialLobes::fit(&brdf, &FitParams::default()).unwrap();
+        let frames = frames();
+        let t = TransportLobes::fit(&material, &frames, &params, shadow, &|_, _| {});
+        let bytes = t.to_payload();
+        let back = TransportLobes::from_payload(&bytes).expect("reads back");
+        assert_eq!(back.to_payload(), bytes, "{}", brdf.name());
+        assert_eq!((back.views(), back.vertex_count()), (t.views(), t.vertex_count()));
+        assert_eq!(back.specular_per_view(), t.specular_per_view());
+        for v in 0..t.vertex_count() {
+            assert_eq!(back.diffuse(v), t.diffuse(v));
+            for j in 0..t.views().len() {
+                assert_eq!(back.at_view(v, j), t.at_view(v, j));
+            }
+            // What is drawn, too: the same interpolation over the same views.
+            let view = Vec3::new(0.3, 0.5, 0.8).normalize();
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            t.lobes_at(v, view, &mut a);
+            back.lobes_at(v, view, &mut b);
+            assert_eq!(a, b);
+        }
+        let err = |b: &[u8]| TransportLobes::from_payload(b).expect_err("damaged bytes are refused");
+        assert!(err(&bytes[..bytes.len() - 1]).contains("bytes where the counts give"));
+        assert!(err(&bytes[..10]).contains("shorter than the header"));
+        let mut b = bytes.clone();
+        b[0..4].copy_from_slice(&99u32.to_le_bytes());
+        assert!(err(&b).contains("frequency 99"));
+        let mut b = bytes.clone();
+        b[4..8].copy_from_slice(&5u32.to_le_bytes());
+        assert!(err(&b).contains("specular lobes per view"));
+        // A vertex count that would need exabytes is refused before anything is allocated.
+        let mut b = bytes.clone();
+        b[8..16].copy_from_slice(&(u64::MAX / 3).to_le_bytes());
+        assert!(err(&b).contains("do not fit"));
+        // A non-finite lobe: the first one (specular, or for a Lambertian material the
+        // first diffuse lobe, after the flags).
+        let flags = 16 + t.vertex_count() * t.views().len() * t.specular_per_view() * 28;
+        let first = if t.specular_per_view() > 0 { 16 } else { flags + t.vertex_count() };
+        let mut b = bytes.clone();
+        b[first..first + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(err(&b).contains("non-finite"));
+        // A diffuse flag neither 0 nor 1.
+        let mut b = bytes.clone();
+        b[flags] = 2;
+        assert!(err(&b).contains("diffuse flag of 2"));
+    }
+}
