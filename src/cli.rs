@@ -33,7 +33,8 @@ pub enum Command {
     /// print a one-line summary; optionally write every RSL as JSON and a figure as PNG.
     Decompose(DecomposeArgs),
     /// Precompute (or load from the cache) everything a scene needs: RSLs, BRDF tables,
-    /// self-visibility and occluder fields.
+    /// self-visibility and occluder fields, and what the method draws with beyond them (the
+    /// lobe path's transport lobes, `auto`'s choice for each object).
     Precompute {
         /// The scene files (TOML).
         #[arg(required = true)]
@@ -42,6 +43,12 @@ pub enum Command {
         /// indices count), into the shared --cache: one element of a job array.
         #[arg(long)]
         shard: Option<rsl_bench::shard::Shard>,
+        /// The method whose own preparation to make as well, as `rsl render --method` names
+        /// it (default: `auto`, as `rsl render` draws): `lobe` fits every glossy object's
+        /// transport lobes, `auto` those of objects whose scene `method` is `"lobe"` and
+        /// measures its choice for the others at time 0.
+        #[arg(long)]
+        method: Option<rsl_engine::MethodId>,
         /// Precomputation options.
         #[command(flatten)]
         prepare: crate::render::PrepareArgs,
@@ -96,7 +103,9 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Scene { scene, time } => scene_summary(&scene, time),
         Command::Decompose(args) => crate::decompose::run(&args),
-        Command::Precompute { scenes, shard, prepare } => crate::render::precompute(&scenes, shard, &prepare),
+        Command::Precompute { scenes, shard, method, prepare } => {
+            crate::render::precompute(&scenes, shard, method, &prepare)
+        }
         Command::Render(args) => crate::render::render(&args),
         Command::Demo(args) => crate::render::demo(&args),
         Command::Compare(args) => crate::compare::run(&args),

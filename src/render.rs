@@ -308,7 +308,13 @@ fn display_rgb(frame: &mut Frame, exposure: &mut Option<f32>) -> Result<Vec<u8>>
 }
 
 /// `rsl precompute SCENE`.
-pub fn precompute(scenes: &[PathBuf], shard: Option<rsl_bench::shard::Shard>, prepare: &PrepareArgs) -> Result<()> {
+pub fn precompute(
+    scenes: &[PathBuf],
+    shard: Option<rsl_bench::shard::Shard>,
+    method: Option<MethodId>,
+    prepare: &PrepareArgs,
+) -> Result<()> {
+    let id = method.unwrap_or_else(|| MethodId::default_on(Device::Cpu));
     if shard.is_some() && prepare.options().cache_dir.is_none() {
         bail!("--shard prepares into the cache the other shards share: drop --no-cache");
     }
@@ -324,6 +330,26 @@ pub fn precompute(scenes: &[PathBuf], shard: Option<rsl_bench::shard::Shard>, pr
         }
         let engine = Engine::new(&scene, prepare.options())?;
         print_preparation(&engine);
+        prepare_method(&engine, &scene, id)?;
+    }
+    Ok(())
+}
+
+/// Makes method `id`'s own preparation for `scene` ([`Method::preparation`]: the lobe
+/// path's transport lobes, kept in the disk cache) and, through its explanation, `auto`'s
+/// choice for each object (kept there too), saying what each object will be drawn with.
+fn prepare_method(engine: &Engine, scene: &Scene, id: MethodId) -> Result<()> {
+    let start = Instant::now();
+    let options =
+        MethodOptions { device: Device::Cpu, spp: 1, progress: crate::progress::bars(), ..MethodOptions::default() };
+    let mut method = id.create(engine, &options)?;
+    if let Some(job) = method.preparation(engine, scene)? {
+        method.install(job.run());
+    }
+    let lines = method.explain(engine, scene)?;
+    crate::status!("prepared for --method {id} in {:.0} ms:", start.elapsed().as_secs_f64() * 1e3);
+    for line in lines {
+        crate::status!("  {line}");
     }
     Ok(())
 }

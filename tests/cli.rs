@@ -683,6 +683,58 @@ fn precompute_shards_take_every_nth_scene_into_one_cache() {
     assert!(!ok && err.contains("--shard"), "{err}");
 }
 
+/// `rsl precompute` makes what the method draws with beyond the engine's data: for a glossy
+/// ball the scene draws by the lobe path, its transport lobes, into the cache (and says how
+/// each object will be drawn); `rsl render` then reads them instead of fitting them, and
+/// `--method lobe` asks for them whatever the scene's methods.
+#[test]
+fn precompute_fits_the_transport_lobes_the_render_then_reads() {
+    use rsl_scene::build::{ObjectBuilder, SceneBuilder};
+    let dir = out_dir("precompute-lobes");
+    let glossy = rsl_scene::Brdf::Ggx { alpha: 0.2, specular: glam::Vec3::splat(0.8), diffuse: glam::Vec3::ZERO };
+    let scene = SceneBuilder::new()
+        .preset(rsl_scene::Preset::Draft)
+        .constant(glam::Vec3::ONE)
+        .rsl_count(8)
+        .camera(glam::Vec3::new(0.0, 0.0, 3.0), glam::Vec3::ZERO)
+        .image(32, 24)
+        .object(ObjectBuilder::sphere("ball", 1.0, 8).material(glossy).method(rsl_scene::ObjectMethod::LOBE))
+        .write(dir.join("lobes.toml"))
+        .unwrap();
+    let cache = dir.join("cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    let tlobes = || -> Vec<(std::path::PathBuf, std::time::SystemTime)> {
+        let mut v: Vec<_> = std::fs::read_dir(&cache)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with("tlobe-"))
+            .map(|p| {
+                let t = std::fs::metadata(&p).unwrap().modified().unwrap();
+                (p, t)
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&scene).arg("--cache").arg(&cache));
+    assert!(ok, "{err}");
+    assert!(err.contains("prepared for --method auto"), "{err}");
+    assert!(err.contains("ball: transport lobes shadowed by the fields (lobe)"), "{err}");
+    let fitted = tlobes();
+    assert_eq!(fitted.len(), 1, "{fitted:?}");
+    let png = dir.join("lobes.png");
+    let (ok, _, err) =
+        run(rsl().arg("render").arg(&scene).arg("--cache").arg(&cache).args(["--device", "cpu", "--out"]).arg(&png));
+    assert!(ok, "{err}");
+    assert_eq!(tlobes(), fitted, "the render fitted the transport lobes again (their file was written anew)");
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&scene).args(["--method", "lobe", "--cache"]).arg(&cache));
+    assert!(ok, "{err}");
+    assert!(err.contains("prepared for --method lobe"), "{err}");
+    assert_eq!(tlobes(), fitted, "--method lobe fitted the held lobes again");
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&scene).args(["--method", "nosuch", "--no-cache"]));
+    assert!(!ok && err.contains("nosuch"), "{err}");
+}
+
 /// `rsl render model.gltf` opens a glTF file as a scene: its objects, materials and camera,
 /// lit by `--env`'s map or else the bundled one; what the import leaves out is said once
 /// each; `rsl scene` lists the objects; a missing map and a missing camera are named.

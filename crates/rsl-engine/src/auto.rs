@@ -156,9 +156,28 @@ impl Composite {
         if self.rule == Rule::Lobe { &mut self.lobe } else { &mut self.hybrid }
     }
 
-    /// [`LobeDrawing::environment_job`] of the lobes this method prepares ahead.
-    pub fn environment_job(&mut self, engine: &Engine) -> Result<Option<EnvironmentJob>> {
-        self.prepared_drawing().environment_job(engine)
+    /// [`LobeDrawing::environment_job`] of the lobes this method prepares ahead, for `scene`
+    /// (which `engine` was last synced to): the environment prefiltered, and the transport
+    /// lobes of every glossy object the lobe path draws — all of them for `lobe`, those
+    /// whose scene `method` is `"lobe"` for `auto`.
+    pub fn environment_job(&mut self, engine: &Engine, scene: &Scene) -> Result<Option<EnvironmentJob>> {
+        engine.check(scene)?;
+        let mut job = self.prepared_drawing().environment_job(engine)?;
+        if self.rule == Rule::PerObject {
+            let which: Vec<bool> = (0..engine.object_count())
+                .map(|i| {
+                    let m = scene.objects[i].method;
+                    m == ObjectMethod::LOBE && drawn_by(m, engine.brdf(i)).ok() == Some(MethodId::LOBE)
+                })
+                .collect();
+            if let Some(more) = self.lobe.transport_jobs(engine, &which)? {
+                job = Some(match job {
+                    Some(j) => j.with(more),
+                    None => more,
+                });
+            }
+        }
+        Ok(job)
     }
 
     /// Takes what an [`EnvironmentJob`] made.
@@ -313,8 +332,8 @@ impl Method for Composite {
         Ok(lines)
     }
 
-    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
-        Ok(self.environment_job(engine)?.map(|job| Preparation::new(move || Box::new(job.run()) as Prepared)))
+    fn preparation(&mut self, engine: &Engine, scene: &Scene) -> Result<Option<Preparation>> {
+        Ok(self.environment_job(engine, scene)?.map(|job| Preparation::new(move || Box::new(job.run()) as Prepared)))
     }
 
     fn install(&mut self, prepared: Prepared) {

@@ -334,8 +334,8 @@ impl Method for Bounced {
         Ok(frame)
     }
 
-    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
-        self.inner.preparation(engine)
+    fn preparation(&mut self, engine: &Engine, scene: &Scene) -> Result<Option<Preparation>> {
+        self.inner.preparation(engine, scene)
     }
 
     fn install(&mut self, prepared: Prepared) {

@@ -203,20 +203,43 @@ impl LobeDrawing {
     /// suffices. A viewer runs it on a worker so that its frames keep coming.
     pub fn environment_job(&mut self, engine: &Engine) -> Result<Option<EnvironmentJob>> {
         let mut kappa_max = 1.0f32;
-        let mut transport = Vec::new();
         for i in 0..engine.object_count() {
             if !engine.brdf(i).is_lambertian() {
                 let l = self.lobes(engine.brdf(i))?;
                 kappa_max = l.lobes_per_view().map(|w| w.lobe.kappa).fold(kappa_max, f32::max);
-                if self.fields
-                    && let Ok(job) = self.transport_job(engine, i, &l)?
-                {
-                    transport.push(job);
-                }
             }
         }
         let env = self.environment_need(engine, kappa_max);
+        let transport = match self.fields {
+            true => self.transport_list(engine, &vec![true; engine.object_count()])?,
+            false => Vec::new(),
+        };
         Ok((env.is_some() || !transport.is_empty()).then_some(EnvironmentJob { env, transport }))
+    }
+
+    /// The fits of the transport lobes of the glossy objects `which` marks that the lobe
+    /// path draws with them (not anisotropic ones) and that are not held yet, as a job
+    /// ([`LobeDrawing::environment_job`] without the environment); `None` when every one is
+    /// held.
+    pub fn transport_jobs(&mut self, engine: &Engine, which: &[bool]) -> Result<Option<EnvironmentJob>> {
+        let transport = self.transport_list(engine, which)?;
+        Ok((!transport.is_empty()).then_some(EnvironmentJob { env: None, transport }))
+    }
+
+    /// [`LobeDrawing::transport_jobs`]'s jobs.
+    fn transport_list(&mut self, engine: &Engine, which: &[bool]) -> Result<Vec<TransportJob>> {
+        let mut transport = Vec::new();
+        for i in (0..engine.object_count()).filter(|&i| which.get(i).copied().unwrap_or(false)) {
+            let brdf = engine.brdf(i);
+            if brdf.is_lambertian() || brdf.is_anisotropic() {
+                continue;
+            }
+            let l = self.lobes(brdf)?;
+            if let Ok(job) = self.transport_job(engine, i, &l)? {
+                transport.push(job);
+            }
+        }
+        Ok(transport)
     }
 
     /// The map to prefilter, its content key and top κ, if neither what is held nor what
@@ -420,6 +443,18 @@ pub struct EnvironmentJob {
 }
 
 impl EnvironmentJob {
+    /// This job and `other`'s transport fits (its environment too where this one has none).
+    pub fn with(mut self, other: EnvironmentJob) -> Self {
+        self.env = self.env.or(other.env);
+        self.transport.extend(other.transport);
+        self
+    }
+
+    /// How many objects' transport lobes it fits.
+    pub fn transport_count(&self) -> usize {
+        self.transport.len()
+    }
+
     /// Prefilters the map and fits the transport lobes (seconds each on 2 cores: a map with
     /// a sun; about 22 s per 10,000 vertices). An object whose fit fails is left out (its frame
     /// fits it again, and says why).

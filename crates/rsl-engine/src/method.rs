@@ -180,12 +180,13 @@ pub trait Method {
     /// The frame of `scene` (which `engine` was last synced to) for `request`.
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame>;
 
-    /// What the method must still prepare for `engine`'s scene beyond the engine's own
-    /// data (the lobe methods' prefiltered environment and transport lobes), as a job a
-    /// front end may run on a worker thread and give back with [`Method::install`]; `None`
-    /// when nothing is missing. Without it, [`Method::render`] prepares what it needs itself.
-    fn preparation(&mut self, engine: &Engine) -> Result<Option<Preparation>> {
-        let _ = engine;
+    /// What the method must still prepare for `scene` (which `engine` was last synced to)
+    /// beyond the engine's own data (the lobe methods' prefiltered environment and transport
+    /// lobes), as a job a front end may run on a worker thread and give back with
+    /// [`Method::install`]; `None` when nothing is missing. Without it, [`Method::render`]
+    /// prepares what it needs itself.
+    fn preparation(&mut self, engine: &Engine, scene: &Scene) -> Result<Option<Preparation>> {
+        let _ = (engine, scene);
         Ok(None)
     }
 

@@ -201,13 +201,13 @@ impl Session {
     /// Whether method `id` is prepared for `engine`'s scene ([`Method::preparation`]): if
     /// not, its preparation is started on a worker thread (once) and `false` comes back; a
     /// finished preparation is given to its method first.
-    pub fn ready(&mut self, engine: &Engine, id: MethodId) -> Result<bool> {
+    pub fn ready(&mut self, engine: &Engine, scene: &Scene, id: MethodId) -> Result<bool> {
         if self.job.as_ref().is_some_and(|(_, h)| !h.is_finished()) {
             return Ok(false);
         }
         self.install_finished()?;
         let at = self.slot(engine, id)?;
-        match self.slots[at].method.preparation(engine)? {
+        match self.slots[at].method.preparation(engine, scene)? {
             None => Ok(true),
             Some(job) => {
                 let handle = std::thread::Builder::new()

@@ -14,7 +14,7 @@ mod common;
 use common::{relative_l2, scene};
 use glam::Vec3;
 use rsl_scene::build::{ObjectBuilder, SceneBuilder};
-use rsl_scene::{Brdf, Preset, Primitive};
+use rsl_scene::{Brdf, ObjectMethod, Preset, Primitive};
 
 /// A glossy Phong floor (n = 200, a lobe the material fit reproduces to 1–2 % at every view)
 /// under a Lambert ball, sunrise.exr's low sun behind the camera: the floor in front of the
@@ -163,11 +163,11 @@ fn a_lobe_method_built_later_takes_the_environment_another_prefiltered() {
     );
     let engine = Engine::new(&s, EngineOptions::default()).unwrap();
     let mut first = Composite::hybrid();
-    let job = first.environment_job(&engine).unwrap().expect("the first prefilters");
+    let job = first.environment_job(&engine, &s).unwrap().expect("the first prefilters");
     first.install(job.run());
     // A second hybrid, and the lobe path, find it held: nothing to prefilter.
     let mut second = Composite::hybrid();
-    assert!(second.environment_job(&engine).unwrap().is_none(), "the second prefilters again");
+    assert!(second.environment_job(&engine, &s).unwrap().is_none(), "the second prefilters again");
     let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
     let (a, b) = (first.render(&engine, &s, &request).unwrap(), second.render(&engine, &s, &request).unwrap());
     assert_eq!(a.radiance, b.radiance);
@@ -175,7 +175,51 @@ fn a_lobe_method_built_later_takes_the_environment_another_prefiltered() {
     // Once no method holds it, it is freed: the next one prefilters.
     drop((first, second));
     let mut third = Composite::hybrid();
-    assert!(third.environment_job(&engine).unwrap().is_some(), "a freed environment was found");
+    assert!(third.environment_job(&engine, &s).unwrap().is_some(), "a freed environment was found");
+}
+
+/// What `auto` and `lobe` prepare ahead of their frames (`Method::preparation`, as `rsl
+/// precompute` and the viewer's worker run it): `auto` fits the transport lobes of the glossy
+/// objects whose scene `method` is `"lobe"` and of no other object, `lobe` those of every
+/// glossy object; once installed, nothing is missing, and the frame is the one a method that
+/// prepared nothing ahead draws.
+#[test]
+fn auto_prepares_the_transport_lobes_of_the_objects_drawn_by_the_lobe_path() {
+    let glossy = Brdf::Ggx { alpha: 0.2, specular: Vec3::splat(0.8), diffuse: Vec3::splat(0.1) };
+    let s = scene(
+        SceneBuilder::new()
+            .preset(Preset::Draft)
+            .constant(Vec3::ONE)
+            .rsl_count(8)
+            .camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO)
+            .image(32, 24)
+            .object(
+                ObjectBuilder::sphere("by_lobes", 0.5, 8)
+                    .translation(Vec3::new(-0.7, 0.0, 0.0))
+                    .material(glossy)
+                    .method(ObjectMethod::LOBE),
+            )
+            .object(ObjectBuilder::sphere("by_auto", 0.5, 8).translation(Vec3::new(0.7, 0.0, 0.0)).material(glossy))
+            .object(
+                ObjectBuilder::sphere("lambert", 0.3, 6)
+                    .translation(Vec3::new(0.0, 0.9, 0.0))
+                    .material(Brdf::Lambert { albedo: Vec3::splat(0.5) })
+                    .method(ObjectMethod::LOBE),
+            ),
+    );
+    let engine = Engine::new(&s, EngineOptions::default()).unwrap();
+    let mut lobe = Composite::lobe();
+    assert_eq!(lobe.environment_job(&engine, &s).unwrap().expect("lobe prepares").transport_count(), 2);
+    let mut auto = Composite::auto();
+    let job = auto.environment_job(&engine, &s).unwrap().expect("auto prepares");
+    assert_eq!(job.transport_count(), 1, "only the glossy object the scene draws by the lobe path");
+    auto.install(job.run());
+    assert!(auto.environment_job(&engine, &s).unwrap().is_none(), "something is still missing once installed");
+    let request = Request { time: 0.0, image: true, vertices: true, exposure: None };
+    let (a, b) =
+        (auto.render(&engine, &s, &request).unwrap(), Composite::auto().render(&engine, &s, &request).unwrap());
+    assert_eq!(a.radiance, b.radiance);
+    assert_eq!(a.image.unwrap().pixels, b.image.unwrap().pixels);
 }
 
 /// A glossy ball (GGX α = 0.2) above a wide Lambert floor under sunrise.exr turned upside

@@ -96,7 +96,7 @@ impl Viewer {
     /// session starts its preparation on a worker thread (once) and `false` comes back.
     pub(crate) fn drawing_ready(&mut self) -> Result<bool> {
         let Some(engine) = &self.engine else { return Ok(true) };
-        self.session.ready(engine, self.drawing)
+        self.session.ready(engine, &self.scene, self.drawing)
     }
 
     /// Waits for the drawing's preparation on the worker thread, if any (tests and the
