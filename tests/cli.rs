@@ -735,6 +735,47 @@ fn precompute_fits_the_transport_lobes_the_render_then_reads() {
     assert!(!ok && err.contains("nosuch"), "{err}");
 }
 
+/// The cache folder stays within `$RSL_CACHE_MAX_MB`: a run that writes past it removes the
+/// least recently used of rsl's files (not its own, not another program's) and says so; a
+/// bound that is not a number is an error naming the variable.
+#[test]
+fn the_cache_folder_stays_within_its_bound() {
+    let dir = out_dir("cache-bound");
+    let a = common::ball_scene(&dir, "a.toml", |b| b.constant(glam::Vec3::ONE).rsl_count(8));
+    let b = common::ball_scene(&dir, "b.toml", |b| b.constant(glam::Vec3::splat(0.5)).rsl_count(8));
+    let cache = dir.join("cache");
+    let _ = std::fs::remove_dir_all(&cache);
+    std::fs::create_dir_all(&cache).unwrap();
+    let foreign = cache.join("notes.txt");
+    std::fs::write(&foreign, "not rsl's").unwrap();
+    let files = || -> Vec<String> {
+        let mut v: Vec<String> =
+            std::fs::read_dir(&cache).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        v.sort();
+        v
+    };
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&a).arg("--cache").arg(&cache));
+    assert!(ok, "{err}");
+    let first = files();
+    assert_eq!(first.len(), 3, "a light set and the ball's (empty) self-visibility beside the foreign file: {first:?}");
+    // The second scene's light set (about 270 bytes) and the ball's field it shares (44)
+    // fit 419 bytes; with the first's light set they do not.
+    let (ok, _, err) =
+        run(rsl().arg("precompute").arg(&b).arg("--cache").arg(&cache).env("RSL_CACHE_MAX_MB", "0.0004"));
+    assert!(ok, "{err}");
+    assert!(err.contains("removed the 1 least recently used file(s)") && err.contains("RSL_CACHE_MAX_MB"), "{err}");
+    let second = files();
+    assert_eq!(second.len(), 3, "{second:?}");
+    assert!(foreign.exists());
+    assert!(first.iter().filter(|f| f.starts_with("rsl-")).all(|f| !second.contains(f)), "{first:?} → {second:?}");
+    // Without a bound the first comes back beside it.
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&a).arg("--cache").arg(&cache).env("RSL_CACHE_MAX_MB", "0"));
+    assert!(ok, "{err}");
+    assert_eq!(files().len(), 4, "{:?}", files());
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&a).arg("--cache").arg(&cache).env("RSL_CACHE_MAX_MB", "lots"));
+    assert!(!ok && err.contains("RSL_CACHE_MAX_MB") && err.contains("lots"), "{err}");
+}
+
 /// `rsl render model.gltf` opens a glTF file as a scene: its objects, materials and camera,
 /// lit by `--env`'s map or else the bundled one; what the import leaves out is said once
 /// each; `rsl scene` lists the objects; a missing map and a missing camera are named.

@@ -413,9 +413,11 @@ impl Composite {
         // are seeded).
         let disk = disk_key(engine, scene, t, i);
         let file = engine.cache_dir().map(|d| d.join(format!("auto-{disk:016x}.bin")));
-        if let Some(e) =
-            file.as_deref().and_then(|f| std::fs::read(f).ok()).and_then(|b| estimate_from_bytes(&b, disk).ok())
-        {
+        if let Some((f, e)) = file.as_deref().and_then(|f| {
+            let b = std::fs::read(f).ok()?;
+            Some((f, estimate_from_bytes(&b, disk).ok()?))
+        }) {
+            crate::cache::used(f);
             self.estimates.insert(i, (key, e));
             return Ok(e);
         }
@@ -436,10 +438,11 @@ impl Composite {
         let estimate = self.measure(engine, scene, &at, i);
         *scene_at = Some(at);
         let estimate = estimate?;
-        if let Some(f) = &file
-            && let Err(e) = crate::cache::write(f, &estimate_to_bytes(estimate, disk))
-        {
-            tracing::warn!("auto's choice of object {i} is not cached: {e:#}");
+        if let Some(f) = &file {
+            match crate::cache::write(f, &estimate_to_bytes(estimate, disk)) {
+                Ok(()) => crate::cache::stored(f, engine.cache_limit()),
+                Err(e) => tracing::warn!("auto's choice of object {i} is not cached: {e:#}"),
+            }
         }
         self.estimates.insert(i, (key, estimate));
         Ok(estimate)

@@ -15,6 +15,12 @@
 //!
 //! BRDF tables are held in memory only: they build in milliseconds (rsl-brdf's README),
 //! about as fast as reading their summed-area tables back from disk.
+//!
+//! The folder is bounded ([`trim`]): once rsl's files in it take more than the limit
+//! (`$RSL_CACHE_MAX_MB`, else [`DEFAULT_MAX_MB`]), the least recently used are removed
+//! after each write, never one this process has read or written, and never a file rsl
+//! did not name. A file read from the cache counts as used now (its modification time is
+//! set to the time it was read, where the folder is writable).
 
 use glam::Vec3;
 use rsl_env::Rsl;
@@ -31,6 +37,134 @@ pub fn default_dir() -> Option<PathBuf> {
     var(CACHE_ENV)
         .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("rsl")))
         .or_else(|| var("HOME").map(|d| d.join(".cache").join("rsl")))
+}
+
+/// Environment variable bounding the cache folder, in megabytes (0: no limit).
+pub const MAX_ENV: &str = "RSL_CACHE_MAX_MB";
+
+/// The cache folder's bound without [`MAX_ENV`]: 4 GiB (the default scene's files at every
+/// preset, with the lobe path's transport lobes, take about 200 MB).
+pub const DEFAULT_MAX_MB: u64 = 4096;
+
+/// The cache folder's bound in bytes from [`MAX_ENV`] (megabytes of 2²⁰ bytes, fractions
+/// allowed; `u64::MAX` for 0: no limit), else [`DEFAULT_MAX_MB`]; an error naming the
+/// variable where it is not a number of megabytes.
+pub fn max_bytes_from_env() -> anyhow::Result<u64> {
+    match std::env::var(MAX_ENV) {
+        Err(std::env::VarError::NotPresent) => Ok(DEFAULT_MAX_MB << 20),
+        Ok(v) if v.trim().is_empty() => Ok(DEFAULT_MAX_MB << 20),
+        Ok(v) => match v.trim().parse::<f64>() {
+            Ok(0.0) => Ok(u64::MAX),
+            // `as` saturates: a bound past 2⁶⁴ bytes is no bound.
+            Ok(mb) if mb.is_finite() && mb > 0.0 => Ok((mb * f64::from(1u32 << 20)) as u64),
+            _ => anyhow::bail!("{MAX_ENV}: expected the megabytes the cache folder may take (0: no limit), got `{v}`"),
+        },
+        Err(e) => anyhow::bail!("{MAX_ENV}: {e}"),
+    }
+}
+
+/// The cache files this process has read or written: [`trim`] never removes them.
+static USED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Records that `path`, a cache file, was just read (or written): it counts as used now
+/// (its modification time set to now, where the file is writable) and [`trim`] keeps it.
+pub fn used(path: &Path) {
+    if let Ok(f) = std::fs::File::options().append(true).open(path) {
+        let _ = f.set_modified(std::time::SystemTime::now());
+    }
+    let mut held = USED.lock().unwrap_or_else(|e| e.into_inner());
+    if !held.iter().any(|p| p == path) {
+        held.push(path.to_path_buf());
+    }
+}
+
+/// Whether `name` is one of rsl's cache files: `<kind>-<16 hex digits>.bin` for the kinds
+/// it writes (`rsl`, `svdf`, `ovdf`, `tlobe`, `auto`).
+pub fn is_cache_file(name: &str) -> bool {
+    let Some(stem) = name.strip_suffix(".bin") else { return false };
+    let Some((kind, key)) = stem.split_once('-') else { return false };
+    ["rsl", "svdf", "ovdf", "tlobe", "auto"].contains(&kind)
+        && key.len() == 16
+        && key.bytes().all(|b| b.is_ascii_hexdigit())
+}
+
+/// What [`trim`] found and did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Trimmed {
+    /// Files removed.
+    pub removed: usize,
+    /// Their bytes.
+    pub removed_bytes: u64,
+    /// Bytes of rsl's files left in the folder.
+    pub left_bytes: u64,
+}
+
+/// Removes rsl's least recently used files from cache folder `dir` (oldest modification
+/// first) until those left take at most `max` bytes; the files this process used
+/// ([`used`]) are kept whatever their age, and no other file in the folder is touched.
+pub fn trim(dir: &Path, max: u64) -> std::io::Result<Trimmed> {
+    let mut files = Vec::new();
+    let mut total = 0u64;
+    for entry in std::fs::read_dir(dir)? {
+        let entry = entry?;
+        if !entry.file_name().to_str().is_some_and(is_cache_file) {
+            continue;
+        }
+        let Ok(meta) = entry.metadata() else { continue };
+        if !meta.is_file() {
+            continue;
+        }
+        total += meta.len();
+        files.push((meta.modified().unwrap_or(std::time::UNIX_EPOCH), entry.path(), meta.len()));
+    }
+    let mut out = Trimmed { left_bytes: total, ..Trimmed::default() };
+    if total <= max {
+        return Ok(out);
+    }
+    files.sort();
+    let held = USED.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    for (_, path, len) in files {
+        if out.left_bytes <= max {
+            break;
+        }
+        if held.iter().any(|p| p == &path) {
+            continue;
+        }
+        if std::fs::remove_file(&path).is_ok() {
+            out.removed += 1;
+            out.removed_bytes += len;
+            out.left_bytes -= len;
+        }
+    }
+    Ok(out)
+}
+
+/// Whether [`stored`] said that the files in use exceed the bound (said once a process).
+static OVER: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Records that `path` was just written into the cache ([`used`]) and keeps its folder
+/// within `max` bytes ([`trim`]), saying what was removed, or that the files in use alone
+/// exceed the bound.
+pub fn stored(path: &Path, max: u64) {
+    used(path);
+    let Some(dir) = path.parent() else { return };
+    match trim(dir, max) {
+        Ok(t) if t.removed > 0 => tracing::warn!(
+            "cache {}: removed the {} least recently used file(s) ({:.1} MB) to stay within {} MB (${MAX_ENV})",
+            dir.display(),
+            t.removed,
+            t.removed_bytes as f64 / 1e6,
+            max >> 20
+        ),
+        Ok(t) if t.left_bytes > max && !OVER.swap(true, std::sync::atomic::Ordering::Relaxed) => tracing::warn!(
+            "cache {}: the files this run uses take {:.1} MB, more than its {} MB bound (${MAX_ENV}); kept",
+            dir.display(),
+            t.left_bytes as f64 / 1e6,
+            max >> 20
+        ),
+        Ok(_) => {}
+        Err(e) => tracing::warn!("cache {}: cannot list it to bound its size: {e}", dir.display()),
+    }
 }
 
 /// How lookups went since the engine started (tables, fields, light sets).
@@ -170,6 +304,62 @@ mod tests {
         // panic, so the engine rejects and removes the file.
         let empty = framed::frame(&RSL_MAGIC, RSL_VERSION, 42, &[]);
         assert!(rsls_from_bytes(&empty, 42).unwrap_err().contains("no light count"));
+    }
+
+    /// The bound removes rsl's files oldest first until the rest fit, keeps the ones this
+    /// process used whatever their age, and touches nothing it did not name; a file read
+    /// counts as used now.
+    #[test]
+    fn trimming_removes_the_least_recently_used_files_alone() {
+        let dir = std::env::temp_dir().join(format!("rsl-trim-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let epoch = std::time::UNIX_EPOCH;
+        let put = |name: &str, bytes: usize, age_s: u64| {
+            let p = dir.join(name);
+            std::fs::write(&p, vec![7u8; bytes]).unwrap();
+            let f = std::fs::File::options().append(true).open(&p).unwrap();
+            f.set_modified(epoch + std::time::Duration::from_secs(1_000_000 - age_s)).unwrap();
+            p
+        };
+        let oldest = put("svdf-00000000000000a1.bin", 400, 50);
+        let older = put("ovdf-00000000000000a2.bin", 300, 40);
+        let kept_old = put("tlobe-00000000000000a3.bin", 500, 60);
+        let newer = put("rsl-00000000000000a4.bin", 200, 10);
+        let read_now = put("auto-00000000000000a5.bin", 100, 90);
+        // Not rsl's: another kind, a key of another length, another extension.
+        let foreign =
+            [put("notes.txt", 5000, 99), put("svdf-xyz.bin", 5000, 99), put("mesh-00000000000000a6.bin", 5000, 99)];
+        used(&kept_old);
+        used(&read_now);
+        assert!(read_now.metadata().unwrap().modified().unwrap() > epoch + std::time::Duration::from_secs(1_000_000));
+        // 1,500 bytes of rsl's files against a bound of 900: the oldest two not used go.
+        let t = trim(&dir, 900).unwrap();
+        assert_eq!(t, Trimmed { removed: 2, removed_bytes: 700, left_bytes: 800 });
+        assert!(!oldest.exists() && !older.exists());
+        assert!(kept_old.exists() && newer.exists() && read_now.exists());
+        assert!(foreign.iter().all(|f| f.exists()), "a file rsl did not name was removed");
+        // Within the bound nothing goes; below what is in use, only what is not.
+        assert_eq!(trim(&dir, 800).unwrap().removed, 0);
+        let t = trim(&dir, 100).unwrap();
+        assert_eq!((t.removed, t.left_bytes), (1, 600), "{t:?}");
+        assert!(!newer.exists() && kept_old.exists() && read_now.exists());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn cache_file_names_are_rsls_own() {
+        assert!(is_cache_file("tlobe-5b354dbbdda3371a.bin"));
+        assert!(is_cache_file("rsl-ee88869d63d1867c.bin"));
+        for name in [
+            "tlobe-5b354dbbdda3371a.bin.tmp",
+            "svdf-5b354dbbdda3371.bin",
+            "svdf-5b354dbbdda3371g.bin",
+            "x-5b354dbbdda3371a.bin",
+            "svdf5b354dbbdda3371a.bin",
+        ] {
+            assert!(!is_cache_file(name), "{name}");
+        }
     }
 
     #[test]

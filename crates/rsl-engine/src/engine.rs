@@ -200,6 +200,10 @@ impl Engine {
             );
         }
         let budget = options.memory_budget.unwrap_or(DEFAULT_BUDGET);
+        let mut options = options;
+        if options.cache_limit.is_none() && options.cache_dir.is_some() {
+            options.cache_limit = Some(cache::max_bytes_from_env()?);
+        }
         let mut engine = Self {
             options,
             preset: quality.preset,
@@ -250,6 +254,11 @@ impl Engine {
     /// The disk cache's folder (`None`: no disk cache).
     pub fn cache_dir(&self) -> Option<&std::path::Path> {
         self.options.cache_dir.as_deref()
+    }
+
+    /// The bytes rsl's files in the cache folder may take ([`EngineOptions::cache_limit`]).
+    pub fn cache_limit(&self) -> u64 {
+        self.options.cache_limit.unwrap_or(cache::DEFAULT_MAX_MB << 20)
     }
 
     /// The quality preset and settings the engine prepares with.
@@ -366,6 +375,7 @@ impl Engine {
             let read = rsl_sphere::io::read_bounded(f, rsl_sphere::io::MAX_DATA_BYTES).map_err(|e| e.to_string());
             match read.and_then(|bytes| cache::rsls_from_bytes(&bytes, key)) {
                 Ok(s) if s.len() <= n && !s.is_empty() => {
+                    cache::used(f);
                     self.stats.disk_hits += 1;
                     let s = Arc::new(s);
                     self.store.insert(key, s.clone(), rsl_bytes(&s));
@@ -396,10 +406,11 @@ impl Engine {
         };
         let n = n.min(decomposition.max_rsls());
         let set: Vec<Rsl> = decomposition.rsls(n)?.into_iter().map(|i| i.rsl).collect();
-        if let Some(f) = &file
-            && let Err(e) = cache::write(f, &cache::rsls_to_bytes(&set, key))
-        {
-            tracing::warn!("cannot cache the light set: {e:#}");
+        if let Some(f) = &file {
+            match cache::write(f, &cache::rsls_to_bytes(&set, key)) {
+                Ok(()) => cache::stored(f, self.cache_limit()),
+                Err(e) => tracing::warn!("cannot cache the light set: {e:#}"),
+            }
         }
         let set = Arc::new(set);
         self.store.insert(key, set.clone(), rsl_bytes(&set));

@@ -175,6 +175,7 @@ impl LobeDrawing {
         Ok(Ok(TransportJob {
             key,
             file,
+            cache_limit: engine.cache_limit(),
             object: i,
             mesh: mesh.clone(),
             frames: engine.frames(i).clone(),
@@ -339,6 +340,8 @@ struct TransportJob {
     key: TransportKey,
     /// The disk cache's file and content key ([`transport_disk_key`]), where there is a cache.
     file: Option<(std::path::PathBuf, u64)>,
+    /// The cache folder's bound ([`Engine::cache_limit`]).
+    cache_limit: u64,
     object: usize,
     mesh: Arc<rsl_sphere::mesh::TriMesh>,
     frames: Arc<rsl_shade::VertexFrames>,
@@ -369,7 +372,10 @@ impl TransportJob {
         {
             let task = format!("reading the transport lobes of object {} from the cache", self.object);
             match self.progress.task(&task, |_| self.read(path, *key)) {
-                Ok(t) => return Ok(Arc::new(t)),
+                Ok(t) => {
+                    crate::cache::used(path);
+                    return Ok(Arc::new(t));
+                }
                 Err(why) => {
                     tracing::warn!("cache file {} rejected ({why}); fitting again", path.display());
                     let _ = std::fs::remove_file(path);
@@ -377,10 +383,11 @@ impl TransportJob {
             }
         }
         let fit = self.fit()?;
-        if let Some((path, key)) = &self.file
-            && let Err(e) = crate::cache::write(path, &crate::cache::transport_to_bytes(&fit, *key))
-        {
-            tracing::warn!("the transport lobes of object {} are not cached: {e:#}", self.object);
+        if let Some((path, key)) = &self.file {
+            match crate::cache::write(path, &crate::cache::transport_to_bytes(&fit, *key)) {
+                Ok(()) => crate::cache::stored(path, self.cache_limit),
+                Err(e) => tracing::warn!("the transport lobes of object {} are not cached: {e:#}", self.object),
+            }
         }
         Ok(Arc::new(fit))
     }

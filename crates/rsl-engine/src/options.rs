@@ -39,6 +39,10 @@ pub struct EngineOptions {
     pub memory_budget: Option<usize>,
     /// The layers to prepare.
     pub layers: Layers,
+    /// Bytes rsl's files in the cache folder may take in all before the least recently
+    /// used are removed ([`crate::cache::trim`]); `None`: `$RSL_CACHE_MAX_MB` megabytes,
+    /// else [`crate::cache::DEFAULT_MAX_MB`]; `u64::MAX`: no limit.
+    pub cache_limit: Option<u64>,
 }
 
 /// The self-visibility resolution of a quality setting.

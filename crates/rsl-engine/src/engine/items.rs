@@ -169,6 +169,7 @@ impl Engine {
                 .and_then(|f| (io.check)(&f).map(|()| f).map_err(String::from))
             {
                 Ok(f) => {
+                    cache::used(path);
                     self.stats.disk_hits += 1;
                     let f = Arc::new(f);
                     self.store.insert(key, f.clone(), (io.bytes)(&f));
@@ -181,12 +182,14 @@ impl Engine {
         let start = Instant::now();
         let f = self.options.progress.task(&io.message, |report| (io.build)(report))?;
         self.timings.add(io.stage, start.elapsed().as_secs_f64() * 1e3, None);
-        if let Some(path) = &file
-            && let Err(e) = std::fs::create_dir_all(path.parent().unwrap_or(path))
+        if let Some(path) = &file {
+            match std::fs::create_dir_all(path.parent().unwrap_or(path))
                 .map_err(|e| e.to_string())
                 .and_then(|()| (io.save)(&f, key, path).map_err(|e| e.to_string()))
-        {
-            tracing::warn!("cannot cache {}: {e}", io.message);
+            {
+                Ok(()) => cache::stored(path, self.cache_limit()),
+                Err(e) => tracing::warn!("cannot cache {}: {e}", io.message),
+            }
         }
         let f = Arc::new(f);
         self.store.insert(key, f.clone(), (io.bytes)(&f));
