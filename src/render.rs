@@ -323,6 +323,7 @@ pub fn precompute(
     if let Some(s) = shard {
         crate::status!("precompute: shard {s} prepares {} of {} scene(s)", mine.len(), scenes.len());
     }
+    let mut last = None;
     for path in mine {
         let scene = Scene::load(path)?;
         if scenes.len() > 1 {
@@ -331,6 +332,17 @@ pub fn precompute(
         let engine = Engine::new(&scene, prepare.options())?;
         print_preparation(&engine);
         prepare_method(&engine, &scene, id)?;
+        last = Some(engine);
+    }
+    if let Some(engine) = last
+        && let Some(dir) = engine.cache_dir()
+        && let Ok((files, bytes)) = rsl_engine::cache::usage(dir)
+    {
+        let bound = match engine.cache_limit() {
+            u64::MAX => "no bound".to_string(),
+            b => format!("of its {:.0} MB bound, ${}", rsl_engine::cache::mb(b), rsl_engine::cache::MAX_ENV),
+        };
+        crate::status!("cache {}: {files} file(s), {:.1} MB ({bound})", dir.display(), rsl_engine::cache::mb(bytes));
     }
     Ok(())
 }

@@ -688,6 +688,7 @@ fn precompute_shards_take_every_nth_scene_into_one_cache() {
 /// each object will be drawn); `rsl render` then reads them instead of fitting them, and
 /// `--method lobe` asks for them whatever the scene's methods.
 #[test]
+#[cfg(unix)]
 fn precompute_fits_the_transport_lobes_the_render_then_reads() {
     use rsl_scene::build::{ObjectBuilder, SceneBuilder};
     let dir = out_dir("precompute-lobes");
@@ -703,14 +704,17 @@ fn precompute_fits_the_transport_lobes_the_render_then_reads() {
         .unwrap();
     let cache = dir.join("cache");
     let _ = std::fs::remove_dir_all(&cache);
-    let tlobes = || -> Vec<(std::path::PathBuf, std::time::SystemTime)> {
+    // Each file with its inode: written again (atomically, by a rename), a file gets a new
+    // one; read, it keeps it (a read sets its modification time, for the cache's bound).
+    let tlobes = || -> Vec<(std::path::PathBuf, u64)> {
+        use std::os::unix::fs::MetadataExt;
         let mut v: Vec<_> = std::fs::read_dir(&cache)
             .unwrap()
             .map(|e| e.unwrap().path())
             .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with("tlobe-"))
             .map(|p| {
-                let t = std::fs::metadata(&p).unwrap().modified().unwrap();
-                (p, t)
+                let ino = std::fs::metadata(&p).unwrap().ino();
+                (p, ino)
             })
             .collect();
         v.sort();
@@ -754,8 +758,9 @@ fn the_cache_folder_stays_within_its_bound() {
         v.sort();
         v
     };
-    let (ok, _, err) = run(rsl().arg("precompute").arg(&a).arg("--cache").arg(&cache));
+    let (ok, _, err) = run(rsl().arg("precompute").arg(&a).arg("--cache").arg(&cache).env("RSL_CACHE_MAX_MB", "2"));
     assert!(ok, "{err}");
+    assert!(err.contains("2 file(s)") && err.contains("(of its 2 MB bound, $RSL_CACHE_MAX_MB)"), "{err}");
     let first = files();
     assert_eq!(first.len(), 3, "a light set and the ball's (empty) self-visibility beside the foreign file: {first:?}");
     // The second scene's light set (about 270 bytes) and the ball's field it shares (44)
@@ -771,6 +776,7 @@ fn the_cache_folder_stays_within_its_bound() {
     // Without a bound the first comes back beside it.
     let (ok, _, err) = run(rsl().arg("precompute").arg(&a).arg("--cache").arg(&cache).env("RSL_CACHE_MAX_MB", "0"));
     assert!(ok, "{err}");
+    assert!(err.contains("3 file(s)") && err.contains("(no bound)"), "{err}");
     assert_eq!(files().len(), 4, "{:?}", files());
     let (ok, _, err) = run(rsl().arg("precompute").arg(&a).arg("--cache").arg(&cache).env("RSL_CACHE_MAX_MB", "lots"));
     assert!(!ok && err.contains("RSL_CACHE_MAX_MB") && err.contains("lots"), "{err}");

@@ -88,6 +88,26 @@ pub fn is_cache_file(name: &str) -> bool {
         && key.bytes().all(|b| b.is_ascii_hexdigit())
 }
 
+/// Bytes in the megabytes of [`MAX_ENV`] (2²⁰ bytes).
+pub fn mb(bytes: u64) -> f64 {
+    bytes as f64 / f64::from(1u32 << 20)
+}
+
+/// How many of rsl's files cache folder `dir` holds, and their bytes.
+pub fn usage(dir: &Path) -> std::io::Result<(usize, u64)> {
+    let mut out = (0, 0);
+    for entry in std::fs::read_dir(dir)? {
+        let entry = entry?;
+        if entry.file_name().to_str().is_some_and(is_cache_file)
+            && let Ok(meta) = entry.metadata()
+            && meta.is_file()
+        {
+            out = (out.0 + 1, out.1 + meta.len());
+        }
+    }
+    Ok(out)
+}
+
 /// What [`trim`] found and did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Trimmed {
@@ -153,13 +173,13 @@ pub fn stored(path: &Path, max: u64) {
             "cache {}: removed the {} least recently used file(s) ({:.1} MB) to stay within {} MB (${MAX_ENV})",
             dir.display(),
             t.removed,
-            t.removed_bytes as f64 / 1e6,
+            mb(t.removed_bytes),
             max >> 20
         ),
         Ok(t) if t.left_bytes > max && !OVER.swap(true, std::sync::atomic::Ordering::Relaxed) => tracing::warn!(
             "cache {}: the files this run uses take {:.1} MB, more than its {} MB bound (${MAX_ENV}); kept",
             dir.display(),
-            t.left_bytes as f64 / 1e6,
+            mb(t.left_bytes),
             max >> 20
         ),
         Ok(_) => {}
