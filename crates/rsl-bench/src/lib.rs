@@ -98,7 +98,8 @@ pub struct Row {
     pub prepare_ms: f64,
     /// Bytes of prepared data held.
     pub prepare_bytes: usize,
-    /// Items (tables, fields, light sets) built for it rather than read from the caches: a
+    /// Items (tables, fields, light sets, and what the method builds itself: transport lobes,
+    /// the wavelet baseline's transport) built for it rather than read from the caches: a
     /// configuration whose fields were built first pays their whole cost in `prepare_ms`.
     pub prepare_built: u64,
     /// Median shading time per frame, ms.
@@ -660,6 +661,7 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 config_engine(&scene, options, config).with_context(|| format!("{name}: {}", config.id()))?;
             let prepare_ms = start.elapsed().as_secs_f64() * 1e3;
             let method = methods.get(config, &engine, options).with_context(|| format!("{name}: {}", config.id()))?;
+            let built_before = method.built();
             let request = Request { time: t, image: false, vertices: true, exposure: None };
             let mut times = Vec::with_capacity(options.frames);
             let mut frame = None;
@@ -685,7 +687,11 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 &config.method_name(),
                 engine.rsls().len() as u32,
                 t,
-                (prepare_ms, engine.memory().resident_bytes + method.bytes(), engine.cache_stats().misses),
+                (
+                    prepare_ms,
+                    engine.memory().resident_bytes + method.bytes(),
+                    engine.cache_stats().misses + (method.built() - built_before),
+                ),
                 median(times),
                 &frame.radiance,
                 truth,

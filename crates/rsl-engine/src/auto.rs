@@ -332,6 +332,10 @@ impl Method for Composite {
         Ok(lines)
     }
 
+    fn built(&self) -> u64 {
+        self.hybrid.transport_fitted() + self.lobe.transport_fitted()
+    }
+
     fn preparation(&mut self, engine: &Engine, scene: &Scene) -> Result<Option<Preparation>> {
         Ok(self.environment_job(engine, scene)?.map(|job| Preparation::new(move || Box::new(job.run()) as Prepared)))
     }

@@ -328,6 +328,10 @@ impl Method for Bounced {
         self.inner.bytes()
     }
 
+    fn built(&self) -> u64 {
+        self.inner.built()
+    }
+
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
         let mut frame = self.inner.render(engine, scene, &Self::inner_request(scene, request))?;
         Self::add_bounces(engine, scene, &mut frame)?;

@@ -76,6 +76,9 @@ pub struct LobeDrawing {
     /// Fit the transport lobes with nothing of the object in the way (`V_self = 1`).
     no_self_shadows: bool,
     transport: HashMap<TransportKey, Arc<TransportLobes>>,
+    /// Transport lobes fitted so far, here or by its jobs on other threads (not read from the
+    /// disk cache).
+    fitted: Arc<std::sync::atomic::AtomicU64>,
     /// Per mesh (its key), its vertices' incident faces: the face mask the hybrid's lobes
     /// are clipped by at the vertices.
     faces: HashMap<u64, Arc<IncidentFaces>>,
@@ -119,6 +122,12 @@ impl LobeDrawing {
     /// How many objects' transport lobes are held.
     pub fn transport_held(&self) -> usize {
         self.transport.len()
+    }
+
+    /// How many objects' transport lobes it (or a job it made) has fitted so far, rather than
+    /// read from the disk cache.
+    pub fn transport_fitted(&self) -> u64 {
+        self.fitted.load(std::sync::atomic::Ordering::Relaxed)
     }
     /// The material lobes of `brdf` (fitted once per parameter set).
     pub(crate) fn lobes(&mut self, brdf: &Brdf) -> Result<Arc<MaterialLobes>> {
@@ -176,6 +185,7 @@ impl LobeDrawing {
             key,
             file,
             cache_limit: engine.cache_limit(),
+            fitted: self.fitted.clone(),
             object: i,
             mesh: mesh.clone(),
             frames: engine.frames(i).clone(),
@@ -342,6 +352,8 @@ struct TransportJob {
     file: Option<(std::path::PathBuf, u64)>,
     /// The cache folder's bound ([`Engine::cache_limit`]).
     cache_limit: u64,
+    /// Counts the fits ([`LobeDrawing::transport_fitted`]).
+    fitted: Arc<std::sync::atomic::AtomicU64>,
     object: usize,
     mesh: Arc<rsl_sphere::mesh::TriMesh>,
     frames: Arc<rsl_shade::VertexFrames>,
@@ -383,6 +395,7 @@ impl TransportJob {
             }
         }
         let fit = self.fit()?;
+        self.fitted.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         if let Some((path, key)) = &self.file {
             match crate::cache::write(path, &crate::cache::transport_to_bytes(&fit, *key)) {
                 Ok(()) => crate::cache::stored(path, self.cache_limit),

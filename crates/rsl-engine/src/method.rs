@@ -177,6 +177,14 @@ pub trait Method {
         0
     }
 
+    /// How many items the method has built itself so far, rather than read from the disk
+    /// cache or found held (the lobe path's transport lobes fitted, the wavelet baseline's
+    /// transport): beside the engine's [`crate::cache::CacheStats::misses`], what a
+    /// configuration built. 0 by default.
+    fn built(&self) -> u64 {
+        0
+    }
+
     /// The frame of `scene` (which `engine` was last synced to) for `request`.
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame>;
 

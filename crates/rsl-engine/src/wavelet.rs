@@ -223,6 +223,8 @@ impl Wavelets {
 pub struct WaveletMethod {
     progress: crate::progress::Progress,
     prepared: Option<(u64, Wavelets)>,
+    /// Transports prepared so far ([`Method::built`]).
+    built: u64,
 }
 
 /// Lighting terms the presets keep (quality knob `wavelet_terms`; Ng et al.'s figures use
@@ -232,7 +234,7 @@ pub const DEFAULT_TERMS: usize = 200;
 impl WaveletMethod {
     /// The baseline, nothing prepared yet.
     pub fn new(_engine: &Engine, options: &crate::registry::MethodOptions) -> Result<Self> {
-        Ok(Self { progress: options.progress.clone(), prepared: None })
+        Ok(Self { progress: options.progress.clone(), prepared: None, built: 0 })
     }
 }
 
@@ -243,6 +245,10 @@ impl Method for WaveletMethod {
 
     fn bytes(&self) -> usize {
         self.prepared.as_ref().map_or(0, |(_, w)| w.bytes())
+    }
+
+    fn built(&self) -> u64 {
+        self.built
     }
 
     fn render(&mut self, engine: &Engine, scene: &Scene, request: &Request) -> Result<Frame> {
@@ -272,6 +278,7 @@ impl Method for WaveletMethod {
             let w = self.progress.task(&task, |_| Wavelets::new(engine, scene, request.time, r, terms, true))?;
             timings.add("transport", start.elapsed().as_secs_f64() * 1e3, None);
             self.prepared = Some((key, w));
+            self.built += 1;
         }
         let w = &self.prepared.as_ref().expect("prepared above").1;
         let radiance = timings.time("shade", || w.radiance(terms));

@@ -385,9 +385,12 @@ fn transport_lobes_are_read_back_from_the_disk_cache() {
         });
         let engine = Engine::new(&s, EngineOptions { cache_dir: Some(dir.clone()), progress, ..Default::default() })
             .expect("engine");
-        let frame = vertices(&mut Composite::lobe(), &engine, &s);
+        let mut method = Composite::lobe();
+        let frame = vertices(&mut method, &engine, &s);
         let tasks = tasks.lock().unwrap().clone();
         let fitted = tasks.iter().filter(|t| t.starts_with("transport lobes of object")).count();
+        // What the method says it built (the bench's count) is what it fitted.
+        assert_eq!(method.built(), fitted as u64, "{tasks:?}");
         let read = tasks.iter().filter(|t| t.starts_with("reading the transport lobes")).count();
         (frame, fitted, read)
     };
