@@ -323,7 +323,7 @@ pub fn precompute(
     if let Some(s) = shard {
         crate::status!("precompute: shard {s} prepares {} of {} scene(s)", mine.len(), scenes.len());
     }
-    let mut last = None;
+    let mut cache = None;
     for path in mine {
         let scene = Scene::load(path)?;
         if scenes.len() > 1 {
@@ -332,13 +332,13 @@ pub fn precompute(
         let engine = Engine::new(&scene, prepare.options())?;
         print_preparation(&engine);
         prepare_method(&engine, &scene, id)?;
-        last = Some(engine);
+        // The folder and its bound (not the engine: its data is freed before the next).
+        cache = engine.cache_dir().map(|d| (d.to_path_buf(), engine.cache_limit()));
     }
-    if let Some(engine) = last
-        && let Some(dir) = engine.cache_dir()
-        && let Ok((files, bytes)) = rsl_engine::cache::usage(dir)
+    if let Some((dir, limit)) = cache
+        && let Ok((files, bytes)) = rsl_engine::cache::usage(&dir)
     {
-        let bound = match engine.cache_limit() {
+        let bound = match limit {
             u64::MAX => "no bound".to_string(),
             b => format!("of its {:.0} MB bound, ${}", rsl_engine::cache::mb(b), rsl_engine::cache::MAX_ENV),
         };

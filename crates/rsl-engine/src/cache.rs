@@ -72,6 +72,11 @@ pub fn used(path: &Path) {
     if let Ok(f) = std::fs::File::options().append(true).open(path) {
         let _ = f.set_modified(std::time::SystemTime::now());
     }
+    hold(path);
+}
+
+/// Adds `path` to the files [`trim`] keeps.
+fn hold(path: &Path) {
     let mut held = USED.lock().unwrap_or_else(|e| e.into_inner());
     if !held.iter().any(|p| p == path) {
         held.push(path.to_path_buf());
@@ -95,17 +100,24 @@ pub fn mb(bytes: u64) -> f64 {
 
 /// How many of rsl's files cache folder `dir` holds, and their bytes.
 pub fn usage(dir: &Path) -> std::io::Result<(usize, u64)> {
-    let mut out = (0, 0);
+    let files = rsl_files(dir)?;
+    Ok((files.len(), files.iter().map(|f| f.2).sum()))
+}
+
+/// rsl's files in cache folder `dir` ([`is_cache_file`]; plain files only), each with its
+/// modification time and length.
+fn rsl_files(dir: &Path) -> std::io::Result<Vec<(std::time::SystemTime, PathBuf, u64)>> {
+    let mut files = Vec::new();
     for entry in std::fs::read_dir(dir)? {
         let entry = entry?;
         if entry.file_name().to_str().is_some_and(is_cache_file)
             && let Ok(meta) = entry.metadata()
             && meta.is_file()
         {
-            out = (out.0 + 1, out.1 + meta.len());
+            files.push((meta.modified().unwrap_or(std::time::UNIX_EPOCH), entry.path(), meta.len()));
         }
     }
-    Ok(out)
+    Ok(files)
 }
 
 /// What [`trim`] found and did.
@@ -123,20 +135,8 @@ pub struct Trimmed {
 /// first) until those left take at most `max` bytes; the files this process used
 /// ([`used`]) are kept whatever their age, and no other file in the folder is touched.
 pub fn trim(dir: &Path, max: u64) -> std::io::Result<Trimmed> {
-    let mut files = Vec::new();
-    let mut total = 0u64;
-    for entry in std::fs::read_dir(dir)? {
-        let entry = entry?;
-        if !entry.file_name().to_str().is_some_and(is_cache_file) {
-            continue;
-        }
-        let Ok(meta) = entry.metadata() else { continue };
-        if !meta.is_file() {
-            continue;
-        }
-        total += meta.len();
-        files.push((meta.modified().unwrap_or(std::time::UNIX_EPOCH), entry.path(), meta.len()));
-    }
+    let mut files = rsl_files(dir)?;
+    let total = files.iter().map(|f| f.2).sum();
     let mut out = Trimmed { left_bytes: total, ..Trimmed::default() };
     if total <= max {
         return Ok(out);
@@ -162,11 +162,12 @@ pub fn trim(dir: &Path, max: u64) -> std::io::Result<Trimmed> {
 /// Whether [`stored`] said that the files in use exceed the bound (said once a process).
 static OVER: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// Records that `path` was just written into the cache ([`used`]) and keeps its folder
+/// Records that `path` was just written into the cache (kept by [`trim`], as [`used`]; its
+/// modification time is already now) and keeps its folder
 /// within `max` bytes ([`trim`]), saying what was removed, or that the files in use alone
 /// exceed the bound.
 pub fn stored(path: &Path, max: u64) {
-    used(path);
+    hold(path);
     let Some(dir) = path.parent() else { return };
     match trim(dir, max) {
         Ok(t) if t.removed > 0 => tracing::warn!(
