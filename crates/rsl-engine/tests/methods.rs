@@ -297,9 +297,12 @@ fn rotation(kind: Kind, test: &str) {
     let a = turned_suzanne(0.0, eye);
     let q = Quat::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 70f32.to_radians());
     let b = turned_suzanne(70.0, q * eye);
-    // Its own engine: synced to the turned scene below.
-    let mut engine =
-        Engine::new(&a, EngineOptions { layers: kind.id.capabilities().layers, ..Default::default() }).expect("engine");
+    // Its own engine: synced to the turned scene below. What it prepares, and the transport
+    // lobes the lobe path fits (object space, the same at any pose), go through one disk
+    // cache for every method, so that a method's second device reads them back.
+    let cache = std::env::temp_dir().join(format!("rsl-methods-rotation-{}", std::process::id()));
+    let options = EngineOptions { layers: kind.id.capabilities().layers, cache_dir: Some(cache), ..Default::default() };
+    let mut engine = Engine::new(&a, options).expect("engine");
     let Some(mut method) = create(kind, &engine, test) else { return };
     let fa = vertices_at(method.as_mut(), &engine, &a, 0.0);
     engine.sync(&b).unwrap();

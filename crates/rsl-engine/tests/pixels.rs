@@ -536,10 +536,18 @@ fn the_gpu_antialiases_as_the_cpu_does() {
     let mut base = mixed_scene_sized("auto", "hybrid", 96, 72);
     // Per method, the CPU's image at 16 samples: at 64, the third round changed it.
     let mut at_16: Vec<Image> = Vec::new();
+    // One disk cache for the engines below: the same objects, fields and tables each time.
+    let cache = std::env::temp_dir().join(format!("rsl-pixels-aa-{}", std::process::id()));
+    let engine_for = |s: &Scene| {
+        Engine::new(s, EngineOptions { cache_dir: Some(cache.clone()), ..Default::default() }).expect("engine")
+    };
+    let mut one = base.clone();
+    one.quality.settings.aa = 1;
+    let centres_engine = engine_for(&one);
     for aa in [16, 64] {
         base.quality.settings.aa = aa;
         let s = base.clone();
-        let engine = Engine::new(&s, EngineOptions::default()).expect("engine");
+        let engine = engine_for(&s);
         assert_eq!(engine.antialias(), aa);
         let renderer = || rsl_engine::gpu::GpuRenderer::with_context(ctx.clone()).expect("renderer");
         // Each GPU method, and the CPU method it is held to.
@@ -559,10 +567,7 @@ fn the_gpu_antialiases_as_the_cpu_does() {
             // Against the same method's image of one sample per pixel (at 16) and of 16 (at
             // 64): antialiasing, and its third round, changed it.
             let changed = if aa == 16 {
-                let mut one = s.clone();
-                one.quality.settings.aa = 1;
-                let centres =
-                    render(cpu.as_mut(), &Engine::new(&one, EngineOptions::default()).expect("engine"), &one, true);
+                let centres = render(cpu.as_mut(), &centres_engine, &one, true);
                 pixel_l2(&ci, centres.image.as_ref().expect("image"))
             } else {
                 pixel_l2(&ci, &at_16[m])
