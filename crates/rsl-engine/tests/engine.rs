@@ -18,9 +18,7 @@ fn memory_only() -> EngineOptions {
 
 /// A cache folder of this test run, shared by the tests that want one.
 fn cache_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-engine-test-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::run_dir(&format!("engine-test-{name}"))
 }
 
 #[test]

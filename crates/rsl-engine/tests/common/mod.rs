@@ -16,6 +16,14 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
+/// A folder of this test run (`rsl-<name>-<process id>` in the temp folder), created: a
+/// disk cache the run's engines share, or its files.
+pub fn run_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rsl-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
 /// The scene `b` builds, as if its file were in data/scenes (so `../hdri/…` resolves).
 pub fn scene(b: SceneBuilder) -> Scene {
     b.build(root().join("data/scenes/inline-test.toml")).expect("valid test scene")
