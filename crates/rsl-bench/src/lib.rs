@@ -120,6 +120,10 @@ pub struct Row {
     /// The same per object (over the pixels whose centre sees it): name, relative L2, the
     /// truth's noise there (empty without images).
     pub pixel_objects: Vec<(String, f64, f64)>,
+    /// Median wall time of a whole frame with its image at the grid's resolution, ms: the
+    /// vertices' shading, the interreflections and the drawing, per pixel where the method
+    /// draws so, antialiased as the quality asks ([`image_frame_ms`]; `None` without images).
+    pub image_ms: Option<f64>,
     /// Samples per vertex a Monte Carlo estimate needs to be as far from the truth as this
     /// configuration ([`equal_error_spp`]); `None` where the configuration is within the
     /// truth's own noise and the two cannot be told apart.
@@ -220,6 +224,7 @@ fn measured_row(
         mc_ms: mc_spp.map(|s| s * truth.seconds * 1e3 / f64::from(truth.spp)),
         pixel_l2: None,
         pixel_objects: Vec::new(),
+        image_ms: None,
         objects,
         truth_key: None,
     })
@@ -283,15 +288,23 @@ fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) 
                 let mut engine = config_engine(&scene, options, config)?;
                 let method = methods.get(config, &engine, options)?;
                 let request = Request { time: t, image: true, vertices: false, exposure: None };
-                let image = rsl_engine::textured::render_with(method, &mut engine, &scene, &request)?
-                    .image
-                    .context("an image was asked for")?;
+                // The whole frame with its image, timed as the vertices' shading is: the
+                // median of `frames` frames.
+                let (mut times, mut image) = (Vec::with_capacity(options.frames), None);
+                for _ in 0..options.frames {
+                    let start = Instant::now();
+                    let frame = rsl_engine::textured::render_with(method, &mut engine, &scene, &request)?;
+                    times.push(image_frame_ms(start.elapsed().as_secs_f64() * 1e3, &frame.timings));
+                    image = Some(frame.image.context("an image was asked for")?);
+                }
+                let image = image.context("at least one frame")?;
                 let err = grid::pixel_error(&image, against, &names)?;
                 if let Some(r) =
                     summary.rows.iter_mut().find(|r| r.scene == name && r.config == config.id() && r.time == t)
                 {
                     r.pixel_l2 = Some(err.scene);
                     r.pixel_objects = err.objects;
+                    r.image_ms = Some(median(times));
                 }
                 renders.push((format!("{} {:.2}%", config.id(), 100.0 * err.scene.0), image));
             }
@@ -307,6 +320,14 @@ fn images(options: &BenchOptions, summary: &mut Summary, methods: &mut Methods) 
         }
     }
     Ok(())
+}
+
+/// The time of a frame with its image whose render took `wall_ms`: the render's wall time
+/// less what it prepared for the frames after it ([`rsl_engine::Timings::preparation_ms`]:
+/// the lobe methods' prefiltering and transport lobes, `auto`'s choice), which the row's
+/// preparation counts.
+pub fn image_frame_ms(wall_ms: f64, timings: &rsl_engine::Timings) -> f64 {
+    (wall_ms - timings.preparation_ms()).max(0.0)
 }
 
 /// The methods a bench measures, built from the registry when first needed and kept (what
@@ -671,11 +692,11 @@ pub fn run(options: &BenchOptions) -> Result<Summary> {
                 // The vertices' shading, with the interreflections gathered at them.
                 times.push(f.timings.ms("shade") + f.timings.ms("interreflections"));
                 if k == 0 {
-                    // What the lobe methods prepare on their first frame (the prefiltered
-                    // environment, the transport lobes; the wavelet baseline's transport) is
-                    // preparation; kept by the method,
-                    // the configuration that built it pays for it, as for fields.
-                    prepare_ms += f.timings.ms("lobes") + f.timings.ms("transport");
+                    // What the methods prepare on their first frame (the lobe methods'
+                    // prefiltered environment and transport lobes, the wavelet baseline's
+                    // transport, `auto`'s choice) is preparation; kept by the method, the
+                    // configuration that built it pays for it, as for fields.
+                    prepare_ms += f.timings.preparation_ms();
                 }
                 frame = Some(f);
             }

@@ -10,7 +10,13 @@ use std::path::Path;
 
 const HEADER: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,ms_per_frame,relative_l2,\
                       mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,mc_ms,pixel_l2,pixel_truth_noise,objects,\
-                      truth_key,pixel_objects";
+                      truth_key,pixel_objects,image_ms";
+
+/// The header of results written before rows carried their image's frame time: read, with
+/// none (the image pass measures it again).
+const HEADER_NO_IMAGE_MS: &str = "scene,config,method,quality,rsl,time,prepare_ms,prepare_bytes,prepare_built,\
+                                  ms_per_frame,relative_l2,mean_relative,p95_relative,truth_noise,truth_spp,mc_spp,\
+                                  mc_ms,pixel_l2,pixel_truth_noise,objects,truth_key,pixel_objects";
 
 /// The header of results written before rows carried their per-object pixel errors: read,
 /// with none (the image pass fills them in again).
@@ -60,7 +66,7 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
     for r in rows {
         s += &format!(
             // Floats in their shortest exact form, so a resumed bench reads back what it wrote.
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             field(&r.scene),
             field(&r.config),
             r.method,
@@ -82,7 +88,8 @@ pub fn write_rows(path: &Path, rows: &[Row]) -> Result<()> {
             r.pixel_l2.map_or(String::new(), |v| v.1.to_string()),
             field(&objects_field(&r.objects)),
             key_field(r.truth_key),
-            field(&objects_field(&r.pixel_objects))
+            field(&objects_field(&r.pixel_objects)),
+            r.image_ms.map_or(String::new(), |v| v.to_string())
         );
         for (name, e, n) in &r.objects {
             let pixel =
@@ -187,7 +194,8 @@ pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
 
 /// The rows of a `results.csv` text (read from `path`, which names it in messages).
 pub fn parse_rows(text: &str, path: &Path) -> Result<Vec<Row>> {
-    parse_csv(text, path, &[(HEADER, 22), (HEADER_NO_PIXEL_OBJECTS, 21), (HEADER_UNKEYED, 20)], "results")?
+    let headers = [(HEADER, 23), (HEADER_NO_IMAGE_MS, 22), (HEADER_NO_PIXEL_OBJECTS, 21), (HEADER_UNKEYED, 20)];
+    parse_csv(text, path, &headers, "results")?
         .into_iter()
         .map(|(n, f)| {
             let bad = || malformed(path, n);
@@ -232,6 +240,10 @@ pub fn parse_rows(text: &str, path: &Path) -> Result<Vec<Row>> {
                 pixel_l2: if f[17].is_empty() { None } else { Some((num(17)?, num(18)?)) },
                 objects,
                 pixel_objects,
+                image_ms: match f.get(22) {
+                    Some(v) if !v.is_empty() => Some(num(22)?),
+                    _ => None,
+                },
                 truth_key: truth_key(path, n, f.get(20))?,
             })
         })
@@ -306,7 +318,8 @@ pub fn reports(
     let mut md = String::from(
         "# rsl bench\n\nPer scene and time: every configuration's preparation (wall ms from an empty memory \
          store, bytes held), shading time per frame (median; the vertices' shading, with the \
-         interreflections gathered at them where `bounces` asks), and error per vertex against the Monte Carlo \
+         interreflections gathered at them where `bounces` asks; the whole frame with its image, drawn per \
+         pixel where the method draws so, is the per-pixel table's ms/image), and error per vertex against the Monte Carlo \
          truth — relative L2 over the scene and per object, mean and 95th percentile of the per-vertex \
          relative error — with the truth's own noise (relative L2 of its standard errors). ★ marks the \
          Pareto front (no configuration is both faster and more accurate). Preparation is wall time \
@@ -386,8 +399,9 @@ pub fn reports(
                 md += &format!(
                     "\nPer covered pixel, at {resolution}, against the per-pixel truth (each figure with the truth's own \
                      noise over the same pixels, flagged where it is within that noise; an object's pixels are \
-                     those whose centre sees it):\n\n\
-                     | configuration | all pixels | {} |\n|---|---|{}\n",
+                     those whose centre sees it; ms/image is the whole frame with its image at that \
+                     resolution, the median of the frames timed):\n\n\
+                     | configuration | ms/image | all pixels | {} |\n|---|---|---|{}\n",
                     pixel_names.join(" | "),
                     "---|".repeat(pixel_names.len())
                 );
@@ -403,8 +417,9 @@ pub fn reports(
                         })
                         .collect();
                     md += &format!(
-                        "| {} | {:.2}% ({:.2}%; less noise {}) | {} |\n",
+                        "| {} | {} | {:.2}% ({:.2}%; less noise {}) | {} |\n",
                         r.config,
+                        r.image_ms.map_or_else(|| "—".into(), |ms| format!("{ms:.1}")),
                         100.0 * e,
                         100.0 * n,
                         less_noise(e, n),
@@ -429,7 +444,7 @@ pub fn reports(
             group(rows, |r| format!("{} {}", r.method, r.quality), |r| (r.ms_per_frame, 100.0 * r.relative_l2), false);
         series.push(Series { name: "Pareto front".into(), points: front, line: true });
         let with_rsls: Vec<&Row> = rows.iter().copied().filter(|r| r.rsl > 0).collect();
-        let plots = [
+        let mut plots = vec![
             (
                 "error_vs_ms",
                 Plot {
@@ -478,6 +493,28 @@ pub fn reports(
                 },
             ),
         ];
+        // The image's error against the image's frame time, where the images were timed.
+        let imaged: Vec<&Row> = rows.iter().copied().filter(|r| r.image_ms.is_some() && r.pixel_l2.is_some()).collect();
+        if !imaged.is_empty() {
+            let point = |r: &Row| (r.image_ms.unwrap_or_default().max(0.01), 100.0 * r.pixel_l2.unwrap_or_default().0);
+            let pts: Vec<(f64, f64)> = imaged.iter().map(|r| point(r)).collect();
+            let front: Vec<(f64, f64)> = pareto(&pts).into_iter().map(|i| pts[i]).collect();
+            let mut series = group(&imaged, |r| format!("{} {}", r.method, r.quality), point, false);
+            series.push(Series { name: "Pareto front".into(), points: front, line: true });
+            let noise = imaged.iter().map(|r| r.pixel_l2.unwrap_or_default().1).fold(0.0, f64::max);
+            plots.push((
+                "pixel_error_vs_ms",
+                Plot {
+                    title: format!("{scene}: image error against frame time"),
+                    x_label: "frame with its image (ms, median)".into(),
+                    y_label: "relative L2 per covered pixel against the truth (%)".into(),
+                    x_log: true,
+                    y_log: true,
+                    series,
+                    references: vec![(100.0 * noise, format!("truth noise {:.2}%", 100.0 * noise))],
+                },
+            ));
+        }
         md += "\n";
         for (name, plot) in plots {
             md += &format!("![{}]({stem}_{name}.svg)\n", plot.title);
@@ -528,6 +565,7 @@ mod tests {
             pixel_l2: Some((0.5, 0.25)),
             objects: vec![("floor".into(), 0.05, 0.01), ("ball".into(), 0.5, 0.02)],
             pixel_objects: vec![("floor".into(), 0.0625, 0.015), ("ball".into(), 0.75, 0.03)],
+            image_ms: Some(4.0 * ms + 0.5),
             truth_key: Some(0x0123_4567_89ab_cdef),
         }
     }
@@ -542,10 +580,11 @@ mod tests {
         assert_eq!(less_noise(0.04, 0.04), "within noise");
     }
 
-    /// `results.csv` as written before rows carried per-object pixel errors: the last
-    /// column dropped.
-    fn good_without_pixel_objects(csv: &str) -> String {
-        csv.lines().map(|l| format!("{}\n", &l[..l.rfind(',').unwrap()])).collect()
+    /// `results.csv` as written before rows carried their last `columns` columns (the image's
+    /// frame time, then the per-object pixel errors): those dropped.
+    fn good_without(csv: &str, columns: usize) -> String {
+        let cut = |l: &str| (0..columns).fold(l.to_string(), |l, _| l[..l.rfind(',').unwrap()].to_string());
+        csv.lines().map(|l| format!("{}\n", cut(l))).collect()
     }
 
     #[test]
@@ -562,19 +601,29 @@ mod tests {
         assert!(md.starts_with("# rsl bench\n\nWritten by:\n\n```sh\nrsl bench s.toml --out dir\n```\n"), "{md}");
         assert!(md.contains("★ method=cpu quality=draft rsl=30") && md.contains("★ method=cpu quality=paper rsl=30"));
         assert!(
-            md.contains("| method=cpu quality=draft rsl=30 | 50.00% (25.00%; less noise 43.30%) | 6.25% (1.50%) | 75.00% (3.00%) |"),
+            md.contains(
+                "| method=cpu quality=draft rsl=30 | 20.5 | 50.00% (25.00%; less noise 43.30%) | 6.25% (1.50%) | 75.00% (3.00%) |"
+            ),
             "{md}"
         );
         let objects = std::fs::read_to_string(dir.join("objects.csv")).unwrap();
         assert!(objects.contains(",floor,0.05,0.01,0.0625,0.015\n"), "{objects}");
-        // Results written before the per-object pixel errors are read, without them.
-        let older: String = good_without_pixel_objects(&std::fs::read_to_string(&path).unwrap());
-        std::fs::write(&path, older).unwrap();
+        // Results written before the images' frame times, and before the per-object pixel
+        // errors, are read without them.
+        let written = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, good_without(&written, 1)).unwrap();
+        let read = read_rows(&path).unwrap();
+        assert!(read.iter().all(|r| r.image_ms.is_none()) && read[0].pixel_objects == rows[0].pixel_objects);
+        std::fs::write(&path, good_without(&written, 2)).unwrap();
         let read = read_rows(&path).unwrap();
         assert!(read.iter().all(|r| r.pixel_objects.is_empty()) && read[0].objects == rows[0].objects);
+        // Without a frame time the image's column says so.
+        let untimed: Vec<Row> = rows.iter().map(|r| Row { image_ms: None, ..r.clone() }).collect();
+        let (md, _) = reports("", &untimed, &[], false, &|_| false);
+        assert!(md.contains("| method=cpu quality=draft rsl=30 | — | 50.00% (25.00%;"), "{md}");
         write_rows(&path, &rows).unwrap();
         assert!(
-            dir.join("a___b__error_vs_ms.svg").exists(),
+            dir.join("a___b__error_vs_ms.svg").exists() && dir.join("a___b__pixel_error_vs_ms.svg").exists(),
             "{:?}",
             std::fs::read_dir(&dir).unwrap().collect::<Vec<_>>()
         );

@@ -117,6 +117,7 @@ mod tests {
             mc_ms: None,
             pixel_l2: None,
             pixel_objects: Vec::new(),
+            image_ms: None,
             objects: Vec::new(),
             truth_key: None,
         }

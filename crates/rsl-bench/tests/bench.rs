@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use rsl_bench::config::{Sweep, configs};
-use rsl_bench::{BenchOptions, run};
+use rsl_bench::{BenchOptions, Row, run};
 use rsl_scene::build::{ObjectBuilder, SceneBuilder};
 use rsl_scene::{Brdf, Preset, Primitive};
 use std::path::PathBuf;
@@ -100,6 +100,9 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
             && r.pixel_objects.iter().all(|&(_, e, n)| e.is_finite() && e > 0.0 && n > 0.0)),
         "{rows:?}"
     );
+    // Each image's frame timed: the whole frame with its image (shading and drawing).
+    assert!(out.join("small_pixel_error_vs_ms.svg").exists());
+    assert!(rows.iter().all(|r| r.image_ms.is_some_and(|ms| ms.is_finite() && ms > 0.0)), "{rows:?}");
     let grid = image_size(&out.join("small_grid_t0.png"));
     assert_eq!(grid, (2 * 32 + 12, 3 * (24 + 16 + 4) + 4 + 40), "truth row, two configuration rows, legend");
     // Two lights are further from the truth than its noise (8.2 % against 7.3 %): a Monte
@@ -111,7 +114,10 @@ fn a_bench_measures_reuses_its_truth_and_resumes() {
     // from the cached per-pixel truth).
     let again = run(&options(scene.clone(), out.clone(), cache.clone(), &["rsl=2,8"])).unwrap();
     assert_eq!((again.measured, again.reused, again.truths_estimated, again.truths_reused), (0, 2, 0, 1));
-    assert_eq!(again.rows, first.rows);
+    // The images are drawn, and so timed, again: all else is what was kept.
+    let untimed = |rows: &[Row]| rows.iter().map(|r| Row { image_ms: None, ..r.clone() }).collect::<Vec<_>>();
+    assert_eq!(untimed(&again.rows), untimed(&first.rows));
+    assert!(again.rows.iter().all(|r| r.image_ms.is_some()));
     // Asked to measure afresh, it measures both again and replaces their rows (no row twice),
     // against the cached truths.
     let fresh =
@@ -238,7 +244,8 @@ fn scenes_whose_outputs_would_collide_are_refused_before_any_work() {
 }
 
 /// Rewrites a CSV file as written before rows carried their truth's key: its last `columns`
-/// (the key, and in `results.csv` the per-object pixel errors that came after it) dropped.
+/// (the key, and in `results.csv` the per-object pixel errors and the image's frame time
+/// that came after it) dropped.
 fn unkey(file: &std::path::Path, columns: usize) {
     let text = std::fs::read_to_string(file).unwrap();
     let unkeyed: Vec<String> = text
@@ -264,7 +271,7 @@ fn rows_measured_against_another_truth_or_scene_are_measured_again() {
     ball_scene(&scene, 0.5);
     assert_eq!(run(&o).unwrap().measured, 1, "another scene: measured again");
     // Results written before rows carried their truth's key are read, and measured again.
-    unkey(&d.join("out/results.csv"), 2);
+    unkey(&d.join("out/results.csv"), 3);
     assert_eq!(run(&o).unwrap().measured, 1, "an unkeyed row: measured again");
     assert_eq!(run(&o).unwrap().measured, 0);
 }

@@ -95,6 +95,14 @@ impl Stage {
     pub fn is_image(&self) -> bool {
         self.name.starts_with("draw") || self.name.starts_with("antialias") || self.name == "image readback"
     }
+
+    /// Whether the stage prepares what the frames after it reuse rather than drawing this
+    /// frame: "lobes" (the prefiltered environment), "transport" (the transport lobes, the
+    /// wavelet baseline's transport) and "choose" (`auto`'s choice of each object's drawing,
+    /// measured against the truth once and cached).
+    pub fn is_preparation(&self) -> bool {
+        matches!(self.name, "lobes" | "transport" | "choose")
+    }
 }
 
 /// What each stage of some work cost, in the order the stages ran. Adding to a stage that is
@@ -136,6 +144,11 @@ impl Timings {
     /// The stage `name`, if it ran.
     pub fn get(&self, name: &str) -> Option<&Stage> {
         self.stages.iter().find(|s| s.name == name)
+    }
+
+    /// Wall time of the stages that prepare rather than draw ([`Stage::is_preparation`]), ms.
+    pub fn preparation_ms(&self) -> f64 {
+        self.stages.iter().filter(|s| s.is_preparation()).map(|s| s.wall_ms).sum()
     }
 
     /// One line: `shade 12.3 ms (GPU), draw 4.5 ms`.
@@ -196,5 +209,9 @@ mod tests {
         assert_eq!(t.ms("draw"), 0.75, "GPU time is preferred where known");
         assert_eq!(t.get("draw").unwrap().wall_ms, 2.0);
         assert_eq!(t.ms("absent"), 0.0);
+        assert_eq!(t.preparation_ms(), 0.0, "shading and drawing prepare nothing");
+        t.add("lobes", 40.0, Some(1.0));
+        t.add("choose", 2.5, None);
+        assert_eq!(t.preparation_ms(), 42.5, "wall time of the preparing stages alone");
     }
 }
