@@ -331,8 +331,7 @@ mod tests {
     #[test]
     fn a_pixel_breakdown_splits_the_error_by_the_object_each_pixel_sees() {
         use rsl_scene::build::{ObjectBuilder, SceneBuilder};
-        let dir = std::env::temp_dir().join(format!("rsl-compare-pixels-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = rsl_engine::sphere::scratch::Scratch::new("compare-pixels");
         // Two balls side by side, the right one orbiting up to the top over a second.
         let scene = SceneBuilder::new()
             .camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO)

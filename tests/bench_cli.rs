@@ -32,9 +32,7 @@ fn small_scene(dir: &Path) -> PathBuf {
 
 #[test]
 fn the_bench_error_is_what_compare_says_of_the_same_renders() {
-    let dir = std::env::temp_dir().join(format!("rsl-bench-cli-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = rsl_engine::sphere::scratch::Scratch::new("bench-cli");
     let scene = small_scene(&dir);
     let (scene, cache) = (scene.to_str().unwrap(), dir.join("cache"));
     let cache = cache.to_str().unwrap();
@@ -92,9 +90,7 @@ fn the_bench_error_is_what_compare_says_of_the_same_renders() {
 
 #[test]
 fn a_target_error_pick_meets_the_target_when_measured_afresh() {
-    let dir = std::env::temp_dir().join(format!("rsl-bench-target-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = rsl_engine::sphere::scratch::Scratch::new("bench-target");
     let scene_path = small_scene(&dir);
     let scene = scene_path.to_str().unwrap();
     let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
@@ -186,9 +182,7 @@ fn measured(file: &Path, identity: &[usize], value: usize, key: usize) -> Vec<(S
 
 #[test]
 fn shards_in_separate_processes_joined_give_the_rows_of_one_bench_and_a_killed_shard_resumes() {
-    let dir = std::env::temp_dir().join(format!("rsl-bench-shard-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = rsl_engine::sphere::scratch::Scratch::new("bench-shard");
     let scene = small_scene(&dir);
     let scene = scene.to_str().unwrap();
     let p = |n: &str| dir.join(n).to_str().unwrap().to_string();

@@ -20,12 +20,11 @@ fn render_on_the_gpu_writes_the_same_outputs() {
     if rsl_gpu::testing::context_or_skip("render_on_the_gpu_writes_the_same_outputs").is_none() {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("rsl-gpu-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = rsl_engine::sphere::scratch::Scratch::new("gpu-cli");
     let out = |n: &str| dir.join(n).to_str().unwrap().to_string();
     let scene = root().join("data/scenes/default.toml");
     let scene = scene.to_str().unwrap();
-    let cache = std::env::temp_dir().join(format!("rsl-gpu-test-{}", std::process::id()));
+    let cache = dir.join("cache");
     let cache = cache.to_str().unwrap();
     let common = ["--time", "1.0", "--cache", cache, "--timings"];
     let gpu = ["render", scene, "--device", "gpu", "--method", "rsl"];

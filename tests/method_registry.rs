@@ -28,11 +28,8 @@ fn example() -> Command {
     c
 }
 
-fn out_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-registry-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn out_dir(name: &str) -> rsl_engine::sphere::scratch::Scratch {
+    rsl_engine::sphere::scratch::Scratch::new(&format!("registry-{name}"))
 }
 
 fn run(c: &mut Command) -> (bool, String) {

@@ -14,11 +14,9 @@ fn memory_only() -> EngineOptions {
     EngineOptions::default()
 }
 
-/// A folder of this test run.
-fn cache_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-render-test-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A folder of this test, removed with it.
+fn cache_dir(name: &str) -> rsl_engine::sphere::scratch::Scratch {
+    rsl_engine::sphere::scratch::Scratch::new(&format!("render-test-{name}"))
 }
 
 fn run(args: &[&str]) -> anyhow::Result<()> {

@@ -170,8 +170,7 @@ mod tests {
 
     #[test]
     fn rows_round_trip_and_the_report_shows_what_each_oracle_removes() {
-        let dir = std::env::temp_dir().join(format!("rsl-bench-budget-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = rsl_sphere::scratch::Scratch::new("bench-budget");
         let row = |oracle: &str, e: f64| BudgetRow {
             scene: "s, \"x\".toml".into(),
             config: "method=cpu quality=paper rsl=30".into(),

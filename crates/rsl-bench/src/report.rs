@@ -589,8 +589,7 @@ mod tests {
 
     #[test]
     fn rows_round_trip_through_csv() {
-        let dir = std::env::temp_dir().join(format!("rsl-bench-report-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = rsl_sphere::scratch::Scratch::new("bench-report");
         let rows =
             vec![row("method=cpu quality=draft rsl=30", 5.0, 0.25), row("method=cpu quality=paper rsl=30", 9.0, 0.125)];
         let path = dir.join("results.csv");

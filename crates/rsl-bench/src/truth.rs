@@ -218,8 +218,7 @@ mod tests {
     /// without a texture, or with another texel, are other truths.
     #[test]
     fn textures_are_part_of_a_truths_key() {
-        let dir = std::env::temp_dir().join(format!("rsl-bench-texture-key-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = rsl_sphere::scratch::Scratch::new("bench-texture-key");
         let path = rsl_scene::build::write_textured_sample(&dir).unwrap();
         let textured = Scene::load(&path).unwrap();
         let engine = Engine::new(&textured, rsl_engine::EngineOptions::default()).unwrap();

@@ -7,11 +7,8 @@ use rsl_scene::build::{ObjectBuilder, SceneBuilder};
 use rsl_scene::{Brdf, Preset, Primitive};
 use std::path::PathBuf;
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-bench-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn dir(name: &str) -> rsl_sphere::scratch::Scratch {
+    rsl_sphere::scratch::Scratch::new(&format!("bench-test-{name}"))
 }
 
 /// A ball over a plane under the bundled studio map, at draft quality.

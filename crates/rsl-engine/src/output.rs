@@ -182,8 +182,7 @@ mod tests {
 
     #[test]
     fn failed_writes_leave_nothing_behind() {
-        let dir = std::env::temp_dir().join(format!("rsl-output-test-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = rsl_sphere::scratch::Scratch::new("output-test");
         let target = dir.join("out.json");
         write_atomic(&target, b"{}").unwrap();
         assert_eq!(std::fs::read(&target).unwrap(), b"{}");

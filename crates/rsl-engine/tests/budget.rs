@@ -30,8 +30,8 @@ fn agree(what: &str, cpu: &[Vec<Vec3>], gpu: &[Vec<Vec3>]) {
 #[test]
 fn dragging_a_material_through_200_values_stays_under_the_budget() {
     let mut s = default_scene();
-    let cache = std::env::temp_dir().join(format!("rsl-budget-test-{}", std::process::id()));
-    let options = EngineOptions { cache_dir: Some(cache), ..Default::default() };
+    let cache = rsl_engine::sphere::scratch::Scratch::new("budget-test");
+    let options = EngineOptions { cache_dir: Some(cache.to_path_buf()), ..Default::default() };
     // What the scene itself holds, and one table of the dragged material.
     let probe = Engine::new(&s, options.clone()).unwrap();
     let in_use = probe.memory().resident_bytes;

@@ -24,8 +24,8 @@ fn manifest() -> PathBuf {
 
 fn current() -> Vec<f32> {
     let s = Scene::load(manifest().join("../../data/scenes/default.toml")).expect("the default scene loads");
-    let cache = std::env::temp_dir().join(format!("rsl-golden-test-{}", std::process::id()));
-    let engine = Engine::new(&s, EngineOptions { cache_dir: Some(cache), ..Default::default() }).unwrap();
+    let cache = rsl_engine::sphere::scratch::Scratch::new("golden-test");
+    let engine = Engine::new(&s, EngineOptions { cache_dir: Some(cache.to_path_buf()), ..Default::default() }).unwrap();
     TIMES
         .iter()
         .flat_map(|&t| {

@@ -15,11 +15,8 @@ use rsl_shade::Image;
 mod common;
 use common::facing;
 
-fn temp_dir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-textured-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> rsl_engine::sphere::scratch::Scratch {
+    rsl_engine::sphere::scratch::Scratch::new(&format!("textured-{name}"))
 }
 
 /// The textured sample at 128×96.

@@ -2,13 +2,10 @@
 //! never a panic; negative values are clamped with a count.
 
 use rsl_env::{EnvError, load_bundled, load_latlong};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-env-load-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> rsl_sphere::scratch::Scratch {
+    rsl_sphere::scratch::Scratch::new(&format!("env-load-{name}"))
 }
 
 fn write_exr(path: &Path, w: u32, h: u32, f: impl Fn(u32, u32) -> [f32; 3]) {

@@ -9,11 +9,8 @@ use rsl_scene::{Brdf, MeshSource, Scene};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-gltf-scene-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> rsl_sphere::scratch::Scratch {
+    rsl_sphere::scratch::Scratch::new(&format!("gltf-scene-{name}"))
 }
 
 #[test]

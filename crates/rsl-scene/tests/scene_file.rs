@@ -10,11 +10,8 @@ fn data(rel: &str) -> PathBuf {
 }
 
 /// A fresh, empty folder under the system temp dir for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-scene-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(name: &str) -> rsl_sphere::scratch::Scratch {
+    rsl_sphere::scratch::Scratch::new(&format!("scene-test-{name}"))
 }
 
 const HEAD: &str = r#"

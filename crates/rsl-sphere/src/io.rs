@@ -96,8 +96,7 @@ mod tests {
 
     #[test]
     fn only_regular_files_within_the_limit_are_read() {
-        let dir = std::env::temp_dir().join(format!("rsl-io-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::scratch::Scratch::new("io");
         let f = dir.join("ten");
         std::fs::write(&f, b"0123456789").unwrap();
         assert_eq!(read_bounded(&f, 10).unwrap(), b"0123456789");
@@ -119,8 +118,7 @@ mod tests {
 
     #[test]
     fn an_atomic_write_replaces_the_file_whole_and_a_failed_one_leaves_it_and_no_temporary() {
-        let dir = std::env::temp_dir().join(format!("rsl-sphere-atomic-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = crate::scratch::Scratch::new("sphere-atomic");
         let f = dir.join("a.txt");
         write_atomic(&f, b"old").unwrap();
         write_atomic(&f, b"new").unwrap();

@@ -32,6 +32,7 @@ pub mod key;
 pub mod latlong;
 pub mod mesh;
 pub mod sampling;
+pub mod scratch;
 pub mod simd;
 
 pub use frame::Frame;

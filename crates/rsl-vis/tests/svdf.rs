@@ -204,8 +204,7 @@ fn field_files_round_trip_and_reject_damage() {
     assert_eq!(svdf_from_bytes(&future, KEY), Err(FieldFileError::Version { found: 9 }));
     assert_eq!(svdf_from_bytes(b"not a field at all", KEY), Err(FieldFileError::BadMagic));
     // Files: saved atomically, read back, and a truncated file is rejected.
-    let dir = std::env::temp_dir().join(format!("rsl-vis-store-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = rsl_sphere::scratch::Scratch::new("vis-store");
     let path = dir.join("wall.svdf");
     save_svdf(&f, KEY, &path).unwrap();
     assert_eq!(load_svdf(&path, KEY).unwrap(), f);

@@ -17,11 +17,10 @@ pub fn root() -> PathBuf {
 }
 
 /// A folder of this test run (`rsl-<name>-<process id>` in the temp folder), created: a
-/// disk cache the run's engines share, or its files.
+/// disk cache the run's engines share, or its files. Those that runs no longer going left
+/// are removed first ([`rsl_engine::sphere::scratch::run_dir`]).
 pub fn run_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rsl-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    rsl_engine::sphere::scratch::run_dir(name)
 }
 
 /// The scene `b` builds, as if its file were in data/scenes (so `../hdri/…` resolves).
