@@ -18,7 +18,7 @@ fn memory_only() -> EngineOptions {
 
 /// A cache folder of this test run, shared by the tests that want one.
 fn cache_dir(name: &str) -> PathBuf {
-    common::run_dir(&format!("engine-test-{name}"))
+    rsl_engine::sphere::scratch::run_dir(&format!("engine-test-{name}"))
 }
 
 #[test]

@@ -43,7 +43,7 @@ fn engine(scene: &Scene, rsl: bool) -> &'static Engine {
     static WITHOUT: OnceLock<Engine> = OnceLock::new();
     let cell = if rsl { &WITH } else { &WITHOUT };
     cell.get_or_init(|| {
-        let cache = common::run_dir(&format!("golden-methods-{rsl}"));
+        let cache = rsl_engine::sphere::scratch::run_dir(&format!("golden-methods-{rsl}"));
         let options = EngineOptions {
             cache_dir: Some(cache),
             quality: Some(rsl_engine::scene::Preset::Draft),

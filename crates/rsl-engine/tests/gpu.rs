@@ -18,7 +18,7 @@ fn default_scene() -> Scene {
 
 /// The default scene's fields, cached for the tests of this run.
 fn engine(scene: &Scene) -> Engine {
-    let cache = common::run_dir("gpu-test");
+    let cache = rsl_engine::sphere::scratch::run_dir("gpu-test");
     let mut engine =
         Engine::new(scene, EngineOptions { cache_dir: Some(cache), ..Default::default() }).expect("engine");
     // Each pixel's centre on both: these tests hold the GPU's shading and drawing to the

@@ -300,7 +300,7 @@ fn rotation(kind: Kind, test: &str) {
     // Its own engine: synced to the turned scene below. What it prepares, and the transport
     // lobes the lobe path fits (object space, the same at any pose), go through one disk
     // cache for every method, so that a method's second device reads them back.
-    let cache = common::run_dir("methods-rotation");
+    let cache = rsl_engine::sphere::scratch::run_dir("methods-rotation");
     let options = EngineOptions { layers: kind.id.capabilities().layers, cache_dir: Some(cache), ..Default::default() };
     let mut engine = Engine::new(&a, options).expect("engine");
     let Some(mut method) = create(kind, &engine, test) else { return };
@@ -425,7 +425,7 @@ fn inverted_normals(kind: Kind, test: &str) {
     // with its winding agreeing with them and once against them, it is one surface: every
     // method draws the two alike, per vertex and per pixel (before the winding followed
     // the normals, the fields masked the side the normals shade: 470 % off on a ball).
-    let dir = common::run_dir("methods-bowl");
+    let dir = rsl_engine::sphere::scratch::run_dir("methods-bowl");
     let mut frames = Vec::new();
     for (name, inward) in [("agrees", true), ("against", false)] {
         let mesh = dir.join(format!("bowl_{name}.gltf"));
@@ -463,7 +463,7 @@ fn bowl_bounces(kind: Kind, test: &str) {
     // through the registry, per vertex and per pixel (the bowl's inside seen from its
     // centre, every pixel below the rim's band); with `bounces = 0` the frames are the
     // method's own.
-    let dir = common::run_dir("methods-bounces");
+    let dir = rsl_engine::sphere::scratch::run_dir("methods-bounces");
     let mesh = dir.join("bowl.gltf");
     write_bowl(&mesh, 16, true);
     let rho = 0.8;

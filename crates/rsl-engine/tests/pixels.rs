@@ -198,7 +198,7 @@ fn edge_row(image: &Image, x: usize, top: usize, bright: f32, dark: f32) -> Opti
 
 #[test]
 fn a_mirror_ball_puts_a_sharp_horizon_where_the_truth_does() {
-    let dir = common::run_dir("pixels-test");
+    let dir = rsl_engine::sphere::scratch::run_dir("pixels-test");
     let map = horizon_map(&dir);
     let s = scene(
         SceneBuilder::new()
@@ -536,7 +536,7 @@ fn the_gpu_antialiases_as_the_cpu_does() {
     // Per method, the CPU's image at 16 samples: at 64, the third round changed it.
     let mut at_16: Vec<Image> = Vec::new();
     // One disk cache for the engines below: the same objects, fields and tables each time.
-    let cache = common::run_dir("pixels-aa");
+    let cache = rsl_engine::sphere::scratch::run_dir("pixels-aa");
     let engine_for = |s: &Scene| {
         Engine::new(s, EngineOptions { cache_dir: Some(cache.clone()), ..Default::default() }).expect("engine")
     };

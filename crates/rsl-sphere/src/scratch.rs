@@ -65,16 +65,8 @@ impl Scratch {
     /// # Panics
     /// When the folder cannot be created (these are for tests).
     pub fn new(name: &str) -> Self {
-        remove_stale(name);
-        let d = folder(name, std::process::id());
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap_or_else(|e| panic!("cannot create {}: {e}", d.display()));
-        Scratch(d)
-    }
-
-    /// The folder's path.
-    pub fn path(&self) -> &Path {
-        &self.0
+        let _ = std::fs::remove_dir_all(folder(name, std::process::id()));
+        Scratch(run_dir(name))
     }
 }
 
@@ -114,7 +106,7 @@ mod tests {
             let s = Scratch::new("scratch-test");
             std::fs::write(s.join("a.txt"), "x").unwrap();
             assert!(s.join("a.txt").exists());
-            s.path().to_path_buf()
+            s.to_path_buf()
         };
         assert!(!path.exists(), "removed with its guard");
         // A folder of the name left by a process that is not running (no pid reaches

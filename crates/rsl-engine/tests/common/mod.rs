@@ -16,13 +16,6 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// A folder of this test run (`rsl-<name>-<process id>` in the temp folder), created: a
-/// disk cache the run's engines share, or its files. Those that runs no longer going left
-/// are removed first ([`rsl_engine::sphere::scratch::run_dir`]).
-pub fn run_dir(name: &str) -> PathBuf {
-    rsl_engine::sphere::scratch::run_dir(name)
-}
-
 /// The scene `b` builds, as if its file were in data/scenes (so `../hdri/…` resolves).
 pub fn scene(b: SceneBuilder) -> Scene {
     b.build(root().join("data/scenes/inline-test.toml")).expect("valid test scene")
